@@ -1,0 +1,24 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// A tetrahedral volume mesh as exchanged with files and between pipeline stages.
+// (The refiner works on its own adjacency structure and converts to and from this.)
+#pragma once
+
+#include <vector>
+
+#include "pdrmesh/types.hpp"
+
+namespace pdrmesh {
+
+/// Every tet is positively oriented: signed_volume(p[t[0]], p[t[1]], p[t[2]], p[t[3]]) > 0
+/// (the VTK/Gmsh/Medit convention). `boundary` lists the boundary triangles
+/// oriented outward with one `boundary_ids` entry each; `tet_regions` is
+/// empty or holds one integer per tet (a region, or the octree leaf that made it).
+struct VolumeMesh {
+  std::vector<Vec3> points;
+  std::vector<Tet> tets;
+  std::vector<Tri> boundary;
+  std::vector<int> boundary_ids;
+  std::vector<int> tet_regions;
+};
+
+}  // namespace pdrmesh

@@ -1,0 +1,36 @@
+#!/usr/bin/env bash
+# Installs every Debian 12 package pdrmesh needs to build and test.
+# Non-interactive and idempotent; run as root (or with sudo available).
+#   scripts/install-deps.sh          build and test dependencies
+#   scripts/install-deps.sh --bench  also the peers the benchmarks compare against
+set -euo pipefail
+
+packages=(
+  build-essential cmake ninja-build pkg-config
+  libtet1.5-dev                               # TetGen 1.5: initial boundary-conforming mesh
+  libgrpc++-dev protobuf-compiler-grpc        # service (find_package(gRPC CONFIG))
+  libprotobuf-dev protobuf-compiler
+  libtbb-dev libspdlog-dev libfmt-dev
+  libcli11-dev nlohmann-json3-dev libsqlite3-dev
+  libgtest-dev libgmock-dev
+)
+if [[ "${1:-}" == "--bench" ]]; then
+  packages+=(tetgen gmsh time)
+fi
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]} == 0)); then
+  echo "install-deps: all ${#packages[@]} packages present"
+  exit 0
+fi
+
+sudo=""
+if [[ $(id -u) -ne 0 ]]; then sudo="sudo"; fi
+echo "install-deps: installing ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+$sudo apt-get update -qq
+$sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+echo "install-deps: done"
