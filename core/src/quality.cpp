@@ -1,0 +1,193 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+#include "pdrmesh/quality.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <numbers>
+
+namespace pdrmesh {
+namespace {
+
+constexpr double kDegrees = 180.0 / std::numbers::pi;
+
+double angle_between_normals(const Vec3& n1, const Vec3& n2) {
+  // Interior dihedral angle = pi - angle between the two outward face normals.
+  const double l = norm(n1) * norm(n2);
+  if (l == 0.0) return 0.0;
+  const double c = std::clamp(dot(n1, n2) / l, -1.0, 1.0);
+  return 180.0 - std::acos(c) * kDegrees;
+}
+
+}  // namespace
+
+std::array<double, 6> dihedral_angles(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
+  // Outward normals (for a positive tet) of the faces opposite a, b, c, d. Face
+  // bcd: (a,b,c,d) -> (b,c,d,a) is odd, so a lies below (c-b)x(d-b); face acd:
+  // (a,c,d,b) is even, so b lies above (c-a)x(d-a) and outward is the reverse;
+  // face abd: odd; face abc: d lies above (b-a)x(c-a), outward is the reverse.
+  const Vec3 na = cross(c - b, d - b);
+  const Vec3 nb = cross(d - a, c - a);
+  const Vec3 nc = cross(b - a, d - a);
+  const Vec3 ndo = cross(c - a, b - a);
+  // The edge xy is shared by the faces opposite the two other vertices.
+  return {angle_between_normals(nc, ndo),   // ab: faces opposite c and d
+          angle_between_normals(nb, ndo),   // ac
+          angle_between_normals(nb, nc),    // ad
+          angle_between_normals(na, ndo),   // bc
+          angle_between_normals(na, nc),    // bd
+          angle_between_normals(na, nb)};   // cd
+}
+
+AngleRange dihedral_range(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
+  const auto angles = dihedral_angles(a, b, c, d);
+  const auto [lo, hi] = std::minmax_element(angles.begin(), angles.end());
+  return {*lo, *hi};
+}
+
+double verdict_shape(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
+  const Vec3 u = b - a, v = c - a, w = d - a;
+  const double jacobian = dot(u, cross(v, w));
+  if (jacobian <= 0.0) return 0.0;
+  const double num = 3.0 * std::cbrt(2.0 * jacobian * jacobian);
+  const double den = 1.5 * (dot(u, u) + dot(v, v) + dot(w, w)) - dot(u, v) - dot(u, w) - dot(v, w);
+  return den > 0.0 ? num / den : 0.0;
+}
+
+double verdict_relative_size_squared(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d,
+                                     double average_volume) {
+  const double vol = signed_volume(a, b, c, d);
+  if (vol <= 0.0 || average_volume <= 0.0) return 0.0;
+  const double r = vol / average_volume;
+  const double m = std::min(r, 1.0 / r);
+  return m * m;
+}
+
+std::vector<double> min_dihedral_per_tet(const VolumeMesh& mesh) {
+  std::vector<double> out(mesh.tets.size());
+  const auto& p = mesh.points;
+  for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
+    const Tet& k = mesh.tets[t];
+    out[t] = dihedral_range(p[k[0]], p[k[1]], p[k[2]], p[k[3]]).min;
+  }
+  return out;
+}
+
+QualityReport measure_quality(const VolumeMesh& mesh) {
+  QualityReport q;
+  q.tets = mesh.tets.size();
+  q.points = mesh.points.size();
+  if (mesh.tets.empty()) return q;
+  const auto& p = mesh.points;
+  for (const Tet& k : mesh.tets) q.volume += signed_volume(p[k[0]], p[k[1]], p[k[2]], p[k[3]]);
+  const double average_volume = q.volume / static_cast<double>(q.tets);
+
+  q.min_dihedral = std::numeric_limits<double>::infinity();
+  q.max_dihedral = -std::numeric_limits<double>::infinity();
+  q.min_shape = q.min_shape_and_size = std::numeric_limits<double>::infinity();
+  std::size_t below = 0, above = 0;
+  double shape_sum = 0, shape_size_sum = 0;
+  for (const Tet& k : mesh.tets) {
+    const Vec3 &a = p[k[0]], &b = p[k[1]], &c = p[k[2]], &d = p[k[3]];
+    const auto angles = dihedral_angles(a, b, c, d);
+    double lo = 180.0, hi = 0.0;
+    for (double x : angles) {
+      lo = std::min(lo, x);
+      hi = std::max(hi, x);
+      const auto bin = std::min<std::size_t>(17, static_cast<std::size_t>(std::max(0.0, x) / 10.0));
+      ++q.histogram[bin];
+    }
+    q.min_dihedral = std::min(q.min_dihedral, lo);
+    q.max_dihedral = std::max(q.max_dihedral, hi);
+    below += lo < 10.0;
+    above += hi > 165.0;
+    const double shape = verdict_shape(a, b, c, d);
+    const double shape_size = shape * verdict_relative_size_squared(a, b, c, d, average_volume);
+    q.min_shape = std::min(q.min_shape, shape);
+    q.min_shape_and_size = std::min(q.min_shape_and_size, shape_size);
+    shape_sum += shape;
+    shape_size_sum += shape_size;
+  }
+  const double n = static_cast<double>(q.tets);
+  q.share_below_10 = static_cast<double>(below) / n;
+  q.share_above_165 = static_cast<double>(above) / n;
+  q.mean_shape = shape_sum / n;
+  q.mean_shape_and_size = shape_size_sum / n;
+  return q;
+}
+
+std::string format_quality(const QualityReport& q) {
+  std::string s = fmt::format(
+      "tets {}  points {}  volume {:.6g}\n"
+      "dihedral angle min {:.2f}  max {:.2f} degrees; tets under 10: {:.3f}%  over 165: {:.3f}%\n"
+      "verdict shape min {:.4f} mean {:.4f}; shape and size min {:.4f} mean {:.4f}\n"
+      "dihedral angle histogram (all angles, 10-degree bins):\n",
+      q.tets, q.points, q.volume, q.min_dihedral, q.max_dihedral, 100 * q.share_below_10,
+      100 * q.share_above_165, q.min_shape, q.mean_shape, q.min_shape_and_size,
+      q.mean_shape_and_size);
+  std::size_t total = 0, peak = 0;
+  for (auto c : q.histogram) {
+    total += c;
+    peak = std::max(peak, c);
+  }
+  for (std::size_t i = 0; i < q.histogram.size(); ++i) {
+    const auto bar = peak ? q.histogram[i] * 50 / peak : 0;
+    s += fmt::format("  {:3d}-{:3d} {:>10} {:6.2f}% {}\n", 10 * i, 10 * (i + 1), q.histogram[i],
+                     total ? 100.0 * static_cast<double>(q.histogram[i]) / static_cast<double>(total) : 0.0,
+                     std::string(bar, '#'));
+  }
+  return s;
+}
+
+std::string quality_to_json(const QualityReport& q) {
+  nlohmann::json j = {{"tets", q.tets},
+                      {"points", q.points},
+                      {"volume", q.volume},
+                      {"min_dihedral", q.min_dihedral},
+                      {"max_dihedral", q.max_dihedral},
+                      {"dihedral_histogram_10deg", q.histogram},
+                      {"share_below_10", q.share_below_10},
+                      {"share_above_165", q.share_above_165},
+                      {"min_shape", q.min_shape},
+                      {"mean_shape", q.mean_shape},
+                      {"min_shape_and_size", q.min_shape_and_size},
+                      {"mean_shape_and_size", q.mean_shape_and_size}};
+  return j.dump();
+}
+
+std::string quality_histogram_svg(const QualityReport& q, const std::string& title) {
+  constexpr int kW = 640, kH = 360, kLeft = 60, kBottom = 40, kTop = 40;
+  const int plot_h = kH - kBottom - kTop;
+  const int bar_w = (kW - kLeft - 20) / 18;
+  std::size_t total = 0;
+  for (auto c : q.histogram) total += c;
+  double peak = 0;
+  for (auto c : q.histogram) peak = std::max(peak, total ? static_cast<double>(c) / static_cast<double>(total) : 0.0);
+  if (peak == 0) peak = 1;
+  std::string s = fmt::format(
+      "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{}\" height=\"{}\" font-family=\"sans-serif\" font-size=\"11\">\n"
+      "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n"
+      "<text x=\"{}\" y=\"20\" font-size=\"14\">{}</text>\n",
+      kW, kH, kLeft, title);
+  for (std::size_t i = 0; i < 18; ++i) {
+    const double share = total ? static_cast<double>(q.histogram[i]) / static_cast<double>(total) : 0.0;
+    const int h = static_cast<int>(share / peak * plot_h);
+    const int x = kLeft + static_cast<int>(i) * bar_w;
+    s += fmt::format("<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"#4a78b5\"/>\n", x,
+                     kTop + plot_h - h, bar_w - 2, h);
+    s += fmt::format("<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">{}</text>\n", x + bar_w / 2,
+                     kH - kBottom + 14, 10 * i);
+  }
+  s += fmt::format("<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">dihedral angle (degrees)</text>\n",
+                   kLeft + 9 * bar_w, kH - 8);
+  s += fmt::format("<text x=\"12\" y=\"{}\" transform=\"rotate(-90 12 {})\" text-anchor=\"middle\">share of angles (peak {:.1f}%)</text>\n",
+                   kTop + plot_h / 2, kTop + plot_h / 2, 100 * peak);
+  s += fmt::format("<text x=\"{}\" y=\"{}\">min {:.2f}, max {:.2f} degrees; {} tets</text>\n</svg>\n",
+                   kLeft, kTop - 6, q.min_dihedral, q.max_dihedral, q.tets);
+  return s;
+}
+
+}  // namespace pdrmesh

@@ -1,0 +1,66 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+#include "pdrmesh/quality.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+namespace pdrmesh {
+namespace {
+
+const double kRegularDihedral = std::acos(1.0 / 3.0) * 180.0 / std::numbers::pi;  // 70.53
+
+// A regular tetrahedron with unit-ish edges, positively oriented.
+const Vec3 kA{1, 1, 1}, kB{1, -1, -1}, kC{-1, -1, 1}, kD{-1, 1, -1};
+
+TEST(DihedralAngles, RegularTetHasAllAnglesEqual) {
+  ASSERT_GT(signed_volume(kA, kB, kC, kD), 0);
+  for (double x : dihedral_angles(kA, kB, kC, kD)) EXPECT_NEAR(x, kRegularDihedral, 1e-9);
+}
+
+TEST(DihedralAngles, CornerTetHasRightAngles) {
+  // Corner tet of the unit cube: three right angles at the edges through the origin.
+  const auto x = dihedral_angles({0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1});
+  EXPECT_NEAR(x[0], 90, 1e-9);  // ab
+  EXPECT_NEAR(x[1], 90, 1e-9);  // ac
+  EXPECT_NEAR(x[2], 90, 1e-9);  // ad
+  EXPECT_NEAR(x[3], std::acos(1 / std::sqrt(3.0)) * 180 / std::numbers::pi, 1e-9);
+}
+
+TEST(DihedralAngles, SliverHasAnglesNearZeroAndPi) {
+  // Four almost coplanar points at the corners of a square.
+  const auto r = dihedral_range({0, 0, 0}, {1, 0, 0}, {1, 1, 1e-3}, {0, 1, 0});
+  EXPECT_LT(r.min, 1.0);
+  EXPECT_GT(r.max, 179.0);
+}
+
+TEST(VerdictShape, OneForRegularZeroForInverted) {
+  EXPECT_NEAR(verdict_shape(kA, kB, kC, kD), 1.0, 1e-12);
+  EXPECT_EQ(verdict_shape(kB, kA, kC, kD), 0.0);
+  EXPECT_LT(verdict_shape({0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}), 1.0);
+}
+
+TEST(VerdictRelativeSize, OneAtAverageSmallerAway) {
+  const double v = signed_volume(kA, kB, kC, kD);
+  EXPECT_NEAR(verdict_relative_size_squared(kA, kB, kC, kD, v), 1.0, 1e-12);
+  EXPECT_NEAR(verdict_relative_size_squared(kA, kB, kC, kD, 2 * v), 0.25, 1e-12);
+  EXPECT_NEAR(verdict_relative_size_squared(kA, kB, kC, kD, 0.5 * v), 0.25, 1e-12);
+}
+
+TEST(MeasureQuality, CountsEveryAngleInTheHistogram) {
+  VolumeMesh m;
+  m.points = {kA, kB, kC, kD, {0, 0, -3}};
+  m.tets = {{0, 1, 2, 3}};
+  const auto q = measure_quality(m);
+  EXPECT_EQ(q.tets, 1u);
+  std::size_t n = 0;
+  for (auto c : q.histogram) n += c;
+  EXPECT_EQ(n, 6u);
+  EXPECT_EQ(q.histogram[7], 6u);  // 70.5 degrees
+  EXPECT_DOUBLE_EQ(q.share_below_10, 0.0);
+  EXPECT_NEAR(q.mean_shape_and_size, 1.0, 1e-12);
+}
+
+}  // namespace
+}  // namespace pdrmesh
