@@ -1,0 +1,74 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// TetGen adapter: a boundary-conforming Delaunay tetrahedralization of a checked,
+// closed, outward-oriented surface, with no Steiner point on the boundary (the
+// boundary of the result is exactly the input triangulation).
+//
+// TetGen runs in a forked child process, because it can crash, hang, call exit()
+// or throw on bad input, and re-initialises the global predicate state (see
+// predicates.hpp). The child sends its result through a pipe; the parent
+// validates it (counts, indices, finiteness, orientation, boundary) before it is
+// trusted. Each call uses its own pipes and child and touches no global state, so
+// calls from several threads at once are safe.
+//
+// Limitations:
+//  - The caller must not set SIGCHLD to SIG_IGN (the child could not be reaped).
+//  - The child runs TetGen (malloc, printf) after fork() from a possibly
+//    multi-threaded process; glibc makes malloc and stdio fork-safe, other
+//    libraries' locks held by other threads at fork time could hang the child,
+//    which the time limit then ends.
+//  - Input points not used by any triangle are not supported (TetGen would keep
+//    or drop them depending on where they lie): check the surface first.
+#pragma once
+
+#include <cstddef>
+#include <optional>
+#include <string>
+
+#include "pdrmesh/status.hpp"
+#include "pdrmesh/surface.hpp"
+#include "pdrmesh/volume_mesh.hpp"
+
+namespace pdrmesh {
+
+struct TetgenOptions {
+  /// TetGen -a: maximum tetrahedron volume (the dense initial mesh). Unset: only
+  /// the points TetGen needs to recover the boundary are added. Best effort:
+  /// TetGen 1.5 cannot refine where a new point would encroach on the
+  /// preserved boundary, so a few tets (mostly next to the boundary, up to
+  /// 2x on smooth surfaces, far more next to coarse CAD faces) exceed it; the
+  /// adapter adds a seed lattice (see tetgen_adapter.cpp) so the mesh is dense.
+  std::optional<double> max_volume;
+  /// TetGen -q: radius-edge ratio bound (quality refinement); off by default.
+  std::optional<double> radius_edge;
+  /// The child is killed after this many seconds (deadline_exceeded).
+  double time_limit_s = 600;
+  /// 0 = none; else RLIMIT_AS of the child (resource_exhausted when hit).
+  std::size_t memory_limit_bytes = 0;
+  /// Test seam: makes the child misbehave instead of meshing, to test isolation.
+  /// kCrash: SIGSEGV; kHang: sleeps forever; kExit: exit(3) (runs atexit
+  /// handlers, as a library calling exit() would); kThrow: throws a
+  /// std::runtime_error out of the meshing code.
+  enum class Fault { kNone, kCrash, kHang, kExit, kThrow };
+  Fault inject_fault = Fault::kNone;
+};
+
+/// Tetrahedralizes the volume enclosed by `surface` (closed, manifold,
+/// outward-oriented, not self-intersecting: check it first). Several bodies and
+/// cavities (inner surfaces oriented into the cavity) are supported.
+///
+/// Result: points = the input points (same order, bit-identical), then the
+/// interior Steiner points TetGen added; every tet positively oriented
+/// (exact::orient3d > 0); boundary = the input triangles in input order with
+/// boundary_ids = surface.surface_ids; tet_regions empty.
+///
+/// Errors: invalid_input for input TetGen rejects (self-intersections, ...),
+/// deadline_exceeded past time_limit_s, resource_exhausted past
+/// memory_limit_bytes, internal_error when TetGen crashes or returns a mesh that
+/// fails validation (the message says what differs).
+Result<VolumeMesh> tetrahedralize(const SurfaceMesh& surface, const TetgenOptions& options = {});
+
+/// The TetGen switch string used for `options`, e.g. "pYzQMJF" or
+/// "pYzQMJFa0.5" (letters documented in tetgen_adapter.cpp).
+std::string tetgen_switches(const TetgenOptions& options);
+
+}  // namespace pdrmesh

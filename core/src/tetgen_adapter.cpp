@@ -1,0 +1,814 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// TetGen adapter (see tetgen_adapter.hpp): runs TetGen in a forked child,
+// receives points and tets through a pipe, validates and orients them.
+// This is the only file of the project that includes <tetgen.h>.
+
+#include "pdrmesh/tetgen_adapter.hpp"
+
+#include <fcntl.h>
+#include <poll.h>
+#include <signal.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <cerrno>
+#include <chrono>
+#include <climits>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <new>
+#include <stdexcept>
+#include <string_view>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "pdrmesh/predicates.hpp"
+
+#ifndef TETLIBRARY
+#define TETLIBRARY
+#endif
+#include <tetgen.h>
+
+namespace pdrmesh {
+namespace {
+
+// ---------------------------------------------------------------------------
+// Wire format of the child's answer (native endianness: same machine).
+//   Header, then for kOk: n_points * 3 doubles, n_tets * 4 int32 (TetGen's
+//   order); for the error kinds: message_len bytes of text.
+constexpr std::uint64_t kMagic = 0x31544547524450ull;  // "PDRGET1"
+
+enum class Answer : std::uint32_t {
+  kOk = 0,
+  kTetgenCode = 1,  // TetGen threw an int (terminatetetgen); `code` holds it
+  kOutOfMemory = 2, // std::bad_alloc
+  kException = 3,   // another std::exception; message holds what()
+  kUnknown = 4,     // something else was thrown
+};
+
+struct Header {
+  std::uint64_t magic = kMagic;
+  std::uint32_t answer = 0;
+  std::int32_t code = 0;
+  std::uint64_t n_points = 0;
+  std::uint64_t n_tets = 0;
+  std::uint64_t message_len = 0;
+};
+
+// Fixed descriptor of the result pipe inside the child (0-2 are stdin, and
+// stdout/stderr redirected to the log pipe).
+constexpr int kChildResultFd = 3;
+// Kept from the child's stdout/stderr: the end of it goes into messages.
+constexpr std::size_t kLogKeep = 64 * 1024;
+constexpr std::size_t kLogTail = 600;
+
+// ---------------------------------------------------------------------------
+// Everything the child needs, prepared in the parent before fork().
+struct ChildInput {
+  std::vector<double> points;  // 3 per point
+  std::vector<int> corners;    // 3 per triangle
+  std::vector<tetgenio::polygon> polygons;
+  std::vector<tetgenio::facet> facets;
+  std::vector<char> switches;  // NUL-terminated, writable (TetGen's API takes char*)
+  std::size_t memory_limit = 0;
+  TetgenOptions::Fault fault = TetgenOptions::Fault::kNone;
+};
+
+/// Owns a file descriptor.
+class Fd {
+ public:
+  Fd() = default;
+  explicit Fd(int fd) : fd_(fd) {}
+  Fd(const Fd&) = delete;
+  Fd& operator=(const Fd&) = delete;
+  ~Fd() { reset(); }
+  int get() const { return fd_; }
+  void reset() {
+    if (fd_ >= 0) ::close(fd_);
+    fd_ = -1;
+  }
+
+ private:
+  int fd_ = -1;
+};
+
+bool write_all(int fd, const void* data, std::size_t size) {
+  const char* p = static_cast<const char*>(data);
+  while (size > 0) {
+    const ssize_t n = ::write(fd, p, std::min<std::size_t>(size, 1 << 20));
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      return false;
+    }
+    p += n;
+    size -= static_cast<std::size_t>(n);
+  }
+  return true;
+}
+
+bool send_error(Answer answer, int code, std::string_view message) {
+  Header h;
+  h.answer = static_cast<std::uint32_t>(answer);
+  h.code = code;
+  h.message_len = message.size();
+  return write_all(kChildResultFd, &h, sizeof h) &&
+         write_all(kChildResultFd, message.data(), message.size());
+}
+
+/// Child, part 1: descriptors, limits and signals (only system calls).
+void child_setup(int result_w, int log_w, std::size_t memory_limit) {
+  // Move our two pipe ends above the standard descriptors first, so the
+  // dup2 calls below cannot clobber one with the other.
+  const int res = ::fcntl(result_w, F_DUPFD, 10);
+  const int log = ::fcntl(log_w, F_DUPFD, 10);
+  if (res < 0 || log < 0) ::_exit(120);
+  const int null_fd = ::open("/dev/null", O_RDONLY);
+  if (null_fd >= 0) ::dup2(null_fd, 0);
+  if (::dup2(log, 1) < 0 || ::dup2(log, 2) < 0 || ::dup2(res, kChildResultFd) < 0) ::_exit(121);
+  // Close everything else: in particular the pipes of concurrent calls that
+  // this child inherited, which would otherwise keep them from seeing EOF.
+  if (::close_range(kChildResultFd + 1, ~0U, 0) != 0) {
+    const long max_fd = ::sysconf(_SC_OPEN_MAX);
+    for (long fd = kChildResultFd + 1; fd < std::min(max_fd > 0 ? max_fd : 1024L, 1L << 20); ++fd)
+      ::close(static_cast<int>(fd));
+  }
+  struct rlimit no_core = {0, 0};
+  ::setrlimit(RLIMIT_CORE, &no_core);
+  if (memory_limit > 0) {
+    struct rlimit as = {memory_limit, memory_limit};
+    ::setrlimit(RLIMIT_AS, &as);
+  }
+  // Default dispositions and no blocked signals, whatever the caller installed.
+  for (int sig : {SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGABRT, SIGPIPE, SIGTERM})
+    ::signal(sig, SIG_DFL);
+  sigset_t none;
+  sigemptyset(&none);
+  ::pthread_sigmask(SIG_SETMASK, &none, nullptr);
+}
+
+/// TetGen's input, pointing into arrays TetGen must not free (tetgenio's
+/// destructor would delete[] them while an exception unwinds).
+struct BorrowedInput : tetgenio {
+  BorrowedInput() = default;
+  BorrowedInput(const BorrowedInput&) = delete;
+  BorrowedInput& operator=(const BorrowedInput&) = delete;
+  ~BorrowedInput() {
+    pointlist = nullptr;
+    facetlist = nullptr;
+    numberoffacets = 0;
+  }
+};
+
+/// Child: runs TetGen and sends the answer; never returns.
+[[noreturn]] void child_main(ChildInput& input, int result_w, int log_w) {
+  child_setup(result_w, log_w, input.memory_limit);
+  // TetGen prints with printf: without buffering, what it printed before a
+  // crash reaches the log. (Line buffering is not reliable on a stream the
+  // parent already used. The flush sends anything inherited from the parent's
+  // buffer to the log pipe, not to the parent's stdout.)
+  std::fflush(stdout);
+  std::setvbuf(stdout, nullptr, _IONBF, 0);
+  bool sent = false;
+  try {
+    switch (input.fault) {
+      case TetgenOptions::Fault::kNone: break;
+      case TetgenOptions::Fault::kCrash:
+        std::printf("injected fault: crashing\n");
+        ::raise(SIGSEGV);
+        break;
+      case TetgenOptions::Fault::kHang:
+        std::printf("injected fault: hanging\n");
+        for (;;) ::pause();
+      case TetgenOptions::Fault::kExit:
+        std::printf("injected fault: calling exit(3)\n");
+        std::exit(3);
+      case TetgenOptions::Fault::kThrow:
+        throw std::runtime_error("injected fault: exception thrown by the mesher");
+    }
+    BorrowedInput in;
+    in.firstnumber = 0;
+    in.numberofpoints = static_cast<int>(input.points.size() / 3);
+    in.pointlist = input.points.data();
+    in.numberoffacets = static_cast<int>(input.facets.size());
+    in.facetlist = input.facets.data();
+    tetgenio out;
+    ::tetrahedralize(input.switches.data(), &in, &out);
+    if (out.numberofcorners != 4 || out.numberofpoints < 0 || out.numberoftetrahedra < 0)
+      throw std::runtime_error(fmt::format("unexpected TetGen output ({} corners, {} points, {} tets)",
+                                           out.numberofcorners, out.numberofpoints,
+                                           out.numberoftetrahedra));
+    Header h;
+    h.answer = static_cast<std::uint32_t>(Answer::kOk);
+    h.n_points = static_cast<std::uint64_t>(out.numberofpoints);
+    h.n_tets = static_cast<std::uint64_t>(out.numberoftetrahedra);
+    sent = write_all(kChildResultFd, &h, sizeof h) &&
+           write_all(kChildResultFd, out.pointlist, h.n_points * 3 * sizeof(double)) &&
+           write_all(kChildResultFd, out.tetrahedronlist, h.n_tets * 4 * sizeof(int));
+    // The parent's input arrays are not TetGen's to free; skip all destructors.
+    std::fflush(stdout);
+    ::_exit(sent ? 0 : 122);
+  } catch (int code) {
+    sent = send_error(Answer::kTetgenCode, code, {});
+  } catch (const std::bad_alloc&) {
+    sent = send_error(Answer::kOutOfMemory, 0, {});
+  } catch (const std::exception& e) {
+    sent = send_error(Answer::kException, 0, e.what());
+  } catch (...) {
+    sent = send_error(Answer::kUnknown, 0, {});
+  }
+  std::fflush(stdout);
+  ::_exit(sent ? 0 : 122);
+}
+
+// ---------------------------------------------------------------------------
+// Parent side.
+
+struct ChildOutcome {
+  std::vector<char> result;
+  std::string log;
+  bool timed_out = false;
+  int wait_status = 0;
+};
+
+/// Reads both pipes until EOF or the deadline, then reaps the child (killing
+/// it at the deadline). Always reaps: no zombie is left behind.
+ChildOutcome supervise(pid_t pid, int result_r, int log_r, double time_limit_s) {
+  using Clock = std::chrono::steady_clock;
+  const auto deadline =
+      Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(time_limit_s));
+  ChildOutcome o;
+  pollfd fds[2] = {{result_r, POLLIN, 0}, {log_r, POLLIN, 0}};
+  std::vector<char> chunk(1 << 16);
+  while (fds[0].fd >= 0 || fds[1].fd >= 0) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
+    if (left <= 0) {
+      o.timed_out = true;
+      break;
+    }
+    const int n = ::poll(fds, 2, static_cast<int>(std::min<long long>(left + 1, INT_MAX)));
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      o.timed_out = true;  // cannot supervise: treat as a failure, kill below
+      break;
+    }
+    for (int i = 0; i < 2; ++i) {
+      if (fds[i].fd < 0 || fds[i].revents == 0) continue;
+      const ssize_t r = ::read(fds[i].fd, chunk.data(), chunk.size());
+      if (r < 0 && errno == EINTR) continue;
+      if (r <= 0) {
+        fds[i].fd = -1;  // EOF (or an error: same for us)
+        continue;
+      }
+      if (i == 0) {
+        o.result.insert(o.result.end(), chunk.data(), chunk.data() + r);
+      } else {
+        o.log.append(chunk.data(), static_cast<std::size_t>(r));
+        if (o.log.size() > 2 * kLogKeep) o.log.erase(0, o.log.size() - kLogKeep);
+      }
+    }
+  }
+  // Pipes closed: the child is exiting; still bounded by the deadline.
+  for (;;) {
+    if (!o.timed_out) {
+      const pid_t r = ::waitpid(pid, &o.wait_status, WNOHANG);
+      if (r == pid) return o;
+      if (r < 0 && errno != EINTR) return o;  // ECHILD: reaped by someone else
+      if (Clock::now() < deadline) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
+        continue;
+      }
+      o.timed_out = true;
+    }
+    ::kill(pid, SIGKILL);
+    while (::waitpid(pid, &o.wait_status, 0) < 0 && errno == EINTR) {
+    }
+    return o;
+  }
+}
+
+std::string log_tail(const std::string& log) {
+  std::string_view v(log);
+  while (!v.empty() && std::isspace(static_cast<unsigned char>(v.back()))) v.remove_suffix(1);
+  if (v.empty()) return {};
+  if (v.size() > kLogTail) v = v.substr(v.size() - kLogTail);
+  std::string text(v);
+  std::replace(text.begin(), text.end(), '\n', '|');
+  return fmt::format("; TetGen output: \"{}\"", text);
+}
+
+Status tetgen_code_status(int code) {
+  switch (code) {
+    case 1: return resource_exhausted("TetGen ran out of memory (code 1)");
+    case 2: return internal_error("TetGen reported an internal error (code 2)");
+    case 3: return invalid_input("TetGen found self-intersecting input triangles (code 3)");
+    case 4: return invalid_input("TetGen found a very small input feature size (code 4)");
+    case 5: return invalid_input("TetGen found two very close input facets or points (code 5)");
+    case 10: return invalid_input("TetGen found duplicated or invalid input (code 10)");
+    default: return internal_error(fmt::format("TetGen failed with code {}", code));
+  }
+}
+
+/// Prefixes the message with the surface name and appends the log tail.
+Status decorate(const Status& s, const SurfaceMesh& surface, const std::string& log) {
+  std::string where = surface.name.empty() ? std::string() : surface.name + ": ";
+  return {s.code(), where + s.message() + log_tail(log)};
+}
+
+struct RawMesh {
+  std::vector<Vec3> points;
+  std::vector<Tet> tets;
+};
+
+/// Turns the child's bytes into a mesh, checking counts, indices and finiteness.
+Result<RawMesh> parse_answer(const std::vector<char>& bytes, const TetgenOptions& options) {
+  Header h;
+  if (bytes.size() < sizeof h)
+    return internal_error(fmt::format("TetGen's process sent {} bytes, not a complete answer", bytes.size()));
+  std::memcpy(&h, bytes.data(), sizeof h);
+  if (h.magic != kMagic) return internal_error("TetGen's process sent a malformed answer (bad magic)");
+  const std::size_t rest = bytes.size() - sizeof h;
+  const char* payload = bytes.data() + sizeof h;
+  switch (static_cast<Answer>(h.answer)) {
+    case Answer::kOk: break;
+    case Answer::kTetgenCode: return tetgen_code_status(h.code);
+    case Answer::kOutOfMemory:
+      return resource_exhausted(
+          options.memory_limit_bytes > 0
+              ? fmt::format("TetGen ran out of memory (limit {} bytes)", options.memory_limit_bytes)
+              : std::string("TetGen ran out of memory"));
+    case Answer::kException:
+      return internal_error(fmt::format("TetGen threw an exception: {}",
+                                        std::string_view(payload, std::min<std::size_t>(rest, h.message_len))));
+    case Answer::kUnknown: return internal_error("TetGen threw an unknown exception");
+    default: return internal_error(fmt::format("TetGen's process sent an unknown answer kind {}", h.answer));
+  }
+  // Sizes are checked against the bytes actually received before anything is allocated.
+  if (h.n_points > rest / (3 * sizeof(double)) || h.n_tets > rest / (4 * sizeof(int)) ||
+      h.n_points * 3 * sizeof(double) + h.n_tets * 4 * sizeof(int) != rest)
+    return internal_error(fmt::format("TetGen's answer announces {} points and {} tets but holds {} bytes",
+                                      h.n_points, h.n_tets, rest));
+  RawMesh m;
+  m.points.resize(h.n_points);
+  std::memcpy(m.points.data(), payload, h.n_points * sizeof(Vec3));
+  for (std::size_t i = 0; i < m.points.size(); ++i) {
+    const Vec3& p = m.points[i];
+    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+      return internal_error(fmt::format("TetGen output point {} is not finite ({}, {}, {})", i, p[0], p[1], p[2]));
+  }
+  std::vector<std::int32_t> corners(h.n_tets * 4);
+  std::memcpy(corners.data(), payload + h.n_points * sizeof(Vec3), corners.size() * sizeof(std::int32_t));
+  m.tets.resize(h.n_tets);
+  for (std::size_t t = 0; t < m.tets.size(); ++t) {
+    for (int k = 0; k < 4; ++k) {
+      const std::int32_t v = corners[4 * t + static_cast<std::size_t>(k)];
+      if (v < 0 || static_cast<std::uint64_t>(v) >= h.n_points)
+        return internal_error(fmt::format("TetGen output tet {} has point index {} out of range [0, {})", t, v,
+                                          h.n_points));
+      m.tets[t][static_cast<std::size_t>(k)] = static_cast<Index>(v);
+    }
+  }
+  return m;
+}
+
+// ---------------------------------------------------------------------------
+// Validation of the tet mesh against the input surface.
+
+// The four faces of a positively oriented tet (a, b, c, d), each oriented
+// outward (right-hand normal pointing away from the opposite vertex).
+constexpr std::array<std::array<int, 3>, 4> kOutwardFaces = {{{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}}};
+
+Tri sorted(Tri t) {
+  std::sort(t.begin(), t.end());
+  return t;
+}
+
+/// The same oriented triangle (up to rotation).
+bool same_orientation(const Tri& a, const Tri& b) {
+  for (int r = 0; r < 3; ++r)
+    if (a[0] == b[r] && a[1] == b[(r + 1) % 3] && a[2] == b[(r + 2) % 3]) return true;
+  return false;
+}
+
+struct FaceRecord {
+  Tri key;    // sorted vertex indices
+  Index tet;  // owning tet
+  int local;  // 0..3: index into kOutwardFaces
+};
+
+Tri outward_face(const Tet& t, int local) {
+  const auto& f = kOutwardFaces[static_cast<std::size_t>(local)];
+  return {t[static_cast<std::size_t>(f[0])], t[static_cast<std::size_t>(f[1])], t[static_cast<std::size_t>(f[2])]};
+}
+
+/// Orients every tet positively in pdrmesh's convention. A degenerate or
+/// wrongly oriented tet is an error (never silently flipped one by one).
+Status orient_tets(RawMesh& m) {
+  // Found by experiment (cube, corpus): TetGen 1.5 (library, -p) returns tets
+  // (a, b, c, d) with signed_volume > 0, i.e. already positive here (Shewchuk's
+  // orient3d < 0). The swap stays as a switch in case another TetGen differs;
+  // the check below catches any tet that does not fit.
+  constexpr bool kTetgenNativeIsNegative = false;
+  for (std::size_t t = 0; t < m.tets.size(); ++t) {
+    Tet& tet = m.tets[t];
+    if (kTetgenNativeIsNegative) std::swap(tet[0], tet[1]);
+    const int o = exact::orient3d(m.points[tet[0]], m.points[tet[1]], m.points[tet[2]], m.points[tet[3]]);
+    if (o <= 0)
+      return internal_error(fmt::format("TetGen output tet {} (points {}, {}, {}, {}) is {}", t, tet[0], tet[1],
+                                        tet[2], tet[3], o == 0 ? "degenerate (zero volume)" : "inverted"));
+  }
+  return Status::ok_status();
+}
+
+/// Removes tets outside the surface that TetGen -p could not reach from the
+/// convex hull (cavities), checks that the boundary of what remains is exactly
+/// the input triangulation with matching orientation and that interior faces
+/// are shared by two oppositely oriented tets, and drops unused Steiner points.
+Result<VolumeMesh> build_volume_mesh(RawMesh m, const SurfaceMesh& surface) {
+  const std::size_t n_in = surface.points.size();
+  const std::size_t nt = m.tets.size();
+  std::vector<FaceRecord> faces;
+  faces.reserve(4 * nt);
+  for (std::size_t t = 0; t < nt; ++t)
+    for (int k = 0; k < 4; ++k) faces.push_back({sorted(outward_face(m.tets[t], k)), static_cast<Index>(t), k});
+  auto by_key = [](const FaceRecord& a, const FaceRecord& b) {
+    return a.key != b.key ? a.key < b.key : a.tet != b.tet ? a.tet < b.tet : a.local < b.local;
+  };
+  std::sort(faces.begin(), faces.end(), by_key);
+
+  // Input triangles sorted by key, to join with the tet faces.
+  std::vector<std::pair<Tri, Index>> input(surface.triangles.size());
+  for (std::size_t i = 0; i < input.size(); ++i) input[i] = {sorted(surface.triangles[i]), static_cast<Index>(i)};
+  std::sort(input.begin(), input.end());
+  for (std::size_t i = 1; i < input.size(); ++i)
+    if (input[i].first == input[i - 1].first)
+      return invalid_input(fmt::format("triangles {} and {} have the same points ({}, {}, {})", input[i - 1].second,
+                                       input[i].second, input[i].first[0], input[i].first[1], input[i].first[2]));
+
+  std::vector<Index> neighbor(4 * nt, kNoIndex);  // across non-input faces only
+  std::vector<Index> inside_of(nt, kNoIndex);     // input triangle a tet lies inside of
+  std::vector<Index> seeds;                       // tets outside an input triangle
+  std::size_t in_pos = 0;
+  for (std::size_t g = 0; g < faces.size();) {
+    std::size_t e = g;
+    while (e < faces.size() && faces[e].key == faces[g].key) ++e;
+    const std::size_t count = e - g;
+    const Tri& key = faces[g].key;
+    while (in_pos < input.size() && input[in_pos].first < key) ++in_pos;
+    const bool is_input = in_pos < input.size() && input[in_pos].first == key;
+    const auto face_text = [&] { return fmt::format("face ({}, {}, {}) of tet {}", key[0], key[1], key[2], faces[g].tet); };
+    if (count > 2) return internal_error(fmt::format("TetGen output: {} is shared by {} tets", face_text(), count));
+    if (count == 2) {
+      const Tri f0 = outward_face(m.tets[faces[g].tet], faces[g].local);
+      const Tri f1 = outward_face(m.tets[faces[g + 1].tet], faces[g + 1].local);
+      if (!same_orientation(f0, {f1[0], f1[2], f1[1]}))
+        return internal_error(fmt::format("TetGen output: {} is oriented the same way by tets {} and {} (overlap)",
+                                          face_text(), faces[g].tet, faces[g + 1].tet));
+    }
+    if (is_input) {
+      const Index tri = input[in_pos].second;
+      const Tri& want = surface.triangles[tri];
+      for (std::size_t r = g; r < e; ++r) {
+        const bool inside = same_orientation(outward_face(m.tets[faces[r].tet], faces[r].local), want);
+        if (inside) {
+          inside_of[faces[r].tet] = tri;
+        } else if (count == 1) {
+          return internal_error(fmt::format(
+              "TetGen output: the only tet ({}) at input triangle {} (points {}, {}, {}) lies outside the surface",
+              faces[r].tet, tri, want[0], want[1], want[2]));
+        } else {
+          seeds.push_back(faces[r].tet);
+        }
+      }
+    } else if (count == 2) {
+      neighbor[4 * faces[g].tet + static_cast<Index>(faces[g].local)] = faces[g + 1].tet;
+      neighbor[4 * faces[g + 1].tet + static_cast<Index>(faces[g + 1].local)] = faces[g].tet;
+    }
+    g = e;
+  }
+  for (const auto& [key, tri] : input) {
+    auto it = std::lower_bound(faces.begin(), faces.end(), FaceRecord{key, 0, 0}, by_key);
+    if (it == faces.end() || it->key != key) {
+      const Tri& t = surface.triangles[tri];
+      return internal_error(fmt::format(
+          "TetGen output: input triangle {} (points {}, {}, {}) is not a face of any tet (boundary changed)", tri,
+          t[0], t[1], t[2]));
+    }
+  }
+
+  // Flood the outside from the seeds; it must never reach a tet inside.
+  std::vector<char> outside(nt, 0);
+  while (!seeds.empty()) {
+    const Index t = seeds.back();
+    seeds.pop_back();
+    if (outside[t]) continue;
+    if (inside_of[t] != kNoIndex) {
+      const Tri& tri = surface.triangles[inside_of[t]];
+      return invalid_input(fmt::format(
+          "the surface's orientation is inconsistent: tet {} is both outside some triangles and inside triangle {} "
+          "(points {}, {}, {}); nested bodies must be oriented away from the meshed volume",
+          t, inside_of[t], tri[0], tri[1], tri[2]));
+    }
+    outside[t] = 1;
+    for (int k = 0; k < 4; ++k)
+      if (const Index n = neighbor[4 * t + static_cast<Index>(k)]; n != kNoIndex && !outside[n]) seeds.push_back(n);
+  }
+
+  // Faces with one tet must be input triangles (unless that tet was removed).
+  for (std::size_t g = 0; g < faces.size();) {
+    std::size_t e = g;
+    while (e < faces.size() && faces[e].key == faces[g].key) ++e;
+    if (e - g == 1 && !outside[faces[g].tet] &&
+        !std::binary_search(input.begin(), input.end(), std::pair<Tri, Index>{faces[g].key, 0},
+                            [](const auto& a, const auto& b) { return a.first < b.first; })) {
+      const Tri f = outward_face(m.tets[faces[g].tet], faces[g].local);
+      const Vec3& p = m.points[f[0]];
+      return internal_error(fmt::format(
+          "TetGen output: boundary face ({}, {}, {}) of tet {} is not an input triangle (near ({}, {}, {}))", f[0],
+          f[1], f[2], faces[g].tet, p[0], p[1], p[2]));
+    }
+    g = e;
+  }
+
+  // Keep the inside tets; renumber the Steiner points they use, in order.
+  std::vector<Index> new_index(m.points.size(), kNoIndex);
+  for (std::size_t i = 0; i < n_in; ++i) new_index[i] = static_cast<Index>(i);
+  VolumeMesh vm;
+  vm.points.assign(m.points.begin(), m.points.begin() + static_cast<std::ptrdiff_t>(n_in));
+  vm.tets.reserve(nt);
+  for (std::size_t t = 0; t < nt; ++t) {
+    if (outside[t]) continue;
+    Tet tet = m.tets[t];
+    for (Index& v : tet) {
+      if (new_index[v] == kNoIndex) {
+        new_index[v] = static_cast<Index>(vm.points.size());
+        vm.points.push_back(m.points[v]);
+      }
+      v = new_index[v];
+    }
+    vm.tets.push_back(tet);
+  }
+  vm.boundary = surface.triangles;
+  vm.boundary_ids = surface.surface_ids;
+  if (vm.boundary_ids.empty()) vm.boundary_ids.assign(vm.boundary.size(), 1);
+  return vm;
+}
+
+Status check_input(const SurfaceMesh& s, const TetgenOptions& o) {
+  if (s.points.size() < 4 || s.triangles.size() < 4)
+    return invalid_input(fmt::format("a closed surface needs at least 4 points and 4 triangles, got {} and {}",
+                                     s.points.size(), s.triangles.size()));
+  if (s.points.size() > static_cast<std::size_t>(INT_MAX / 3) || s.triangles.size() > static_cast<std::size_t>(INT_MAX / 3))
+    return unsupported(fmt::format("{} points / {} triangles exceed TetGen's int indices", s.points.size(),
+                                   s.triangles.size()));
+  if (!s.surface_ids.empty() && s.surface_ids.size() != s.triangles.size())
+    return invalid_input(fmt::format("{} surface ids for {} triangles", s.surface_ids.size(), s.triangles.size()));
+  for (std::size_t i = 0; i < s.points.size(); ++i) {
+    const Vec3& p = s.points[i];
+    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+      return invalid_input(fmt::format("point {} is not finite ({}, {}, {})", i, p[0], p[1], p[2]));
+  }
+  for (std::size_t i = 0; i < s.triangles.size(); ++i) {
+    const Tri& t = s.triangles[i];
+    for (Index v : t)
+      if (v >= s.points.size())
+        return invalid_input(fmt::format("triangle {} (points {}, {}, {}) refers to point {} of {}", i, t[0], t[1],
+                                         t[2], v, s.points.size()));
+  }
+  if (o.max_volume && !(std::isfinite(*o.max_volume) && *o.max_volume > 0))
+    return invalid_input(fmt::format("max_volume must be positive and finite, got {}", *o.max_volume));
+  if (o.radius_edge && !(std::isfinite(*o.radius_edge) && *o.radius_edge >= 1.0))
+    return invalid_input(fmt::format("radius_edge must be at least 1 (TetGen may not terminate below), got {}",
+                                     *o.radius_edge));
+  if (!(o.time_limit_s > 0 && o.time_limit_s < 1e9))
+    return invalid_input(fmt::format("time_limit_s must be positive, got {}", o.time_limit_s));
+  return Status::ok_status();
+}
+
+/// A jittered body-centred cubic lattice over a box: point (i, j, k, c) is the
+/// corner (c = 0) or centre (c = 1) of cell (i, j, k), moved by a deterministic
+/// jitter of up to 0.05 h per axis (which avoids the lattice's cospherical and
+/// coplanar point sets). Its Delaunay tets have a volume of about h^3 / 12.
+class SeedLattice {
+ public:
+  SeedLattice(const Box& box, double h) : box_(box), h_(h) {
+    for (std::size_t k = 0; k < 3; ++k)
+      n_[k] = static_cast<std::size_t>(std::ceil((box.hi[k] - box.lo[k]) / h)) + 1;
+  }
+  double size() const { return 2.0 * static_cast<double>(n_[0]) * static_cast<double>(n_[1]) * static_cast<double>(n_[2]); }
+  std::size_t slots() const { return n_[0] * n_[1] * n_[2] * 2; }
+  std::size_t slot(const std::array<std::size_t, 3>& ijk, std::size_t c) const {
+    return ((ijk[0] * n_[1] + ijk[1]) * n_[2] + ijk[2]) * 2 + c;
+  }
+  Vec3 point(std::size_t slot) const {
+    const std::size_t c = slot % 2, cell = slot / 2;
+    const std::array<std::size_t, 3> ijk = {cell / (n_[1] * n_[2]), (cell / n_[2]) % n_[1], cell % n_[2]};
+    std::uint64_t x = slot * 0x9E3779B97F4A7C15ull + 0x632BE59BD9B4E019ull;
+    Vec3 p{};
+    for (std::size_t a = 0; a < 3; ++a) {
+      x ^= x >> 31;
+      x *= 0xBF58476D1CE4E5B9ull;
+      x ^= x >> 29;
+      const double jitter = (static_cast<double>(x >> 11) * 0x1.0p-53 - 0.5) * 0.1;
+      p[a] = box_.lo[a] + h_ * (static_cast<double>(ijk[a]) + 0.5 * static_cast<double>(c) + jitter);
+    }
+    return p;
+  }
+  /// Calls f(slot) for every lattice point that may lie in [lo - pad, hi + pad].
+  template <class F>
+  void for_each_near(const Vec3& lo, const Vec3& hi, double pad, F&& f) const {
+    std::array<std::size_t, 3> from{}, to{};
+    for (std::size_t k = 0; k < 3; ++k) {
+      from[k] = static_cast<std::size_t>(std::max(0.0, std::floor((lo[k] - pad - box_.lo[k]) / h_) - 1));
+      to[k] = std::min(n_[k] - 1, static_cast<std::size_t>(std::max(0.0, std::ceil((hi[k] + pad - box_.lo[k]) / h_) + 1)));
+    }
+    for (std::size_t i = from[0]; i <= to[0]; ++i)
+      for (std::size_t j = from[1]; j <= to[1]; ++j)
+        for (std::size_t k = from[2]; k <= to[2]; ++k)
+          for (std::size_t c = 0; c < 2; ++c) f(slot({i, j, k}, c));
+  }
+
+ private:
+  Box box_;
+  double h_;
+  std::array<std::size_t, 3> n_{};
+};
+
+/// Seeds for a dense mesh. TetGen 1.5 with -Y rejects every refinement point
+/// that encroaches on a boundary face, so -a alone hardly refines near coarse
+/// boundaries (on hinge it adds no point at all). We therefore add the points
+/// of a lattice over the bounding box, whose Delaunay tets have about half the
+/// volume bound, to TetGen's input points (after the surface's points), except
+/// those closer than 0.4 spacing to a triangle's plane within the triangle's
+/// box (no seed on or next to the boundary). Seeds outside the domain go with
+/// the exterior tets and are dropped as unused. (TetGen's own -i for added
+/// points crashes in TetGen 1.5 on some inputs, e.g. elephant, even with only
+/// interior points.)
+Result<std::vector<double>> seed_points(const SurfaceMesh& s, double max_volume) {
+  const double h = 0.8 * std::cbrt(12.0 * max_volume);
+  const SeedLattice lattice(s.bounds(), h);
+  if (lattice.size() > 2e8)
+    return resource_exhausted(fmt::format("max_volume {} asks for {:.3g} seed points over the bounding box, more "
+                                          "than the supported 2e8",
+                                          max_volume, lattice.size()));
+  std::vector<char> keep(lattice.slots(), 1);
+  const double gap = 0.4 * h;
+  for (const Tri& t : s.triangles) {
+    const Vec3 &a = s.points[t[0]], &b = s.points[t[1]], &c = s.points[t[2]];
+    Box tb;
+    for (const Vec3* p : {&a, &b, &c}) tb.add(*p);
+    Vec3 normal = cross(b - a, c - a);
+    const double len = norm(normal);
+    normal = len > 0 ? (1.0 / len) * normal : Vec3{0, 0, 0};
+    lattice.for_each_near(tb.lo, tb.hi, gap, [&](std::size_t slot) {
+      if (!keep[slot]) return;
+      const Vec3 p = lattice.point(slot);
+      for (std::size_t q = 0; q < 3; ++q)
+        if (p[q] < tb.lo[q] - gap || p[q] > tb.hi[q] + gap) return;
+      if (len == 0 || std::fabs(dot(p - a, normal)) < gap) keep[slot] = 0;
+    });
+  }
+  std::vector<double> seeds;
+  for (std::size_t slot = 0; slot < keep.size(); ++slot) {
+    if (!keep[slot]) continue;
+    const Vec3 p = lattice.point(slot);
+    seeds.insert(seeds.end(), p.begin(), p.end());
+  }
+  if (seeds.size() / 3 > static_cast<std::size_t>(INT_MAX / 3))
+    return unsupported(fmt::format("{} seed points exceed TetGen's int indices", seeds.size() / 3));
+  return seeds;
+}
+
+ChildInput prepare_child_input(const SurfaceMesh& s, const TetgenOptions& o, const std::vector<double>& seeds) {
+  ChildInput in;
+  in.points.reserve(3 * s.points.size() + seeds.size());
+  for (const Vec3& p : s.points) in.points.insert(in.points.end(), p.begin(), p.end());
+  in.points.insert(in.points.end(), seeds.begin(), seeds.end());
+  in.corners.reserve(3 * s.triangles.size());
+  for (const Tri& t : s.triangles)
+    for (Index v : t) in.corners.push_back(static_cast<int>(v));
+  in.polygons.resize(s.triangles.size());
+  in.facets.resize(s.triangles.size());
+  for (std::size_t i = 0; i < s.triangles.size(); ++i) {
+    in.polygons[i].vertexlist = in.corners.data() + 3 * i;
+    in.polygons[i].numberofvertices = 3;
+    in.facets[i].polygonlist = &in.polygons[i];
+    in.facets[i].numberofpolygons = 1;
+    in.facets[i].holelist = nullptr;
+    in.facets[i].numberofholes = 0;
+  }
+  const std::string sw = tetgen_switches(o);
+  in.switches.assign(sw.begin(), sw.end());
+  in.switches.push_back('\0');
+  in.memory_limit = o.memory_limit_bytes;
+  in.fault = o.inject_fault;
+  return in;
+}
+
+}  // namespace
+
+// Switches, letter by letter:
+//   p  the input is a piecewise linear complex (our triangles), tetrahedralize
+//      its interior and remove the tets outside it;
+//   Y  preserve the input boundary: no Steiner point on input faces or edges
+//      (boundary recovery may add interior points only);
+//   z  indices start at 0;
+//   Q  quiet (TetGen still prints errors; they go to the child's log pipe);
+//   M  do not merge coplanar facets or close vertices: every input triangle
+//      stays a face, every input point stays a point, as given;
+//   J  do not jettison unused vertices: output point i is input point i;
+//   F  do not produce TetGen's face list (the adapter derives the boundary);
+//   q<r>  quality refinement with radius-edge ratio bound r (only if set);
+//   a<v>  maximum tetrahedron volume v (only if set).
+// Nothing else: in particular no -d/-r/-c/-i/-m, nothing that adds boundary
+// points. Numbers are written in shortest round-trip form.
+std::string tetgen_switches(const TetgenOptions& options) {
+  std::string s = "pYzQMJF";
+  if (options.radius_edge) s += fmt::format("q{}", *options.radius_edge);
+  if (options.max_volume) s += fmt::format("a{}", *options.max_volume);
+  return s;
+}
+
+namespace {
+
+/// One isolated TetGen run (see the file comment) and the validation of its output.
+Result<VolumeMesh> run_tetgen(const SurfaceMesh& surface, const TetgenOptions& options,
+                              const std::vector<double>& seeds) {
+  ChildInput input = prepare_child_input(surface, options, seeds);
+
+  int result_pipe[2], log_pipe[2];
+  if (::pipe2(result_pipe, O_CLOEXEC) != 0)
+    return internal_error(fmt::format("cannot create a pipe for TetGen: {}", std::strerror(errno)));
+  Fd result_r(result_pipe[0]), result_w(result_pipe[1]);
+  if (::pipe2(log_pipe, O_CLOEXEC) != 0)
+    return internal_error(fmt::format("cannot create a pipe for TetGen: {}", std::strerror(errno)));
+  Fd log_r(log_pipe[0]), log_w(log_pipe[1]);
+
+  const pid_t pid = ::fork();
+  if (pid < 0) return internal_error(fmt::format("cannot fork a process for TetGen: {}", std::strerror(errno)));
+  if (pid == 0) child_main(input, result_w.get(), log_w.get());
+
+  result_w.reset();
+  log_w.reset();
+  ChildOutcome o = supervise(pid, result_r.get(), log_r.get(), options.time_limit_s);
+  if (o.timed_out)
+    return decorate(deadline_exceeded(fmt::format("TetGen did not finish within the time limit of {} s "
+                                                  "(time_limit_s); its process was killed",
+                                                  options.time_limit_s)),
+                    surface, o.log);
+  if (WIFSIGNALED(o.wait_status)) {
+    const int sig = WTERMSIG(o.wait_status);
+    const char* what = ::sigdescr_np(sig);
+    std::string msg = fmt::format("TetGen crashed (signal {}: {})", sig, what ? what : "unknown signal");
+    if (options.memory_limit_bytes > 0) msg += fmt::format(" with a memory limit of {} bytes", options.memory_limit_bytes);
+    // TetGen 1.5 often crashes right after diagnosing intersecting input
+    // ("Found two segments intersect each other."): that is the user's data.
+    if (o.log.find("intersect") != std::string::npos)
+      return decorate(invalid_input("the surface intersects itself: " + msg), surface, o.log);
+    return decorate(internal_error(msg), surface, o.log);
+  }
+  if (!WIFEXITED(o.wait_status) || WEXITSTATUS(o.wait_status) != 0)
+    return decorate(internal_error(fmt::format("TetGen's process exited with status {} without an answer",
+                                               WIFEXITED(o.wait_status) ? WEXITSTATUS(o.wait_status) : -1)),
+                    surface, o.log);
+  Result<RawMesh> raw = parse_answer(o.result, options);
+  if (!raw.ok()) return decorate(raw.status(), surface, o.log);
+  RawMesh& m = raw.value();
+  if (m.points.size() < surface.points.size())
+    return decorate(internal_error(fmt::format("TetGen's output has {} points, fewer than the {} input points",
+                                               m.points.size(), surface.points.size())),
+                    surface, {});
+  for (std::size_t i = 0; i < surface.points.size(); ++i) {
+    if (std::memcmp(&m.points[i], &surface.points[i], sizeof(Vec3)) != 0) {
+      const Vec3 &a = surface.points[i], &b = m.points[i];
+      return decorate(internal_error(fmt::format("TetGen moved input point {} from ({}, {}, {}) to ({}, {}, {})", i,
+                                                 a[0], a[1], a[2], b[0], b[1], b[2])),
+                      surface, {});
+    }
+  }
+  if (Status s = orient_tets(m); !s.ok()) return decorate(s, surface, {});
+  Result<VolumeMesh> vm = build_volume_mesh(std::move(m), surface);
+  if (!vm.ok()) return decorate(vm.status(), surface, {});
+  return vm;
+}
+
+}  // namespace
+
+Result<VolumeMesh> tetrahedralize(const SurfaceMesh& surface, const TetgenOptions& options) {
+  PDR_TRY(check_input(surface, options));
+  std::vector<double> seeds;
+  if (options.max_volume) {
+    PDR_ASSIGN_OR_RETURN(seeds, seed_points(surface, *options.max_volume));
+  }
+  return run_tetgen(surface, options, seeds);
+}
+
+}  // namespace pdrmesh
