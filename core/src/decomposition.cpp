@@ -141,16 +141,23 @@ Result<Decomposition> decompose(const VolumeMesh& mesh, int depth) {
       }
     }
   }
-  // N2: n1 of the n1 members, less {L} and n1.
+  // N2: n1 of the n1 members, less {L} and n1 (stamp[x] == l: x seen for l).
   d.n2.assign(nl, {});
+  std::vector<Index> stamp(nl, kNoIndex);
   for (std::size_t l = 0; l < nl; ++l) {
+    const Index li = static_cast<Index>(l);
+    stamp[l] = li;
+    for (Index m : d.n1[l]) stamp[m] = li;
     std::vector<Index>& out = d.n2[l];
-    for (Index m : d.n1[l]) out.insert(out.end(), d.n1[m].begin(), d.n1[m].end());
+    for (Index m : d.n1[l]) {
+      for (Index x : d.n1[m]) {
+        if (stamp[x] != li) {
+          stamp[x] = li;
+          out.push_back(x);
+        }
+      }
+    }
     std::sort(out.begin(), out.end());
-    out.erase(std::unique(out.begin(), out.end()), out.end());
-    std::erase_if(out, [&](Index x) {
-      return x == l || std::binary_search(d.n1[l].begin(), d.n1[l].end(), x);
-    });
   }
 
   // Interface faces: pair up equal face keys after a sort (a total order, so the

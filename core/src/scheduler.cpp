@@ -78,16 +78,16 @@ std::vector<std::vector<Index>> colour_classes(const Decomposition& d) {
 
 DynamicPicker::DynamicPicker(std::span<const std::vector<Index>> n1)
     : n1_(n1), blocked_(n1.size(), 0), started_(n1.size(), 0) {
-  for (std::size_t l = 0; l < n1.size(); ++l) ready_.insert(ready_.end(), static_cast<Index>(l));
+  for (std::size_t l = 0; l < n1.size(); ++l) ready_.push(static_cast<Index>(l));
 }
 
 void DynamicPicker::adjust(Index leaf, int delta) {
   // Taking x blocks every leaf whose lock set holds x: x itself and N1(x).
   auto touch = [&](Index m) {
     if (delta > 0) {
-      if (blocked_[m]++ == 0 && !started_[m]) ready_.erase(m);
-    } else {
-      if (--blocked_[m] == 0 && !started_[m]) ready_.insert(m);
+      ++blocked_[m];
+    } else if (--blocked_[m] == 0 && !started_[m]) {
+      ready_.push(m);
     }
   };
   auto take = [&](Index x) {
@@ -98,9 +98,15 @@ void DynamicPicker::adjust(Index leaf, int delta) {
   for (Index x : n1_[leaf]) take(x);
 }
 
+bool DynamicPicker::has_ready() {
+  while (!ready_.empty() && (started_[ready_.top()] || blocked_[ready_.top()] != 0)) ready_.pop();
+  return !ready_.empty();
+}
+
 Index DynamicPicker::pop_lowest() {
-  const Index leaf = *ready_.begin();
-  ready_.erase(ready_.begin());
+  has_ready();
+  const Index leaf = ready_.top();
+  ready_.pop();
   started_[leaf] = 1;
   adjust(leaf, +1);
   return leaf;

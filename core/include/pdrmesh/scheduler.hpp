@@ -42,7 +42,7 @@
 #include <functional>
 #include <mutex>
 #include <optional>
-#include <set>
+#include <queue>
 #include <span>
 #include <utility>
 #include <vector>
@@ -95,7 +95,7 @@ std::vector<std::vector<Index>> colour_classes(const Decomposition& d);
 class DynamicPicker {
  public:
   explicit DynamicPicker(std::span<const std::vector<Index>> n1);
-  bool has_ready() const { return !ready_.empty(); }
+  bool has_ready();
   /// The lowest not-yet-started leaf whose lock set is free; marks it started
   /// and its lock set taken. Precondition: has_ready().
   Index pop_lowest();
@@ -107,7 +107,9 @@ class DynamicPicker {
   std::span<const std::vector<Index>> n1_;
   std::vector<unsigned> blocked_;  // per leaf: taken leaves in its lock set
   std::vector<unsigned char> started_;
-  std::set<Index> ready_;
+  // Min-heap of candidates, checked lazily: a leaf is pushed whenever it may have
+  // become ready; entries that are started or blocked are dropped at the top.
+  std::priority_queue<Index, std::vector<Index>, std::greater<>> ready_;
 };
 
 struct ScheduleStats {
