@@ -1,0 +1,258 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// PDR leaf scheduling on oneTBB: lock table, colouring, dynamic picking and the
+// type-erased engine behind run_leaves (see scheduler.hpp).
+#include "pdrmesh/scheduler.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+
+#include <oneapi/tbb/parallel_for.h>
+#include <oneapi/tbb/task_arena.h>
+#include <oneapi/tbb/task_group.h>
+
+namespace pdrmesh {
+
+LockTable::LockTable(std::size_t leaves) : locked_(leaves, 0) {}
+
+bool LockTable::try_lock(Index leaf, std::span<const Index> n1) {
+  std::lock_guard lock(mu_);
+  if (locked_[leaf]) return false;
+  for (Index m : n1) {
+    if (locked_[m]) return false;
+  }
+  locked_[leaf] = 1;
+  for (Index m : n1) locked_[m] = 1;
+  return true;
+}
+
+void LockTable::unlock(Index leaf, std::span<const Index> n1) {
+  std::lock_guard lock(mu_);
+  locked_[leaf] = 0;
+  for (Index m : n1) locked_[m] = 0;
+}
+
+bool LockTable::locked(Index leaf) const {
+  std::lock_guard lock(mu_);
+  return locked_[leaf] != 0;
+}
+
+std::vector<std::vector<Index>> colour_classes(std::span<const std::vector<Index>> n1,
+                                               std::span<const Index> order) {
+  const std::size_t nl = n1.size();
+  constexpr std::size_t kNone = ~std::size_t{0};
+  std::vector<std::size_t> colour(nl, kNone);
+  std::vector<std::vector<Index>> classes;
+  std::vector<unsigned char> used;
+  for (std::size_t i = 0; i < nl; ++i) {
+    const Index l = order.empty() ? static_cast<Index>(i) : order[i];
+    used.assign(classes.size() + 1, 0);
+    auto visit = [&](Index m) {
+      if (m != l && colour[m] != kNone) used[colour[m]] = 1;
+    };
+    for (Index x : n1[l]) {  // the lock sets {x} ∪ N1(x) that hold l
+      visit(x);
+      for (Index m : n1[x]) visit(m);
+    }
+    const std::size_t c =
+        static_cast<std::size_t>(std::find(used.begin(), used.end(), 0) - used.begin());
+    colour[l] = c;
+    if (c == classes.size()) classes.emplace_back();
+    classes[c].push_back(l);
+  }
+  for (auto& cls : classes) std::sort(cls.begin(), cls.end());
+  return classes;
+}
+
+std::vector<std::vector<Index>> colour_classes(const Decomposition& d) {
+  std::vector<std::pair<std::uint32_t, Index>> keyed(d.size());
+  for (std::size_t l = 0; l < d.size(); ++l) {
+    const auto c = leaf_coords(d.leaves[l], d.depth);
+    keyed[l] = {c[0] % 3 + 3 * (c[1] % 3 + 3 * (c[2] % 3)), static_cast<Index>(l)};
+  }
+  std::sort(keyed.begin(), keyed.end());
+  std::vector<Index> order(d.size());
+  for (std::size_t i = 0; i < keyed.size(); ++i) order[i] = keyed[i].second;
+  return colour_classes(d.n1, order);
+}
+
+DynamicPicker::DynamicPicker(std::span<const std::vector<Index>> n1)
+    : n1_(n1), blocked_(n1.size(), 0), started_(n1.size(), 0) {
+  for (std::size_t l = 0; l < n1.size(); ++l) ready_.push(static_cast<Index>(l));
+}
+
+void DynamicPicker::adjust(Index leaf, int delta) {
+  // Taking x blocks every leaf whose lock set holds x: x itself and N1(x).
+  auto touch = [&](Index m) {
+    if (delta > 0) {
+      ++blocked_[m];
+    } else if (--blocked_[m] == 0 && !started_[m]) {
+      ready_.push(m);
+    }
+  };
+  auto take = [&](Index x) {
+    touch(x);
+    for (Index m : n1_[x]) touch(m);
+  };
+  take(leaf);
+  for (Index x : n1_[leaf]) take(x);
+}
+
+bool DynamicPicker::has_ready() {
+  while (!ready_.empty() && (started_[ready_.top()] || blocked_[ready_.top()] != 0)) ready_.pop();
+  return !ready_.empty();
+}
+
+Index DynamicPicker::pop_lowest() {
+  has_ready();
+  const Index leaf = ready_.top();
+  ready_.pop();
+  started_[leaf] = 1;
+  adjust(leaf, +1);
+  return leaf;
+}
+
+void DynamicPicker::finish(Index leaf) { adjust(leaf, -1); }
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+/// Runs tasks with timing and concurrency accounting.
+class Instrument {
+ public:
+  Instrument(std::size_t leaves, const std::function<void(Index)>& run)
+      : run_(run), task_s_(leaves, 0.0) {}
+
+  void operator()(Index leaf) {
+    const std::size_t now = running_.fetch_add(1) + 1;
+    std::size_t seen = max_.load();
+    while (now > seen && !max_.compare_exchange_weak(seen, now)) {
+    }
+    const auto t0 = Clock::now();
+    run_(leaf);
+    task_s_[leaf] = seconds_since(t0);
+    running_.fetch_sub(1);
+  }
+
+  void fill(ScheduleStats& s, double wall) {
+    s.tasks = task_s_.size();
+    s.wall_s = wall;
+    s.busy_s = 0;
+    for (double t : task_s_) s.busy_s += t;
+    s.max_concurrency = max_.load();
+    s.mean_concurrency = wall > 0 ? s.busy_s / wall : 0.0;
+    s.task_s = std::move(task_s_);
+  }
+
+ private:
+  const std::function<void(Index)>& run_;
+  std::vector<double> task_s_;
+  std::atomic<std::size_t> running_{0};
+  std::atomic<std::size_t> max_{0};
+};
+
+/// A leaf whose lock failed runs here, alone, once everything else is idle.
+void run_alone(Index leaf, std::span<const Index> n1, LockTable& locks, Instrument& inst,
+               const std::function<void(Index)>& commit) {
+  [[maybe_unused]] const bool ok = locks.try_lock(leaf, n1);  // nothing else is locked now
+  inst(leaf);
+  commit(leaf);
+  locks.unlock(leaf, n1);
+}
+
+}  // namespace
+
+ScheduleStats run_leaf_tasks(std::span<const std::vector<Index>> n1,
+                             std::span<const std::vector<Index>> classes, std::size_t workers,
+                             SchedulePolicy policy, const std::function<void(Index)>& run,
+                             const std::function<void(Index)>& commit) {
+  workers = std::max<std::size_t>(workers, 1);
+  const std::size_t nl = n1.size();
+  ScheduleStats stats;
+  LockTable locks(nl);
+  Instrument inst(nl, run);
+  std::vector<Index> postponed;
+  tbb::task_arena arena(static_cast<int>(workers));
+  const auto t0 = Clock::now();
+
+  if (policy == SchedulePolicy::kColoured) {
+    std::vector<std::vector<Index>> own;
+    if (classes.empty()) {
+      own = colour_classes(n1);
+      classes = own;
+    }
+    for (const std::vector<Index>& cls : classes) {
+      std::vector<Index> batch;
+      batch.reserve(cls.size());
+      for (Index leaf : cls) {
+        if (locks.try_lock(leaf, n1[leaf])) {
+          batch.push_back(leaf);
+        } else {
+          postponed.push_back(leaf);
+        }
+      }
+      arena.execute([&] {
+        tbb::parallel_for(
+            tbb::blocked_range<std::size_t>(0, batch.size(), 1),
+            [&](const tbb::blocked_range<std::size_t>& r) {
+              for (std::size_t i = r.begin(); i != r.end(); ++i) inst(batch[i]);
+            },
+            tbb::simple_partitioner());
+      });
+      for (Index leaf : batch) {
+        commit(leaf);
+        locks.unlock(leaf, n1[leaf]);
+      }
+      ++stats.rounds;
+      stats.lock_failures += postponed.size();
+      for (Index leaf : postponed) run_alone(leaf, n1[leaf], locks, inst, commit);
+      postponed.clear();
+    }
+  } else {
+    std::mutex mu;  // guards picker, in_flight, postponed, and serialises commits
+    DynamicPicker picker(n1);
+    std::size_t in_flight = 0;
+    tbb::task_group group;
+    std::function<void()> launch;  // called with mu held
+    auto body = [&](Index leaf) {
+      inst(leaf);
+      std::lock_guard lock(mu);
+      commit(leaf);
+      locks.unlock(leaf, n1[leaf]);
+      picker.finish(leaf);
+      --in_flight;
+      launch();
+    };
+    launch = [&] {
+      while (in_flight < workers && picker.has_ready()) {
+        const Index leaf = picker.pop_lowest();
+        if (!locks.try_lock(leaf, n1[leaf])) {
+          picker.finish(leaf);
+          postponed.push_back(leaf);
+          continue;
+        }
+        ++in_flight;
+        group.run([&body, leaf] { body(leaf); });
+      }
+    };
+    arena.execute([&] {
+      {
+        std::lock_guard lock(mu);
+        launch();
+      }
+      group.wait();
+    });
+    stats.lock_failures = postponed.size();
+    std::sort(postponed.begin(), postponed.end());
+    for (Index leaf : postponed) run_alone(leaf, n1[leaf], locks, inst, commit);
+  }
+  inst.fill(stats, seconds_since(t0));
+  return stats;
+}
+
+}  // namespace pdrmesh

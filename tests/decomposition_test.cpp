@@ -1,0 +1,240 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// Tests of the PDR octree decomposition: leaf assignment, N1/N2, interface faces.
+#include "pdrmesh/decomposition.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <map>
+#include <set>
+
+#include "octree_fixtures.hpp"
+
+namespace pdrmesh {
+namespace {
+
+using fixtures::kuhn_grid;
+
+Decomposition decompose_ok(const VolumeMesh& m, int depth) {
+  auto d = decompose(m, depth);
+  EXPECT_TRUE(d.ok()) << d.status().to_string();
+  return std::move(d).value();
+}
+
+int chebyshev(LeafId a, LeafId b, int depth) {
+  const auto ca = leaf_coords(a, depth), cb = leaf_coords(b, depth);
+  int r = 0;
+  for (int i = 0; i < 3; ++i) r = std::max(r, std::abs(int(ca[i]) - int(cb[i])));
+  return r;
+}
+
+std::set<Index> lock_set(const Decomposition& d, Index l) {
+  std::set<Index> s(d.n1[l].begin(), d.n1[l].end());
+  s.insert(l);
+  return s;
+}
+
+TEST(Decomposition, AssignsEveryTetOnceToTheLeafHoldingItsBarycenter) {
+  const VolumeMesh m = kuhn_grid(7);
+  for (int depth : {0, 1, 2, 3}) {
+    const Decomposition d = decompose_ok(m, depth);
+    ASSERT_EQ(d.tet_leaf.size(), m.tets.size());
+    ASSERT_EQ(d.leaf_tets.size(), d.leaves.size());
+    EXPECT_TRUE(std::is_sorted(d.leaves.begin(), d.leaves.end()));
+    EXPECT_EQ(std::adjacent_find(d.leaves.begin(), d.leaves.end()), d.leaves.end());
+    std::vector<int> seen(m.tets.size(), 0);
+    for (std::size_t l = 0; l < d.size(); ++l) {
+      EXPECT_FALSE(d.leaf_tets[l].empty());
+      EXPECT_TRUE(std::is_sorted(d.leaf_tets[l].begin(), d.leaf_tets[l].end()));
+      for (Index t : d.leaf_tets[l]) {
+        ++seen[t];
+        EXPECT_EQ(d.tet_leaf[t], l);
+      }
+    }
+    // The root box is a cube holding every point strictly inside.
+    const double side = d.box.hi[0] - d.box.lo[0];
+    for (int a = 0; a < 3; ++a) {
+      EXPECT_DOUBLE_EQ(d.box.hi[a] - d.box.lo[a], side);
+      EXPECT_LT(d.box.lo[a], 0.0);
+      EXPECT_GT(d.box.hi[a], 7.0);
+    }
+    for (std::size_t t = 0; t < m.tets.size(); ++t) {
+      EXPECT_EQ(seen[t], 1) << "tet " << t;
+      const Vec3 b = tet_barycenter(m, static_cast<Index>(t));
+      const LeafId id = d.leaves[d.tet_leaf[t]];
+      EXPECT_EQ(id, leaf_of_point(d.box, depth, b));
+      const Box lb = leaf_box(d.box, depth, id);
+      for (int a = 0; a < 3; ++a) {
+        EXPECT_LE(lb.lo[a], b[a]) << "tet " << t;
+        EXPECT_GE(lb.hi[a], b[a]) << "tet " << t;
+      }
+    }
+  }
+}
+
+TEST(Decomposition, LeafOfPointSendsBoundaryPointsUpAndClamps) {
+  Box box;
+  box.add({0, 0, 0});
+  box.add({1, 1, 1});
+  EXPECT_EQ(leaf_of_point(box, 2, {0.25, 0.5, 0.75}), 1u + 4u * (2u + 4u * 3u));
+  EXPECT_EQ(leaf_of_point(box, 2, {0.2499, 0.0, 0.0}), 0u);
+  EXPECT_EQ(leaf_of_point(box, 2, {1.0, 1.0, 1.0}), 63u);  // far faces clamp
+  EXPECT_EQ(leaf_of_point(box, 2, {-5.0, 7.0, 0.1}), 0u + 4u * (3u + 4u * 0u));
+  EXPECT_EQ(leaf_of_point(box, 0, {0.9, 0.9, 0.9}), 0u);
+  const auto c = leaf_coords(1u + 4u * (2u + 4u * 3u), 2);
+  EXPECT_EQ(c[0], 1u);
+  EXPECT_EQ(c[1], 2u);
+  EXPECT_EQ(c[2], 3u);
+}
+
+TEST(Decomposition, NeighboursOfAFullGridAreTheChebyshevRings) {
+  const Decomposition d = decompose_ok(kuhn_grid(8), 2);  // 4^3 leaves, all non-empty
+  ASSERT_EQ(d.size(), 64u);
+  for (std::size_t l = 0; l < d.size(); ++l) {
+    std::vector<Index> ring1, ring2;
+    for (std::size_t m = 0; m < d.size(); ++m) {
+      const int c = chebyshev(d.leaves[l], d.leaves[m], d.depth);
+      if (c == 1) ring1.push_back(static_cast<Index>(m));
+      if (c == 2) ring2.push_back(static_cast<Index>(m));
+    }
+    EXPECT_EQ(d.n1[l], ring1) << "leaf " << l;
+    EXPECT_EQ(d.n2[l], ring2) << "leaf " << l;
+  }
+  auto idx = [&](LeafId id) {
+    return static_cast<std::size_t>(std::lower_bound(d.leaves.begin(), d.leaves.end(), id) -
+                                    d.leaves.begin());
+  };
+  const std::size_t interior = idx(1 + 4 * (1 + 4 * 1)), corner = idx(0);
+  const std::size_t edge = idx(1 + 4 * (0 + 4 * 0)), face = idx(1 + 4 * (1 + 4 * 0));
+  EXPECT_EQ(d.n1[interior].size(), 26u);
+  EXPECT_EQ(d.n1[corner].size(), 7u);
+  EXPECT_EQ(d.n1[edge].size(), 11u);
+  EXPECT_EQ(d.n1[face].size(), 17u);
+  EXPECT_EQ(d.n2[interior].size(), 64u - 27u);  // [0,3]^3 less the 3^3 block
+  EXPECT_EQ(d.n2[corner].size(), 27u - 8u);     // [0,2]^3 less [0,1]^3
+}
+
+TEST(Decomposition, NeighboursWithEmptyLeavesFollowTheLockSets) {
+  // Cubes removed in a fixed pattern leave empty leaves at depth 3 (one cube per leaf).
+  const VolumeMesh m = kuhn_grid(8, [](int x, int y, int z) { return (x * 7 + y * 3 + z * 5) % 4 != 0; });
+  const Decomposition d = decompose_ok(m, 3);
+  ASSERT_LT(d.size(), 512u);
+  ASSERT_GT(d.size(), 300u);
+  for (std::size_t l = 0; l < d.size(); ++l) {
+    const Index li = static_cast<Index>(l);
+    const std::set<Index> mine = lock_set(d, li);
+    std::vector<Index> expect_n1, expect_n2;
+    for (std::size_t o = 0; o < d.size(); ++o) {
+      if (o == l) continue;
+      const Index oi = static_cast<Index>(o);
+      if (chebyshev(d.leaves[l], d.leaves[o], d.depth) == 1) {
+        expect_n1.push_back(oi);
+        continue;
+      }
+      const std::set<Index> theirs = lock_set(d, oi);
+      const bool overlap = std::any_of(theirs.begin(), theirs.end(), [&](Index x) { return mine.count(x) > 0; });
+      if (overlap) expect_n2.push_back(oi);
+    }
+    EXPECT_EQ(d.n1[l], expect_n1) << "leaf " << l;
+    EXPECT_EQ(d.n2[l], expect_n2) << "leaf " << l;
+    for (Index x : d.n2[l]) EXPECT_EQ(chebyshev(d.leaves[l], d.leaves[x], d.depth), 2);
+  }
+}
+
+TEST(Decomposition, InterfaceFacesAreExactlyTheFacesBetweenLeaves) {
+  const VolumeMesh m = kuhn_grid(6, [](int x, int y, int z) { return x + y + z != 7; });
+  for (int depth : {1, 2, 3}) {
+    const Decomposition d = decompose_ok(m, depth);
+    // Brute force: every face by its sorted vertex triple.
+    std::map<std::array<Index, 3>, std::vector<std::pair<Index, int>>> faces;
+    for (std::size_t t = 0; t < m.tets.size(); ++t) {
+      for (int f = 0; f < 4; ++f) {
+        std::vector<Index> v;
+        for (int q = 0; q < 4; ++q) {
+          if (q != f) v.push_back(m.tets[t][static_cast<std::size_t>(q)]);
+        }
+        std::sort(v.begin(), v.end());
+        faces[{v[0], v[1], v[2]}].emplace_back(static_cast<Index>(t), f);
+      }
+    }
+    std::vector<std::vector<std::pair<Index, int>>> expect(d.size());
+    std::size_t boundary = 0;
+    for (const auto& [key, users] : faces) {
+      ASSERT_LE(users.size(), 2u);
+      if (users.size() == 1) {
+        ++boundary;
+        continue;
+      }
+      const Index la = d.tet_leaf[users[0].first], lb = d.tet_leaf[users[1].first];
+      if (la == lb) continue;
+      expect[la].push_back(users[0]);
+      expect[lb].push_back(users[1]);
+    }
+    EXPECT_GT(boundary, 0u);
+    std::size_t total = 0;
+    for (std::size_t l = 0; l < d.size(); ++l) {
+      std::sort(expect[l].begin(), expect[l].end());
+      EXPECT_EQ(d.interface_faces[l], expect[l]) << "depth " << depth << " leaf " << l;
+      total += expect[l].size();
+    }
+    EXPECT_GT(total, 0u);
+  }
+}
+
+TEST(Decomposition, DepthZeroIsOneLeafWithoutInterfaces) {
+  const VolumeMesh m = kuhn_grid(3);
+  const Decomposition d = decompose_ok(m, 0);
+  ASSERT_EQ(d.size(), 1u);
+  EXPECT_EQ(d.leaves[0], 0u);
+  EXPECT_EQ(d.per_side, 1);
+  EXPECT_EQ(d.leaf_tets[0].size(), m.tets.size());
+  EXPECT_TRUE(d.n1[0].empty());
+  EXPECT_TRUE(d.n2[0].empty());
+  EXPECT_TRUE(d.interface_faces[0].empty());
+}
+
+TEST(Decomposition, EmptyMeshHasNoLeaves) {
+  const Decomposition d = decompose_ok(VolumeMesh{}, 3);
+  EXPECT_EQ(d.size(), 0u);
+}
+
+TEST(Decomposition, RejectsBadDepthBadPointsAndOverSharedFaces) {
+  const VolumeMesh m = kuhn_grid(1);
+  EXPECT_EQ(decompose(m, -1).status().code(), StatusCode::kInvalidInput);
+  EXPECT_EQ(decompose(m, kMaxDepth + 1).status().code(), StatusCode::kInvalidInput);
+  EXPECT_TRUE(decompose(m, kMaxDepth).ok());
+
+  VolumeMesh bad = m;
+  bad.tets.push_back({0, 1, 2, 99});
+  const auto r = decompose(bad, 1);
+  EXPECT_EQ(r.status().code(), StatusCode::kInvalidInput);
+  EXPECT_NE(r.status().message().find("point 99"), std::string::npos) << r.status().message();
+
+  VolumeMesh three = m;
+  three.points.push_back({2, 2, 2});
+  three.tets.push_back({0, 1, 7, 8});  // face (0, 1, 7) is now shared by three tets
+  const auto r3 = decompose(three, 1);
+  EXPECT_EQ(r3.status().code(), StatusCode::kInvalidInput);
+  EXPECT_NE(r3.status().message().find("face (0, 1, 7)"), std::string::npos) << r3.status().message();
+}
+
+TEST(Decomposition, DefaultDepthIsTheSmallestThatReachesTheTarget) {
+  EXPECT_EQ(default_depth(0, 1000), 0);
+  EXPECT_EQ(default_depth(1000, 1000), 0);
+  EXPECT_EQ(default_depth(3773233, 1000), 4);  // the paper's horn bulb at depth 4
+  EXPECT_EQ(default_depth(std::size_t{1} << 62, 1), kMaxDepth);
+  EXPECT_EQ(default_depth(100, 0), default_depth(100, 1));
+  for (std::size_t target : {1ul, 7ul, 8ul, 9ul, 4096ul, 100000ul, 5000000ul}) {
+    for (std::size_t per : {1ul, 10ul, 1000ul}) {
+      const int d = default_depth(target, per);
+      EXPECT_GE((std::size_t{1} << (3 * d)) * per, target);
+      if (d > 0) {
+        EXPECT_LT((std::size_t{1} << (3 * (d - 1))) * per, target);
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace pdrmesh
