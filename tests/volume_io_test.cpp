@@ -363,6 +363,34 @@ TEST_F(VolumeIo, GmshReadsSimpleVariants) {
   EXPECT_TRUE(r->tet_regions.empty());
 }
 
+TEST_F(VolumeIo, VtuReadsVtkWriterAsciiLayout) {
+  // As vtkXMLUnstructuredGridWriter writes in ascii mode: a compressor
+  // attribute, CellData before Points, <InformationKey> inside a DataArray.
+  const std::string text =
+      "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"0.1\" byte_order=\"LittleEndian\" "
+      "header_type=\"UInt32\" compressor=\"vtkZLibDataCompressor\">\n  <UnstructuredGrid>\n"
+      "    <Piece NumberOfPoints=\"4\" NumberOfCells=\"2\">\n      <PointData>\n      </PointData>\n"
+      "      <CellData Scalars=\"surface_id\">\n"
+      "        <DataArray type=\"Int32\" Name=\"surface_id\" format=\"ascii\" RangeMin=\"0\" RangeMax=\"4\">\n"
+      "          0 4\n        </DataArray>\n      </CellData>\n      <Points>\n"
+      "        <DataArray type=\"Float64\" Name=\"Points\" NumberOfComponents=\"3\" format=\"ascii\">\n"
+      "          0 0 0 1 0 0\n          0 1 0 0 0 1\n"
+      "          <InformationKey name=\"L2_NORM_RANGE\" location=\"vtkDataArray\" length=\"2\">\n"
+      "            <Value index=\"0\">\n              0\n            </Value>\n          </InformationKey>\n"
+      "        </DataArray>\n      </Points>\n      <Cells>\n"
+      "        <DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">\n          0 1 2 3 0 1 3\n"
+      "        </DataArray>\n        <DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">\n          4 7\n"
+      "        </DataArray>\n        <DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">\n          10 5\n"
+      "        </DataArray>\n      </Cells>\n    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n";
+  const auto r = read_volume(write_text("paraview.vtu", text));
+  ASSERT_TRUE(r.ok()) << r.status().to_string();
+  EXPECT_EQ(r->points, (std::vector<Vec3>{{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}}));
+  EXPECT_EQ(r->tets, (std::vector<Tet>{{0, 1, 2, 3}}));
+  EXPECT_EQ(r->boundary, (std::vector<Tri>{{0, 1, 3}}));
+  EXPECT_EQ(r->boundary_ids, std::vector<int>{4});
+  EXPECT_TRUE(r->tet_regions.empty());
+}
+
 TEST_F(VolumeIo, Su2MapsMarkerTagsToIds) {
   const std::string text =
       "NDIME=3\nNELEM= 1\n10 0 1 2 3\nNPOIN= 4 4\n0 0 0\n1 0 0 1\n0 1 0 2\n0 0 1 3\nNMARK= 3\n"

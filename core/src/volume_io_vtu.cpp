@@ -4,11 +4,14 @@
 // Cells are the tets (VTK_TETRA, 10) followed by the boundary triangles
 // (VTK_TRIANGLE, 5). Cell data: `min_dihedral` (Float64, degrees; meaningful
 // for tets only, 0 for triangles), `surface_id` (Int32, 0 for tets) and, when
-// the mesh has regions, `region` (Int32, 0 for triangles). Everything is
-// written as format="ascii" with shortest round-trip numbers, which is exact.
+// the mesh has regions, `region` (Int32, 0 for triangles). min_dihedral is
+// what dihedral_range gives (NaN where a tet's geometry overflows doubles);
+// it is output only and not read back. Everything is written as
+// format="ascii" with shortest round-trip numbers, which is exact (checked
+// bit-exact through VTK 9.1's vtkXMLUnstructuredGridReader).
 // The reader is not a general XML parser: it reads ascii DataArrays of an
-// UnstructuredGrid with one Piece (what we write, and what ParaView writes in
-// ascii mode) and reports anything else clearly.
+// UnstructuredGrid with one Piece (what we write, and what VTK/ParaView write
+// in ascii mode) and reports anything else clearly.
 #include <fmt/compile.h>
 
 #include <optional>
@@ -133,10 +136,12 @@ Status VtuReader::check_ascii(const Element& e) {
 template <class T>
 Status VtuReader::parse_array(const Element& e, std::size_t n, std::vector<T>& out, std::string_view what) {
   PDR_TRY(check_ascii(e));
-  const std::size_t length = e.content_end - e.content_begin;
+  // The values end where nested markup (VTK's <InformationKey>) begins.
+  const std::size_t end = std::min(e.content_end, text_.find('<', e.content_begin));
+  const std::size_t length = end - e.content_begin;
   if (static_cast<std::uint64_t>(n) * 2 > length + 1)
     return in_.error_at(e.start, fmt::format("{} needs {} values but holds only {} bytes", what, n, length));
-  in_.set_range(e.content_begin, e.content_end);
+  in_.set_range(e.content_begin, end);
   out.resize(n);
   for (T& v : out) {
     if constexpr (std::is_same_v<T, double>) {
@@ -169,8 +174,6 @@ Result<VolumeMesh> VtuReader::read() {
   if (attribute(file->tag, "type") != "UnstructuredGrid")
     return unsupported(fmt::format("{}: VTKFile type=\"{}\"; only UnstructuredGrid is read", in_.name(),
                                    attribute(file->tag, "type").value_or("")));
-  if (attribute(file->tag, "compressor"))
-    return unsupported(fmt::format("{}: compressed VTU files are not read", in_.name()));
   PDR_ASSIGN_OR_RETURN(const std::optional<Element> piece, find("Piece", file->content_begin, file->content_end));
   if (!piece) return in_.error_at(file->start, "no <Piece>");
   PDR_ASSIGN_OR_RETURN(const std::optional<Element> second, find("Piece", piece->content_end, file->content_end));
