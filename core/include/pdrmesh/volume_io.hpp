@@ -1,0 +1,54 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// Writing and reading tetrahedral volume meshes in the file formats CFD
+// solvers and viewers take: Medit (.mesh/.meshb), VTK XML (.vtu), AFLR3/FUN3D
+// UGRID (ASCII and C-binary), Gmsh 4.1 (.msh) and SU2 (.su2).
+//
+// Every format round-trips exactly: what write_volume writes, read_volume
+// returns with bit-identical coordinates, the same tets and boundary triangles
+// in the same order and vertex order, and the same surface ids. Regions travel
+// where the format holds them (see VolumeFormat). Two documented exceptions:
+//  - SU2 stores boundary triangles grouped by marker: they come back grouped by
+//    surface id (ascending, stable within an id); a mesh whose boundary is
+//    already sorted that way round-trips exactly.
+//  - Medit stores "no regions" as tet ref 0: a mesh whose regions are all 0
+//    reads back with empty tet_regions.
+#pragma once
+
+#include <filesystem>
+#include <string_view>
+
+#include "pdrmesh/status.hpp"
+#include "pdrmesh/volume_mesh.hpp"
+
+namespace pdrmesh {
+
+enum class VolumeFormat {
+  kMedit,        ///< .mesh   Medit ASCII; triangle ref = surface id, tet ref = region (0: none)
+  kMeditBinary,  ///< .meshb  libMeshb binary, version 2 (32-bit ints, 64-bit reals); reads 1-4
+  kVtu,          ///< .vtu    VTK XML UnstructuredGrid, ASCII; tets + boundary triangles as cells
+  kUgridAscii,   ///< .ugrid      AFLR3/FUN3D UGRID, ASCII (no regions)
+  kUgridLittle,  ///< .lb8.ugrid  UGRID C-binary, little endian int32/float64 (no regions)
+  kUgridBig,     ///< .b8.ugrid   UGRID C-binary, big endian int32/float64 (no regions)
+  kGmsh,         ///< .msh    Gmsh 4.1 ASCII; physical surface per surface id, volume per region
+  kSu2,          ///< .su2    SU2 ASCII; one marker "surface_<id>" per surface id (no regions)
+};
+
+/// The format named by a file's suffix (case-insensitive). Unknown suffix:
+/// `unsupported`, listing the supported suffixes.
+Result<VolumeFormat> volume_format_from_path(const std::filesystem::path& path);
+
+/// ".mesh .meshb .vtu .ugrid .lb8.ugrid .b8.ugrid .msh .su2", for help texts.
+std::string_view volume_format_suffixes();
+
+/// Writes `mesh` in the format named by the suffix of `path`. A mesh with
+/// inconsistent sizes, out-of-range indices or non-finite coordinates is
+/// refused with `invalid_input` before anything is written.
+Status write_volume(const VolumeMesh& mesh, const std::filesystem::path& path);
+
+/// Reads a volume mesh in the format named by the suffix of `path`. Malformed
+/// files give `invalid_input` naming file:line (text) or the byte offset
+/// (binary); meshes with other element kinds (hexahedra, prisms, quads, ...)
+/// give `unsupported`.
+Result<VolumeMesh> read_volume(const std::filesystem::path& path);
+
+}  // namespace pdrmesh

@@ -1,0 +1,162 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// AFLR3/FUN3D UGRID volume meshes: ASCII .ugrid and C-binary (no record
+// markers) .lb8.ugrid (little endian) and .b8.ugrid (big endian), int32 and
+// float64.
+//
+// Layout (UG_IO "UGRID 3D Grid File Type", simcenter.msstate.edu; nasa/refine
+// src/ref_import.c ref_import_ugrid / ref_import_bin_ugrid):
+//   nnodes ntri nquad ntet npyr nprz nhex
+//   x y z per node; triangle nodes; quad nodes; one surface id per triangle
+//   then per quad; tet nodes; pyramid, prism, hex nodes. All indices 1-based.
+// Anything after the elements (AFLR3's optional records) is ignored.
+//
+// Orientation: UGRID tets use the same right-handed order as VTK, so they are
+// written and read unchanged. Source: nasa/refine reads UGRID tets without
+// reordering (ref_import.c), its ref_node_tet_vol equals our signed_volume,
+// ref_validation_cell_volume rejects tets whose volume is not positive, and
+// its VTK/SU2 import maps only pyramids and prisms, not tets. Boundary faces:
+// AFLR3 accepts either normal direction on a closed surface (UG_IO "3D
+// Input/Output Grids"); refine's own fixtures use inward normals. We write the
+// mesh's outward triangles unchanged so that a round trip is exact.
+// UGRID holds no regions.
+#include <fmt/compile.h>
+
+#include "volume_io_detail.hpp"
+
+namespace pdrmesh::volio {
+namespace {
+
+struct Header {
+  std::int64_t nodes = 0, tri = 0, quad = 0, tet = 0, pyr = 0, prz = 0, hex = 0;
+};
+
+Status only_tets(const Header& h, const std::string& name) {
+  if (h.quad != 0 || h.pyr != 0 || h.prz != 0 || h.hex != 0)
+    return unsupported(fmt::format("{}: {} quads, {} pyramids, {} prisms, {} hexes: only tetrahedral meshes are read",
+                                   name, h.quad, h.pyr, h.prz, h.hex));
+  return {};
+}
+
+}  // namespace
+
+Status write_ugrid_ascii(const VolumeMesh& mesh, const std::filesystem::path& path) {
+  OutputFile out(path);
+  PDR_TRY(out.open());
+  auto it = std::back_inserter(out.buf());
+  fmt::format_to(it, "{} {} 0 {} 0 0 0\n", mesh.points.size(), mesh.boundary.size(), mesh.tets.size());
+  for (const Vec3& p : mesh.points) {
+    fmt::format_to(it, FMT_COMPILE("{} {} {}\n"), p[0], p[1], p[2]);
+    PDR_TRY(out.maybe_flush());
+  }
+  for (const Tri& t : mesh.boundary) {
+    fmt::format_to(it, FMT_COMPILE("{} {} {}\n"), t[0] + 1, t[1] + 1, t[2] + 1);
+    PDR_TRY(out.maybe_flush());
+  }
+  for (int id : mesh.boundary_ids) {
+    fmt::format_to(it, FMT_COMPILE("{}\n"), id);
+    PDR_TRY(out.maybe_flush());
+  }
+  for (const Tet& t : mesh.tets) {
+    fmt::format_to(it, FMT_COMPILE("{} {} {} {}\n"), t[0] + 1, t[1] + 1, t[2] + 1, t[3] + 1);
+    PDR_TRY(out.maybe_flush());
+  }
+  return out.close();
+}
+
+Result<VolumeMesh> read_ugrid_ascii(std::string_view text, const std::string& name) {
+  TextScanner in(text, name);
+  Header h;
+  std::string_view counts[7];
+  for (std::string_view& c : counts) c = in.next();
+  PDR_TRY(in.parse_integer(counts[2], h.quad, "quad count"));
+  PDR_TRY(in.parse_integer(counts[4], h.pyr, "pyramid count"));
+  PDR_TRY(in.parse_integer(counts[5], h.prz, "prism count"));
+  PDR_TRY(in.parse_integer(counts[6], h.hex, "hex count"));
+  PDR_TRY(only_tets(h, name));
+  std::size_t np = 0, nb = 0, nt = 0;  // each checked against the file size
+  PDR_TRY(in.parse_count(counts[0], np, 3, "node count"));
+  PDR_TRY(in.parse_count(counts[1], nb, 4, "triangle count"));
+  PDR_TRY(in.parse_count(counts[3], nt, 4, "tet count"));
+  if (static_cast<std::uint64_t>(np) * 6 + static_cast<std::uint64_t>(nb) * 8 + static_cast<std::uint64_t>(nt) * 8 >
+      in.remaining() + 1)
+    return in.error("the header counts are more than the rest of the file can hold");
+
+  VolumeMesh mesh;
+  mesh.points.resize(np);
+  for (Vec3& p : mesh.points) {
+    PDR_TRY(in.real(p[0], "node x"));
+    PDR_TRY(in.real(p[1], "node y"));
+    PDR_TRY(in.real(p[2], "node z"));
+  }
+  mesh.boundary.resize(nb);
+  for (Tri& t : mesh.boundary)
+    for (Index& v : t) PDR_TRY(in.index(v, 1, np, "triangle node"));
+  mesh.boundary_ids.resize(nb);
+  for (int& id : mesh.boundary_ids) PDR_TRY(in.integer(id, "surface id"));
+  mesh.tets.resize(nt);
+  for (Tet& t : mesh.tets)
+    for (Index& v : t) PDR_TRY(in.index(v, 1, np, "tet node"));
+  return mesh;
+}
+
+Status write_ugrid_binary(const VolumeMesh& mesh, const std::filesystem::path& path, bool little) {
+  OutputFile out(path);
+  PDR_TRY(out.open());
+  auto& buf = out.buf();
+  for (std::size_t n : {mesh.points.size(), mesh.boundary.size(), std::size_t{0}, mesh.tets.size(), std::size_t{0},
+                        std::size_t{0}, std::size_t{0}})
+    put(buf, static_cast<std::int32_t>(n), little);
+  for (const Vec3& p : mesh.points) {
+    for (double x : p) put(buf, x, little);
+    PDR_TRY(out.maybe_flush());
+  }
+  for (const Tri& t : mesh.boundary) {
+    for (Index v : t) put(buf, static_cast<std::int32_t>(v + 1), little);
+    PDR_TRY(out.maybe_flush());
+  }
+  for (int id : mesh.boundary_ids) put(buf, static_cast<std::int32_t>(id), little);
+  for (const Tet& t : mesh.tets) {
+    for (Index v : t) put(buf, static_cast<std::int32_t>(v + 1), little);
+    PDR_TRY(out.maybe_flush());
+  }
+  return out.close();
+}
+
+Result<VolumeMesh> read_ugrid_binary(std::string_view data, const std::string& name, bool little) {
+  ByteReader in(data, name);
+  in.set_swap(little != kHostLittle);
+  Header h;
+  for (std::int64_t* v : {&h.nodes, &h.tri, &h.quad, &h.tet, &h.pyr, &h.prz, &h.hex}) {
+    const std::size_t at = in.pos();
+    PDR_TRY(in.integer(*v, 4, "header count"));
+    if (*v < 0)
+      return in.error_at(at, fmt::format("negative count {} in the header (wrong byte order? this reader "
+                                         "expects {} endian)", *v, little ? "little" : "big"));
+  }
+  PDR_TRY(only_tets(h, name));
+  const auto np = static_cast<std::uint64_t>(h.nodes), nb = static_cast<std::uint64_t>(h.tri),
+             nt = static_cast<std::uint64_t>(h.tet);
+  const std::uint64_t need = np * 24 + nb * 16 + nt * 16;
+  if (np >= kNoIndex || nb >= kNoIndex || nt >= kNoIndex || need > data.size() - in.pos())
+    return in.error(fmt::format("header counts ({} nodes, {} triangles, {} tets) need {} bytes after the header, "
+                                "the file has {}", np, nb, nt, need, data.size() - in.pos()));
+  VolumeMesh mesh;
+  mesh.points.resize(static_cast<std::size_t>(np));
+  for (Vec3& p : mesh.points)
+    for (double& x : p) PDR_TRY(in.real(x, 8, "node coordinate"));
+  mesh.boundary.resize(static_cast<std::size_t>(nb));
+  for (Tri& t : mesh.boundary)
+    for (Index& v : t) PDR_TRY(in.index(v, 4, mesh.points.size(), "triangle node"));
+  mesh.boundary_ids.resize(static_cast<std::size_t>(nb));
+  for (int& id : mesh.boundary_ids) {
+    std::int32_t w = 0;
+    PDR_TRY(in.get(w, "surface id"));
+    id = w;
+  }
+  mesh.tets.resize(static_cast<std::size_t>(nt));
+  for (Tet& t : mesh.tets)
+    for (Index& v : t) PDR_TRY(in.index(v, 4, mesh.points.size(), "tet node"));
+  return mesh;
+}
+
+}  // namespace pdrmesh::volio
