@@ -221,7 +221,7 @@ TEST(SurfaceCheck, ReportsNonFiniteCoordinateWithoutCrashing) {
   EXPECT_EQ(d[1]->points, std::vector<Index>{6});
   EXPECT_GT(count(r, DefectKind::kOpenEdge), 0u);  // triangles at 5 and 6 are skipped
   EXPECT_FALSE(r.meshable());
-  EXPECT_NE(report_to_json(r, "nan").find("non-finite_coordinate"), std::string::npos);
+  EXPECT_NE(report_to_json(r, "nan").find("non_finite_coordinate"), std::string::npos);
 }
 
 TEST(SurfaceCheck, ReportsIndexOutOfRange) {

@@ -819,6 +819,7 @@ class Checker {
 std::string json_key(DefectKind k) {
   std::string s(to_string(k));
   std::replace(s.begin(), s.end(), ' ', '_');
+  std::replace(s.begin(), s.end(), '-', '_');
   return s;
 }
 
@@ -876,12 +877,14 @@ std::string format_report(const SurfaceReport& r, std::string_view name) {
     fmt::format_to(
         it,
         "  component {}: {} triangles, {} points, {}, {}, {}, euler {}{}, volume {:.6g}, "
-        "depth {}{}\n",
+        "{}\n",
         c, k.triangles, k.points, k.closed ? "closed" : "open",
         k.manifold ? "manifold" : "non-manifold",
         k.consistently_oriented ? "oriented" : "not oriented", k.euler,
         k.genus >= 0 ? fmt::format(", genus {}", k.genus) : std::string(), k.volume,
-        k.nesting_depth, k.outward ? ", outward" : "");
+        k.closed && k.manifold && k.consistently_oriented
+            ? fmt::format("depth {}{}", k.nesting_depth, k.outward ? ", outward" : "")
+            : std::string("nesting not analysed"));
   }
   if (r.components.size() > kMaxComponents)
     fmt::format_to(it, "  ... and {} more components\n", r.components.size() - kMaxComponents);
