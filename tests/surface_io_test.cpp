@@ -447,6 +447,9 @@ TEST(OffReader, RejectsMalformedInput) {
                    "t:4: expected a coordinate, got '0,5'");
   EXPECT_ERROR_HAS(parse("OFF\n4000000000 1 0\n0 0 0\n", SurfaceFormat::kOff),
                    "number of vertices = 4000000000 cannot fit");
+  EXPECT_ERROR_HAS(
+      parse("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n10 0 1 2 0 1 2 0 1 2 7\n", SurfaceFormat::kOff),
+      "t:6: face 1 (points 0, 1, 2, 0, 1, 2, 0, 1, ...): point index 7 out of range");
   EXPECT_ERROR_HAS(parse("4OFF\n3 1 0\n", SurfaceFormat::kOff),
                    "OFF variant '4OFF' is not supported");
 }
@@ -543,15 +546,14 @@ TEST(PlyReader, RejectsMalformedAscii) {
   EXPECT_ERROR_HAS(with("1 1 0 0 3", "1 1 zero 0 3"),
                    "t:20 (element 'vertex' record 4): expected a number, got 'zero'");
   EXPECT_ERROR_HAS(with("0 1 0 1 9 2", "0 1 0 1 9 256"),
-                   "expected an integer of the declared type, got '256'");
+                   "expected an integer of type uchar, got '256'");
   EXPECT_ERROR_HAS(
       with("element face 6", "element face 7"),
       "t:31 (element 'face' record 7): face 7 has 0 point indices, at least 3 are needed");
   EXPECT_ERROR_HAS(with("element edge 1", "element edge 2"),
                    "t:13: element 'edge' count = 2 cannot fit");
-  EXPECT_ERROR_HAS(
-      parse(good.substr(0, good.find("1 1 1 0 7") + 5), SurfaceFormat::kPly),
-      "t:24 (element 'vertex' record 8): file ends where an integer of the declared type");
+  EXPECT_ERROR_HAS(parse(good.substr(0, good.find("1 1 1 0 7") + 5), SurfaceFormat::kPly),
+                   "t:24 (element 'vertex' record 8): file ends where an integer of type uchar");
   EXPECT_ERROR_HAS(with("element face 6", "element face 5"),
                    "t:30: unexpected data after the last element");
   EXPECT_ERROR_HAS(with("vertex_indices", "corners"),

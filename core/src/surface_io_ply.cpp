@@ -28,6 +28,20 @@ bool ply_type_from_name(std::string_view s, PlyType& t) {
   return false;
 }
 
+std::string_view ply_type_name(PlyType t) {
+  switch (t) {
+    case PlyType::kInt8: return "char";
+    case PlyType::kUint8: return "uchar";
+    case PlyType::kInt16: return "short";
+    case PlyType::kUint16: return "ushort";
+    case PlyType::kInt32: return "int";
+    case PlyType::kUint32: return "uint";
+    case PlyType::kFloat32: return "float";
+    case PlyType::kFloat64: return "double";
+  }
+  return "?";
+}
+
 std::uint64_t ply_size(PlyType t) {
   switch (t) {
     case PlyType::kInt8:
@@ -104,7 +118,9 @@ class PlyBody {
         return {};
       }
       std::int64_t v = 0;
-      if (!parse_int(tok, v) || !fits(t, v)) return bad(tok, "an integer of the declared type");
+      if (!parse_int(tok, v) || !fits(t, v)) {
+        return bad(tok, fmt::format("an integer of type {}", ply_type_name(t)));
+      }
       out = static_cast<double>(v);
       return {};
     }

@@ -190,9 +190,12 @@ Status bad_face(std::string_view face_word, std::uint64_t face_number,
           limit == 0
               ? std::string("no points are defined")
               : fmt::format("valid: {}..{}", base, static_cast<std::uint64_t>(base) + limit - 1);
-      return invalid_input(fmt::format("{}: {} {} (points {}): point index {} out of range ({})",
-                                       where, face_word, face_number, fmt::join(indices, ", "), i,
-                                       range));
+      return invalid_input(fmt::format(
+          "{}: {} {} (points {}): point index {} out of range ({})", where, face_word, face_number,
+          fmt::format("{}{}",
+                      fmt::join(indices.first(std::min<std::size_t>(indices.size(), 8)), ", "),
+                      indices.size() > 8 ? ", ..." : ""),
+          i, range));
     }
   }
   return internal_error(
