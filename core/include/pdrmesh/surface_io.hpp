@@ -11,8 +11,9 @@
 // indices out of range and files without triangles.
 //
 // Format rules:
-// - STL: ASCII or binary (binary when the size is 84 + 50 * n for the n in the
-//   header). Points with identical coordinates (exact; +0.0 == -0.0) are welded
+// - STL: ASCII or binary. Binary when the size is 84 + 50 * n for the n in the
+//   header; otherwise ASCII if it starts with "solid" and has no NUL byte in its
+//   first 4 KiB; otherwise binary (reported as truncated or too long). Points with identical coordinates (exact; +0.0 == -0.0) are welded
 //   and numbered in order of first appearance. Facet normals are ignored. In
 //   ASCII files each `solid ... endsolid` block gets the surface id 1, 2, 3, ...
 //   in file order; binary files get id 1.
