@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <random>
@@ -219,6 +220,14 @@ TEST(Insert, RandomPointsThenFlipSweepKeepTheMeshValid) {
   EXPECT_EQ(sorted_hull(m), hull);
   EXPECT_EQ(m.to_volume_mesh().boundary, cube.boundary);
   EXPECT_LE(worst_after, worst_before + 1e-9);
+  // The flips' quality cache holds exactly what a fresh evaluation gives.
+  int cached = 0;
+  for (Index t = 0; t < m.num_slots(); ++t) {
+    if (!m.alive(t) || std::isnan(m.cached_quality(t))) continue;
+    ++cached;
+    EXPECT_EQ(m.cached_quality(t), tet_quality(m, m.tet(t))) << "tet " << t;
+  }
+  EXPECT_GT(cached, 0);
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <limits>
 
 #include "pdrmesh/predicates.hpp"
@@ -19,13 +20,36 @@ bool positive(const TetMesh& m, const Tet& k) {
   return exact::orient3d(m.point(k[0]), m.point(k[1]), m.point(k[2]), m.point(k[3])) > 0;
 }
 
-/// tet_quality when k is positive, kInvalid otherwise.
-double checked_quality(const TetMesh& m, const Tet& k) {
-  return positive(m, k) ? tet_quality(m, k) : kInvalid;
+/// tet_quality of the alive tet t, through the mesh's cache.
+double quality_of(TetMesh& m, Index t) {
+  double q = m.cached_quality(t);
+  if (std::isnan(q)) {
+    q = tet_quality(m, m.tet(t));
+    m.set_cached_quality(t, q);
+  }
+  return q;
+}
+
+/// A candidate tet's quality: kInvalid when it is not positive, and lowered to
+/// kInvalid too (setting *pruned) when it cannot beat `floor`.
+double candidate_quality(const TetMesh& m, const Tet& k, double floor, bool* pruned) {
+  if (!positive(m, k)) return kInvalid;
+  const double q = tet_quality(m, k);
+  if (q <= floor) {
+    *pruned = true;
+    return kInvalid;
+  }
+  return q;
 }
 
 FlipOutcome remove_edge_of_size(TetMesh& m, Index t, int e, int required) {
   if (t >= m.num_slots() || !m.alive(t)) return FlipOutcome::kNotApplicable;
+  // Cheap rejections first: t's own faces on the edge, and its hull faces.
+  for (int s = 0; s < 2; ++s) {
+    const int f = topo::edge_face(e, s);
+    if (m.neighbour(t, f) == kNoIndex) return FlipOutcome::kNotApplicable;
+    if (m.frozen(t, f)) return FlipOutcome::kConstrained;
+  }
   EdgeRing r;
   if (!m.edge_ring(t, e, r) || !r.closed) return FlipOutcome::kNotApplicable;
   const int n = r.size;
@@ -38,16 +62,19 @@ FlipOutcome remove_edge_of_size(TetMesh& m, Index t, int e, int required) {
     const Index u = r.tets[i];
     if (m.frozen(u, topo::local_vertex(m.tet(u), r.ring[i]))) return FlipOutcome::kConstrained;
     if (m.region(u) != m.region(r.tets[0])) return FlipOutcome::kConstrained;
-    old_quality = std::min(old_quality, tet_quality(m, m.tet(u)));
+    old_quality = std::min(old_quality, quality_of(m, u));
   }
 
   // Klincsek: best[i][j] = the best smallest quality over triangulations of the
   // sub-polygon ring[i..j]; triangle (i, k, j) yields the tets
-  // (ring[i], ring[k], ring[j], b) and (ring[k], ring[i], ring[j], a).
+  // (ring[i], ring[k], ring[j], b) and (ring[k], ring[i], ring[j], a). Tets no
+  // better than the old ones are pruned: they cannot be part of an accepted result.
   const Index a = r.a, b = r.b;
   const auto& p = r.ring;
-  std::array<std::array<double, kMaxRemovalRing>, kMaxRemovalRing> best{};
-  std::array<std::array<int, kMaxRemovalRing>, kMaxRemovalRing> apex{};
+  using Table = std::array<std::array<double, kMaxRemovalRing>, kMaxRemovalRing>;
+  Table best, quality_b, quality_a;  // filled before read; left uninitialised on purpose
+  std::array<std::array<int, kMaxRemovalRing>, kMaxRemovalRing> apex;
+  bool pruned = false;
   for (int i = 0; i + 1 < n; ++i) best[i][i + 1] = kEmpty;
   for (int len = 2; len < n; ++len) {
     for (int i = 0; i + len < n; ++i) {
@@ -57,21 +84,26 @@ FlipOutcome remove_edge_of_size(TetMesh& m, Index t, int e, int required) {
       for (int k = i + 1; k < j; ++k) {
         double v = std::min(best[i][k], best[k][j]);
         if (v <= best[i][j]) continue;  // cannot win; skip the predicates
-        v = std::min(v, checked_quality(m, {p[i], p[k], p[j], b}));
+        const double qb = candidate_quality(m, {p[i], p[k], p[j], b}, old_quality, &pruned);
+        v = std::min(v, qb);
         if (v <= best[i][j]) continue;
-        v = std::min(v, checked_quality(m, {p[k], p[i], p[j], a}));
+        const double qa = candidate_quality(m, {p[k], p[i], p[j], a}, old_quality, &pruned);
+        v = std::min(v, qa);
         if (v > best[i][j]) {
           best[i][j] = v;
           apex[i][j] = k;
+          quality_b[i][j] = qb;
+          quality_a[i][j] = qa;
         }
       }
     }
   }
-  const double new_quality = best[0][n - 1];
-  if (new_quality == kInvalid) return FlipOutcome::kWouldInvert;
-  if (!(new_quality > old_quality)) return FlipOutcome::kNotBetter;
+  // No candidate survived: some tet was merely not better, or every one inverted.
+  if (best[0][n - 1] == kInvalid)
+    return pruned ? FlipOutcome::kNotBetter : FlipOutcome::kWouldInvert;
 
   std::array<Tet, 2 * (kMaxRemovalRing - 2)> fresh{};
+  std::array<double, 2 * (kMaxRemovalRing - 2)> fresh_quality{};
   std::array<Index, 2 * (kMaxRemovalRing - 2)> parent{};
   std::array<std::array<int, 2>, kMaxRemovalRing> stack{};
   int top = 0, count = 0;
@@ -80,7 +112,9 @@ FlipOutcome remove_edge_of_size(TetMesh& m, Index t, int e, int required) {
     const auto [i, j] = stack[--top];
     if (j - i < 2) continue;
     const int k = apex[i][j];
+    fresh_quality[count] = quality_b[i][j];
     fresh[count++] = {p[i], p[k], p[j], b};
+    fresh_quality[count] = quality_a[i][j];
     fresh[count++] = {p[k], p[i], p[j], a};
     stack[top++] = {i, k};
     stack[top++] = {k, j};
@@ -88,6 +122,7 @@ FlipOutcome remove_edge_of_size(TetMesh& m, Index t, int e, int required) {
   const auto c = static_cast<std::size_t>(count);
   m.replace_cavity(std::span<const Index>(r.tets.data(), static_cast<std::size_t>(n)),
                    std::span<const Tet>(fresh.data(), c), std::span<const Index>(parent.data(), c));
+  for (std::size_t j = 0; j < c; ++j) m.set_cached_quality(m.last_created()[j], fresh_quality[j]);
   return FlipOutcome::kDone;
 }
 
@@ -156,17 +191,18 @@ FlipOutcome flip23(TetMesh& mesh, Index t, int f) {
   const Index d = kt[f];
   const Index e = mesh.tet(u)[face_local(n)];
   const std::array<Tet, 3> fresh{Tet{a, b, d, e}, Tet{b, c, d, e}, Tet{c, a, d, e}};
-  double new_quality = kEmpty;
-  for (const Tet& k : fresh) {
-    const double q = checked_quality(mesh, k);
-    if (q == kInvalid) return FlipOutcome::kWouldInvert;
-    new_quality = std::min(new_quality, q);
+  for (const Tet& k : fresh)
+    if (!positive(mesh, k)) return FlipOutcome::kWouldInvert;
+  const double old_quality = std::min(quality_of(mesh, t), quality_of(mesh, u));
+  std::array<double, 3> quality{};
+  for (std::size_t j = 0; j < 3; ++j) {
+    quality[j] = tet_quality(mesh, fresh[j]);
+    if (!(quality[j] > old_quality)) return FlipOutcome::kNotBetter;
   }
-  const double old_quality = std::min(tet_quality(mesh, kt), tet_quality(mesh, mesh.tet(u)));
-  if (!(new_quality > old_quality)) return FlipOutcome::kNotBetter;
   const std::array<Index, 2> old{t, u};
   const std::array<Index, 3> parent{0, 0, 0};
   mesh.replace_cavity(old, fresh, parent);
+  for (std::size_t j = 0; j < 3; ++j) mesh.set_cached_quality(mesh.last_created()[j], quality[j]);
   return FlipOutcome::kDone;
 }
 

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cassert>
+#include <limits>
 #include <string>
 
 #include "pdrmesh/predicates.hpp"
@@ -14,6 +15,8 @@
 
 namespace pdrmesh {
 namespace {
+
+constexpr double kUnknown = std::numeric_limits<double>::quiet_NaN();
 
 struct FaceRecord {
   Tri key;
@@ -64,6 +67,7 @@ Result<TetMesh> TetMesh::from_volume_mesh(const VolumeMesh& mesh, std::vector<Gl
   const Index np = static_cast<Index>(mesh.points.size());
   m.adj_.assign(nt, {kNoIndex, kNoIndex, kNoIndex, kNoIndex});
   m.flags_.assign(nt, kAlive | kActive);
+  m.quality_.assign(nt, kUnknown);
   m.alive_count_ = nt;
 
   for (Index t = 0; t < nt; ++t) {
@@ -134,6 +138,8 @@ Index TetMesh::add_point(const Vec3& p) {
   ids_.push_back(next_id_++);
   return static_cast<Index>(points_.size() - 1);
 }
+
+void TetMesh::invalidate_quality(Index t) { quality_[t] = kUnknown; }
 
 void TetMesh::set_active(Index t, bool on) {
   flags_[t] = static_cast<Flags>(on ? flags_[t] | kActive : flags_[t] & ~kActive);
@@ -206,6 +212,7 @@ Index TetMesh::allocate_tet() {
   tets_.push_back({kNoIndex, kNoIndex, kNoIndex, kNoIndex});
   adj_.push_back({kNoIndex, kNoIndex, kNoIndex, kNoIndex});
   flags_.push_back(0);
+  quality_.push_back(kUnknown);
   if (!regions_.empty()) regions_.push_back(0);
   return static_cast<Index>(tets_.size() - 1);
 }
@@ -241,6 +248,7 @@ void TetMesh::replace_cavity(std::span<const Index> old_tets, std::span<const Te
     const Index t = allocate_tet();
     tets_[t] = new_tets[j];
     flags_[t] = kAlive | kActive;
+    quality_[t] = kUnknown;
     if (!regions_.empty()) regions_[t] = old_regions_[parent[j]];
     ++alive_count_;
     created_.push_back(t);
@@ -292,6 +300,7 @@ std::vector<Index> TetMesh::compact() {
     const Index nt = map[t];
     tets_[nt] = tets_[t];
     flags_[nt] = flags_[t];
+    quality_[nt] = quality_[t];
     if (!regions_.empty()) regions_[nt] = regions_[t];
     for (int f = 0; f < 4; ++f) {
       const Index a = adj_[t][f];
@@ -301,6 +310,7 @@ std::vector<Index> TetMesh::compact() {
   tets_.resize(next);
   adj_.resize(next);
   flags_.resize(next);
+  quality_.resize(next);
   if (!regions_.empty()) regions_.resize(next);
   free_.clear();
   return map;
@@ -308,7 +318,8 @@ std::vector<Index> TetMesh::compact() {
 
 Status TetMesh::check() const {
   const Index n = num_slots();
-  if (adj_.size() != n || flags_.size() != n || (!regions_.empty() && regions_.size() != n))
+  if (adj_.size() != n || flags_.size() != n || quality_.size() != n ||
+      (!regions_.empty() && regions_.size() != n))
     return internal_error("tet arrays have different lengths");
   if (ids_.size() != points_.size()) return internal_error("point ids and points differ in count");
   Index alive_seen = 0;

@@ -20,9 +20,10 @@ namespace pdrmesh {
 /// ordinary answers ("declined"), never errors.
 enum class FlipOutcome : std::uint8_t {
   kDone,           ///< flipped; the new tets are mesh.last_created()
-  kNotBetter,      ///< declined: the best result is not strictly better
+  kNotBetter,      ///< declined: no candidate is strictly better (some may also invert)
   kConstrained,    ///< declined: a frozen face would be removed, or regions differ
-  kWouldInvert,    ///< declined: every candidate has a tet with orient3d <= 0
+  kWouldInvert,    ///< declined: every candidate has a tet with orient3d <= 0 (flip23
+                   ///< checks orientation before quality, so this takes precedence)
   kNotApplicable,  ///< declined: the configuration does not fit (hull face or
                    ///< edge, dead tet, wrong ring size, ring longer than kMaxRemovalRing)
 };
@@ -52,6 +53,8 @@ FlipOutcome flip32(TetMesh& mesh, Index t, int e);
 /// better of the two diagonals of the ring.
 FlipOutcome flip44(TetMesh& mesh, Index t, int e);
 
+/// Flips read and fill the mesh's per-tet quality cache (TetMesh::cached_quality).
+///
 /// Edge removal for any interior edge with 3..kMaxRemovalRing tets around it:
 /// n tets become 2(n-2), over the triangulation of the ring that maximises the
 /// smallest max_dihedral_cosine (dynamic programming over the ring polygon).

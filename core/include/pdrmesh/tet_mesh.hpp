@@ -37,8 +37,10 @@ struct EdgeRing {
   Index b = kNoIndex;
   int size = 0;
   bool closed = false;
-  std::array<Index, kMax> tets{};
-  std::array<Index, kMax + 1> ring{};
+  // Only the first size (closed) or size + 1 (open) entries are set; the rest
+  // stay uninitialised, so that a ring on the stack costs nothing to declare.
+  std::array<Index, kMax> tets;
+  std::array<Index, kMax + 1> ring;
 };
 
 class TetMesh {
@@ -101,6 +103,13 @@ class TetMesh {
   const std::vector<Tri>& boundary() const { return boundary_; }
   const std::vector<int>& boundary_ids() const { return boundary_ids_; }
 
+  /// Cached flip criterion of tet t (flips.hpp's tet_quality), NaN until a flip
+  /// computes it. Reset whenever a slot receives a new tet; whoever moves a
+  /// point must reset the tets around it (invalidate_quality).
+  double cached_quality(Index t) const { return quality_[t]; }
+  void set_cached_quality(Index t, double q) { quality_[t] = q; }
+  void invalidate_quality(Index t);
+
   void set_active(Index t, bool on);
   /// Freezes or thaws face f of t and the same face seen from its neighbour.
   void set_frozen(Index t, int f, bool on);
@@ -149,8 +158,9 @@ class TetMesh {
   std::vector<Tet> tets_;
   std::vector<std::array<Index, 4>> adj_;
   std::vector<Flags> flags_;
-  std::vector<int> regions_;  ///< empty, or one per slot
-  std::vector<Index> free_;   ///< dead slots, used as a stack
+  std::vector<int> regions_;     ///< empty, or one per slot
+  std::vector<double> quality_;  ///< one per slot, NaN when not computed
+  std::vector<Index> free_;      ///< dead slots, used as a stack
   Index alive_count_ = 0;
 
   std::vector<Tri> boundary_;
