@@ -1,0 +1,395 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// TetMesh: construction from a VolumeMesh, adjacency rewriting, compaction and
+// the validity check.
+#include "pdrmesh/tet_mesh.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cassert>
+#include <limits>
+#include <string>
+
+#include "pdrmesh/predicates.hpp"
+#include "pdrmesh/topology.hpp"
+
+namespace pdrmesh {
+namespace {
+
+constexpr double kUnknown = std::numeric_limits<double>::quiet_NaN();
+
+struct FaceRecord {
+  Tri key;
+  Index packed;
+  bool operator<(const FaceRecord& o) const {
+    return key != o.key ? key < o.key : packed < o.packed;
+  }
+};
+
+std::string describe_tet(const Tet& k, Index t) {
+  return fmt::format("tet {} (points {}, {}, {}, {})", t, k[0], k[1], k[2], k[3]);
+}
+
+}  // namespace
+
+Result<TetMesh> TetMesh::from_volume_mesh(const VolumeMesh& mesh) {
+  std::vector<GlobalId> ids(mesh.points.size());
+  for (std::size_t i = 0; i < ids.size(); ++i) ids[i] = i;
+  return from_volume_mesh(mesh, std::move(ids), static_cast<GlobalId>(mesh.points.size()));
+}
+
+Result<TetMesh> TetMesh::from_volume_mesh(const VolumeMesh& mesh, std::vector<GlobalId> point_ids,
+                                          GlobalId next_id) {
+  if (point_ids.size() != mesh.points.size())
+    return invalid_input(
+        fmt::format("{} point ids given for {} points", point_ids.size(), mesh.points.size()));
+  if (mesh.tets.size() >= kMaxTets)
+    return resource_exhausted(
+        fmt::format("{} tets exceed the refiner's limit of {}", mesh.tets.size(), kMaxTets - 1));
+  if (mesh.points.size() >= kNoIndex)
+    return resource_exhausted(fmt::format("{} points exceed the index range", mesh.points.size()));
+  if (!mesh.tet_regions.empty() && mesh.tet_regions.size() != mesh.tets.size())
+    return invalid_input(
+        fmt::format("{} tet regions given for {} tets", mesh.tet_regions.size(), mesh.tets.size()));
+  if (mesh.boundary_ids.size() != mesh.boundary.size())
+    return invalid_input(fmt::format("{} boundary ids given for {} boundary triangles",
+                                     mesh.boundary_ids.size(), mesh.boundary.size()));
+
+  TetMesh m;
+  m.points_ = mesh.points;
+  m.ids_ = std::move(point_ids);
+  m.next_id_ = next_id;
+  m.tets_ = mesh.tets;
+  m.regions_ = mesh.tet_regions;
+  m.boundary_ = mesh.boundary;
+  m.boundary_ids_ = mesh.boundary_ids;
+  const Index nt = static_cast<Index>(mesh.tets.size());
+  const Index np = static_cast<Index>(mesh.points.size());
+  m.adj_.assign(nt, {kNoIndex, kNoIndex, kNoIndex, kNoIndex});
+  m.flags_.assign(nt, kAlive | kActive);
+  m.quality_.assign(nt, kUnknown);
+  m.alive_count_ = nt;
+
+  for (Index t = 0; t < nt; ++t) {
+    const Tet& k = m.tets_[t];
+    for (Index v : k)
+      if (v >= np)
+        return invalid_input(
+            fmt::format("{} refers to a point beyond the {} points", describe_tet(k, t), np));
+    const auto& p = m.points_;
+    if (exact::orient3d(p[k[0]], p[k[1]], p[k[2]], p[k[3]]) <= 0)
+      return invalid_input(fmt::format("{} is not positively oriented (first point at {}, {}, {})",
+                                       describe_tet(k, t), p[k[0]][0], p[k[0]][1], p[k[0]][2]));
+  }
+
+  std::vector<FaceRecord> faces;
+  faces.reserve(4 * static_cast<std::size_t>(nt));
+  for (Index t = 0; t < nt; ++t)
+    for (int f = 0; f < 4; ++f)
+      faces.push_back({topo::sorted_key(topo::face_of(m.tets_[t], f)), pack_face(t, f)});
+  std::sort(faces.begin(), faces.end());
+  for (std::size_t i = 0; i < faces.size();) {
+    std::size_t j = i + 1;
+    while (j < faces.size() && faces[j].key == faces[i].key) ++j;
+    const Tri& key = faces[i].key;
+    if (j - i > 2)
+      return invalid_input(fmt::format("face (points {}, {}, {}) is shared by {} tets, first {}",
+                                       key[0], key[1], key[2], j - i, face_tet(faces[i].packed)));
+    if (j - i == 2) {
+      const Index a = faces[i].packed, b = faces[i + 1].packed;
+      if (face_tet(a) == face_tet(b))
+        return invalid_input(fmt::format("tet {} has a repeated point", face_tet(a)));
+      m.adj_[face_tet(a)][face_local(a)] = b;
+      m.adj_[face_tet(b)][face_local(b)] = a;
+    }
+    i = j;
+  }
+
+  for (std::size_t i = 0; i < mesh.boundary.size(); ++i) {
+    const Tri key = topo::sorted_key(mesh.boundary[i]);
+    const auto it = std::lower_bound(faces.begin(), faces.end(), FaceRecord{key, 0});
+    if (it == faces.end() || it->key != key)
+      return invalid_input(
+          fmt::format("boundary triangle {} (points {}, {}, {}) is not a face of "
+                      "any tet",
+                      i, mesh.boundary[i][0], mesh.boundary[i][1], mesh.boundary[i][2]));
+    m.set_frozen(face_tet(it->packed), face_local(it->packed), true);
+  }
+  return m;
+}
+
+VolumeMesh TetMesh::to_volume_mesh() const {
+  VolumeMesh out;
+  out.points = points_;
+  out.tets.reserve(alive_count_);
+  if (!regions_.empty()) out.tet_regions.reserve(alive_count_);
+  for (Index t = 0; t < num_slots(); ++t) {
+    if (!alive(t)) continue;
+    out.tets.push_back(tets_[t]);
+    if (!regions_.empty()) out.tet_regions.push_back(regions_[t]);
+  }
+  out.boundary = boundary_;
+  out.boundary_ids = boundary_ids_;
+  return out;
+}
+
+Index TetMesh::add_point(const Vec3& p) {
+  points_.push_back(p);
+  ids_.push_back(next_id_++);
+  return static_cast<Index>(points_.size() - 1);
+}
+
+void TetMesh::invalidate_quality(Index t) { quality_[t] = kUnknown; }
+
+void TetMesh::set_active(Index t, bool on) {
+  flags_[t] = static_cast<Flags>(on ? flags_[t] | kActive : flags_[t] & ~kActive);
+}
+
+void TetMesh::set_frozen(Index t, int f, bool on) {
+  const Flags bit = frozen_bit(f);
+  flags_[t] = static_cast<Flags>(on ? flags_[t] | bit : flags_[t] & ~bit);
+  const Index n = adj_[t][f];
+  if (n == kNoIndex) return;
+  const Flags nbit = frozen_bit(face_local(n));
+  Flags& nf = flags_[face_tet(n)];
+  nf = static_cast<Flags>(on ? nf | nbit : nf & ~nbit);
+}
+
+bool TetMesh::edge_ring(Index t, int e, EdgeRing& r) const {
+  const Tet& k = tets_[t];
+  r.a = k[topo::kEdgeVertex[e][0]];
+  r.b = k[topo::kEdgeVertex[e][1]];
+  // Invariant of the walk: tet `cur` holds {a, b, p, q} with orient3d(a,b,p,q) > 0.
+  Index cur = t;
+  Index p = k[topo::kEdgeOther[e][0]];
+  Index q = k[topo::kEdgeOther[e][1]];
+  // Walk backwards (through the face opposite q) to the first tet of an open ring.
+  r.closed = false;
+  for (int step = 0;; ++step) {
+    if (step > EdgeRing::kMax) return false;
+    const Index n = adj_[cur][topo::local_vertex(tets_[cur], q)];
+    if (n == kNoIndex) break;
+    const Index u = face_tet(n);
+    if (u == t) {
+      r.closed = true;
+      cur = t;
+      p = k[topo::kEdgeOther[e][0]];
+      q = k[topo::kEdgeOther[e][1]];
+      break;
+    }
+    q = p;
+    p = tets_[u][face_local(n)];
+    cur = u;
+  }
+  // Walk forwards (through the face opposite p) recording the ring.
+  const Index first = cur;
+  r.size = 0;
+  for (;;) {
+    if (r.size == EdgeRing::kMax) return false;
+    r.tets[r.size] = cur;
+    r.ring[r.size] = p;
+    ++r.size;
+    const Index n = adj_[cur][topo::local_vertex(tets_[cur], p)];
+    if (n == kNoIndex) {
+      r.ring[r.size] = q;
+      return !r.closed;  // a closed ring never reaches the hull
+    }
+    const Index u = face_tet(n);
+    if (u == first) return r.closed;
+    p = q;
+    q = tets_[u][face_local(n)];
+    cur = u;
+  }
+}
+
+Index TetMesh::allocate_tet() {
+  if (!free_.empty()) {
+    const Index t = free_.back();
+    free_.pop_back();
+    return t;
+  }
+  assert(tets_.size() < kMaxTets);
+  tets_.push_back({kNoIndex, kNoIndex, kNoIndex, kNoIndex});
+  adj_.push_back({kNoIndex, kNoIndex, kNoIndex, kNoIndex});
+  flags_.push_back(0);
+  quality_.push_back(kUnknown);
+  if (!regions_.empty()) regions_.push_back(0);
+  return static_cast<Index>(tets_.size() - 1);
+}
+
+void TetMesh::free_tet(Index t) {
+  tets_[t] = {kNoIndex, kNoIndex, kNoIndex, kNoIndex};
+  adj_[t] = {kNoIndex, kNoIndex, kNoIndex, kNoIndex};
+  flags_[t] = 0;
+  free_.push_back(t);
+  --alive_count_;
+}
+
+void TetMesh::replace_cavity(std::span<const Index> old_tets, std::span<const Tet> new_tets,
+                             std::span<const Index> parent) {
+  faces_.clear();
+  outer_.clear();
+  old_regions_.clear();
+  created_.clear();
+  for (Index t : old_tets) flags_[t] = static_cast<Flags>(flags_[t] | kMark);
+  for (Index t : old_tets) {
+    if (!regions_.empty()) old_regions_.push_back(regions_[t]);
+    for (int f = 0; f < 4; ++f) {
+      const Index n = adj_[t][f];
+      if (n != kNoIndex && (flags_[face_tet(n)] & kMark) != 0) continue;  // inside
+      faces_.push_back(
+          {topo::sorted_key(topo::face_of(tets_[t], f)), static_cast<Index>(outer_.size()), true});
+      outer_.push_back({n, frozen(t, f)});
+    }
+  }
+  for (auto it = old_tets.rbegin(); it != old_tets.rend(); ++it) free_tet(*it);
+
+  for (std::size_t j = 0; j < new_tets.size(); ++j) {
+    const Index t = allocate_tet();
+    tets_[t] = new_tets[j];
+    flags_[t] = kAlive | kActive;
+    quality_[t] = kUnknown;
+    if (!regions_.empty()) regions_[t] = old_regions_[parent[j]];
+    ++alive_count_;
+    created_.push_back(t);
+    for (int f = 0; f < 4; ++f)
+      faces_.push_back({topo::sorted_key(topo::face_of(new_tets[j], f)), pack_face(t, f), false});
+  }
+
+  std::sort(faces_.begin(), faces_.end(), [](const FaceSlot& x, const FaceSlot& y) {
+    if (x.key != y.key) return x.key < y.key;
+    if (x.outer != y.outer) return x.outer;
+    return x.who < y.who;
+  });
+  for (std::size_t i = 0; i < faces_.size();) {
+    const FaceSlot& x = faces_[i];
+    if (i + 1 == faces_.size() || faces_[i + 1].key != x.key) {
+      // Alone: a hull face of the cavity that the operation subdivides (the old
+      // one unfrozen, on the hull), or one of its pieces, which stays on the hull.
+      assert(x.outer ? outer_[x.who].neighbour == kNoIndex && !outer_[x.who].frozen : true);
+      ++i;
+      continue;
+    }
+    const FaceSlot& y = faces_[i + 1];
+    assert(!y.outer && (i + 2 == faces_.size() || faces_[i + 2].key != x.key));
+    if (x.outer) {
+      const OuterFace& o = outer_[x.who];
+      const Index t = face_tet(y.who);
+      const int f = face_local(y.who);
+      adj_[t][f] = o.neighbour;
+      if (o.neighbour != kNoIndex) adj_[face_tet(o.neighbour)][face_local(o.neighbour)] = y.who;
+      if (o.frozen) flags_[t] = static_cast<Flags>(flags_[t] | frozen_bit(f));
+    } else {
+      adj_[face_tet(x.who)][face_local(x.who)] = y.who;
+      adj_[face_tet(y.who)][face_local(y.who)] = x.who;
+    }
+    i += 2;
+  }
+  // Old slots were freed and their kMark cleared with their flags; the reused
+  // ones now hold new tets, whose flags were set above.
+}
+
+std::vector<Index> TetMesh::compact() {
+  const Index n = num_slots();
+  std::vector<Index> map(n, kNoIndex);
+  Index next = 0;
+  for (Index t = 0; t < n; ++t)
+    if (alive(t)) map[t] = next++;
+  for (Index t = 0; t < n; ++t) {
+    if (map[t] == kNoIndex) continue;
+    const Index nt = map[t];
+    tets_[nt] = tets_[t];
+    flags_[nt] = flags_[t];
+    quality_[nt] = quality_[t];
+    if (!regions_.empty()) regions_[nt] = regions_[t];
+    for (int f = 0; f < 4; ++f) {
+      const Index a = adj_[t][f];
+      adj_[nt][f] = a == kNoIndex ? kNoIndex : pack_face(map[face_tet(a)], face_local(a));
+    }
+  }
+  tets_.resize(next);
+  adj_.resize(next);
+  flags_.resize(next);
+  quality_.resize(next);
+  if (!regions_.empty()) regions_.resize(next);
+  free_.clear();
+  return map;
+}
+
+Status TetMesh::check() const {
+  const Index n = num_slots();
+  if (adj_.size() != n || flags_.size() != n || quality_.size() != n ||
+      (!regions_.empty() && regions_.size() != n))
+    return internal_error("tet arrays have different lengths");
+  if (ids_.size() != points_.size()) return internal_error("point ids and points differ in count");
+  Index alive_seen = 0;
+  for (Index t = 0; t < n; ++t) {
+    const Flags fl = flags_[t];
+    if ((fl & ~(kAlive | kActive | kFrozenMask)) != 0)
+      return internal_error(
+          fmt::format("tet {} has flags {:#x} with reserved or scratch bits", t, fl));
+    if (!alive(t)) continue;
+    ++alive_seen;
+    const Tet& k = tets_[t];
+    for (int i = 0; i < 4; ++i) {
+      if (k[i] >= num_points())
+        return internal_error(fmt::format("{} refers to a missing point", describe_tet(k, t)));
+      for (int j = i + 1; j < 4; ++j)
+        if (k[i] == k[j])
+          return internal_error(fmt::format("{} repeats a point", describe_tet(k, t)));
+    }
+    const auto& p = points_;
+    if (exact::orient3d(p[k[0]], p[k[1]], p[k[2]], p[k[3]]) <= 0)
+      return internal_error(fmt::format("{} is not positively oriented (first point at {}, {}, {})",
+                                        describe_tet(k, t), p[k[0]][0], p[k[0]][1], p[k[0]][2]));
+    for (int f = 0; f < 4; ++f) {
+      const Index a = adj_[t][f];
+      if (a == kNoIndex) continue;
+      const Index u = face_tet(a);
+      const int g = face_local(a);
+      if (u >= n || !alive(u) || u == t)
+        return internal_error(fmt::format("{} face {}: neighbour {} is not an alive other tet",
+                                          describe_tet(k, t), f, u));
+      if (adj_[u][g] != pack_face(t, f))
+        return internal_error(fmt::format("{} face {}: neighbour tet {} face {} points elsewhere",
+                                          describe_tet(k, t), f, u, g));
+      if (topo::sorted_key(topo::face_of(k, f)) != topo::sorted_key(topo::face_of(tets_[u], g)))
+        return internal_error(fmt::format("{} face {}: neighbour {} face {} has other points",
+                                          describe_tet(k, t), f, describe_tet(tets_[u], u), g));
+      if (tets_[u][g] == k[f])
+        return internal_error(fmt::format("{} face {}: neighbour tet {} has the same apex",
+                                          describe_tet(k, t), f, u));
+      if (frozen(t, f) != frozen(u, g))
+        return internal_error(fmt::format("{} face {}: frozen on one side only (neighbour tet {})",
+                                          describe_tet(k, t), f, u));
+    }
+  }
+  if (alive_seen != alive_count_)
+    return internal_error(
+        fmt::format("{} alive tets counted, {} recorded", alive_seen, alive_count_));
+  if (free_.size() != n - alive_count_)
+    return internal_error(
+        fmt::format("free list holds {} slots, {} are dead", free_.size(), n - alive_count_));
+  for (Index t : free_)
+    if (t >= n || alive(t))
+      return internal_error(fmt::format("free list holds slot {}, which is alive", t));
+
+  // Every boundary triangle is a frozen face.
+  std::vector<Tri> frozen_faces;
+  for (Index t = 0; t < n; ++t)
+    if (alive(t))
+      for (int f = 0; f < 4; ++f)
+        if (frozen(t, f)) frozen_faces.push_back(topo::sorted_key(topo::face_of(tets_[t], f)));
+  std::sort(frozen_faces.begin(), frozen_faces.end());
+  for (std::size_t i = 0; i < boundary_.size(); ++i) {
+    const Tri& b = boundary_[i];
+    if (!std::binary_search(frozen_faces.begin(), frozen_faces.end(), topo::sorted_key(b)))
+      return internal_error(
+          fmt::format("boundary triangle {} (points {}, {}, {}) is no longer a "
+                      "frozen face",
+                      i, b[0], b[1], b[2]));
+  }
+  return Status::ok_status();
+}
+
+}  // namespace pdrmesh
