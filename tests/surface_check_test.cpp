@@ -773,49 +773,5 @@ TEST(SurfaceCheckCorpus, ElephantWithOneFlippedTriangleIsRejected) {
   EXPECT_FALSE(require_meshable(r, "elephant").ok());
 }
 
-// Timings for the report (run with --gtest_also_run_disabled_tests).
-SurfaceReport timed_check(const SurfaceMesh& s, const char* label) {
-  const auto t0 = std::chrono::steady_clock::now();
-  const std::clock_t c0 = std::clock();
-  SurfaceReport r = check_surface(s);
-  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  std::printf("%s: %zu triangles checked in %.3f s (%.3f s CPU, all threads)\n", label,
-              s.triangles.size(), wall, double(std::clock() - c0) / CLOCKS_PER_SEC);
-  return r;
-}
-
-TEST(SurfaceCheckBench, DISABLED_Frame) {
-  const std::string path = corpus("frame");
-  if (!std::ifstream(path)) GTEST_SKIP() << "no corpus file " << path;
-  const SurfaceMesh s = load_medit(path);
-  const SurfaceReport r = timed_check(s, "frame");
-  EXPECT_TRUE(r.meshable()) << format_report(r, "frame");
-  ASSERT_EQ(r.components.size(), 1u);
-  EXPECT_EQ(r.components[0].genus, 25);
-}
-
-TEST(SurfaceCheckBench, DISABLED_MillionTriangleTorus) {
-  // A torus with n x m quads (2 n m triangles).
-  const Index n = 1000, m = 500;
-  SurfaceMesh s;
-  for (Index i = 0; i < n; ++i)
-    for (Index j = 0; j < m; ++j) {
-      const double u = 2 * std::numbers::pi * i / n, v = 2 * std::numbers::pi * j / m;
-      s.points.push_back(
-          {(3 + std::cos(v)) * std::cos(u), (3 + std::cos(v)) * std::sin(u), std::sin(v)});
-    }
-  for (Index i = 0; i < n; ++i)
-    for (Index j = 0; j < m; ++j) {
-      const Index a = i * m + j, b = ((i + 1) % n) * m + j, c = ((i + 1) % n) * m + (j + 1) % m,
-                  d = i * m + (j + 1) % m;
-      s.triangles.push_back({a, b, c});
-      s.triangles.push_back({a, c, d});
-    }
-  const SurfaceReport r = timed_check(s, "torus");
-  EXPECT_TRUE(r.meshable()) << format_report(r, "torus");
-  ASSERT_EQ(r.components.size(), 1u);
-  EXPECT_EQ(r.components[0].genus, 1);
-}
-
 }  // namespace
 }  // namespace pdrmesh

