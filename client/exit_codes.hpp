@@ -1,0 +1,33 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// Exit codes of the pdrmesh program (BSD sysexits where one fits).
+#pragma once
+
+#include "pdrmesh/status.hpp"
+
+namespace pdrmesh::cli {
+
+enum ExitCode : int {
+  kExitOk = 0,
+  kExitUsage = 64,        ///< bad command line, unknown file suffix
+  kExitBadInput = 65,     ///< the input is defective (surface check, malformed file, invalid mesh)
+  kExitNoInput = 66,      ///< an input file does not exist or cannot be opened
+  kExitInternal = 70,     ///< a bug, or TetGen failed unexpectedly
+  kExitIo = 74,           ///< reading or writing failed
+  kExitTempFail = 75,     ///< a time or resource limit was hit; trying again may help
+};
+
+inline int exit_code_for(const Status& s) {
+  switch (s.code()) {
+    case StatusCode::kOk: return kExitOk;
+    case StatusCode::kInvalidInput: return kExitBadInput;
+    case StatusCode::kNotFound: return kExitNoInput;
+    case StatusCode::kIoError: return kExitIo;
+    case StatusCode::kUnsupported: return kExitUsage;
+    case StatusCode::kResourceExhausted:
+    case StatusCode::kDeadlineExceeded: return kExitTempFail;
+    case StatusCode::kInternal: return kExitInternal;
+  }
+  return kExitInternal;
+}
+
+}  // namespace pdrmesh::cli

@@ -1,0 +1,211 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+#include "local_commands.hpp"
+
+#include <fmt/format.h>
+
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <string>
+
+#include "exit_codes.hpp"
+#include "pdrmesh/quality.hpp"
+#include "pdrmesh/surface_check.hpp"
+#include "pdrmesh/surface_io.hpp"
+#include "pdrmesh/tetgen_adapter.hpp"
+#include "pdrmesh/validate.hpp"
+#include "pdrmesh/volume_io.hpp"
+
+namespace pdrmesh::cli {
+namespace {
+
+/// Prints progress lines with the elapsed time on stderr, unless quiet.
+class Progress {
+ public:
+  explicit Progress(bool quiet) : quiet_(quiet), start_(std::chrono::steady_clock::now()) {}
+  template <class... Args>
+  void say(fmt::format_string<Args...> f, Args&&... args) const {
+    if (quiet_) return;
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+    fmt::print(stderr, "[{:7.2f}s] {}\n", s, fmt::format(f, std::forward<Args>(args)...));
+  }
+
+ private:
+  bool quiet_;
+  std::chrono::steady_clock::time_point start_;
+};
+
+int fail(const Status& s) {
+  fmt::print(stderr, "pdrmesh: error: {}\n", s.to_string());
+  return exit_code_for(s);
+}
+
+Status write_text(const std::string& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary);
+  out << text;
+  out.close();
+  if (!out) return io_error(fmt::format("{}: cannot write the file", path));
+  return {};
+}
+
+/// Reads and checks a surface; on failure prints why and returns the exit code.
+int load_checked_surface(const std::string& path, const Progress& progress, SurfaceMesh& out) {
+  auto surface = read_surface(path);
+  if (!surface.ok()) return fail(surface.status());
+  progress.say("read {}: {} points, {} triangles", path, surface->points.size(), surface->triangles.size());
+  const SurfaceReport report = check_surface(*surface);
+  if (Status s = require_meshable(report, path); !s.ok()) return fail(s);
+  progress.say("surface check passed: {} component(s)", report.components.size());
+  out = std::move(surface).value();
+  return kExitOk;
+}
+
+int run_check(const std::string& path, bool json, bool no_self_intersections) {
+  auto surface = read_surface(path);
+  if (!surface.ok()) return fail(surface.status());
+  CheckOptions options;
+  options.self_intersections = !no_self_intersections;
+  const SurfaceReport report = check_surface(*surface, options);
+  if (json) {
+    fmt::print("{}\n", report_to_json(report, path));
+  } else {
+    fmt::print("{}", format_report(report, path));
+  }
+  return report.meshable() ? kExitOk : kExitBadInput;
+}
+
+struct MeshArgs {
+  std::string surface;
+  std::string output;
+  double max_volume = 0;
+  double time_limit_s = 600;
+  bool quiet = false;
+  bool no_validate = false;
+};
+
+int run_mesh(const MeshArgs& a) {
+  const Progress progress(a.quiet);
+  if (auto f = volume_format_from_path(a.output); !f.ok()) return fail(f.status());
+  SurfaceMesh surface;
+  if (int code = load_checked_surface(a.surface, progress, surface); code != kExitOk) return code;
+
+  TetgenOptions options;
+  if (a.max_volume > 0) options.max_volume = a.max_volume;
+  options.time_limit_s = a.time_limit_s;
+  auto mesh = tetrahedralize(surface, options);
+  if (!mesh.ok()) return fail(mesh.status());
+  progress.say("initial mesh (TetGen -{}): {} tets, {} points", tetgen_switches(options), mesh->tets.size(),
+               mesh->points.size());
+
+  if (!a.no_validate) {
+    const ValidationReport v = validate_mesh(*mesh, &surface);
+    if (!v.ok()) {
+      fmt::print(stderr, "{}", format_validation(v));
+      return fail(internal_error("the generated mesh failed validation; please report this with the input"));
+    }
+    progress.say("validated: conforming, positive, boundary identical to the input, volume conserved");
+  }
+  if (Status s = write_volume(*mesh, a.output); !s.ok()) return fail(s);
+  progress.say("wrote {}", a.output);
+  if (!a.quiet) fmt::print(stderr, "{}", format_quality(measure_quality(*mesh)));
+  return kExitOk;
+}
+
+int run_quality(const std::string& path, bool json, const std::string& svg) {
+  auto mesh = read_volume(path);
+  if (!mesh.ok()) return fail(mesh.status());
+  const QualityReport q = measure_quality(*mesh);
+  if (json) {
+    fmt::print("{}\n", quality_to_json(q));
+  } else {
+    fmt::print("{}", format_quality(q));
+  }
+  if (!svg.empty()) {
+    if (Status s = write_text(svg, quality_histogram_svg(q, path)); !s.ok()) return fail(s);
+  }
+  return kExitOk;
+}
+
+int run_validate(const std::string& path, const std::string& surface_path) {
+  auto mesh = read_volume(path);
+  if (!mesh.ok()) return fail(mesh.status());
+  SurfaceMesh surface;
+  if (!surface_path.empty()) {
+    auto s = read_surface(surface_path);
+    if (!s.ok()) return fail(s.status());
+    surface = std::move(s).value();
+  }
+  const ValidationReport report = validate_mesh(*mesh, surface_path.empty() ? nullptr : &surface);
+  fmt::print("{}", format_validation(report));
+  return report.ok() ? kExitOk : kExitBadInput;
+}
+
+int run_convert(const std::string& in, const std::string& out) {
+  if (auto f = volume_format_from_path(out); !f.ok()) return fail(f.status());
+  auto mesh = read_volume(in);
+  if (!mesh.ok()) return fail(mesh.status());
+  if (Status s = write_volume(*mesh, out); !s.ok()) return fail(s);
+  return kExitOk;
+}
+
+}  // namespace
+
+void add_local_commands(CLI::App& app, int& exit_code) {
+  const std::string volume_formats = fmt::format("({})", volume_format_suffixes());
+
+  {
+    auto* cmd = app.add_subcommand("check", "Check a surface triangulation: topology, orientation, "
+                                            "self-intersections. Exit 0 when it can be meshed, 65 otherwise.");
+    auto path = std::make_shared<std::string>();
+    auto json = std::make_shared<bool>(false);
+    auto fast = std::make_shared<bool>(false);
+    cmd->add_option("SURFACE", *path, "surface file (.stl .obj .off .ply .mesh .surf)")->required();
+    cmd->add_flag("--json", *json, "print the report as JSON");
+    cmd->add_flag("--no-self-intersections", *fast, "skip the self-intersection test");
+    cmd->callback([&exit_code, path, json, fast] { exit_code = run_check(*path, *json, *fast); });
+  }
+  {
+    auto* cmd = app.add_subcommand("mesh", "Mesh the volume inside a surface (serial path): check, "
+                                           "boundary-conforming initial mesh, write, quality summary.");
+    auto a = std::make_shared<MeshArgs>();
+    cmd->add_option("SURFACE", a->surface, "surface file (.stl .obj .off .ply .mesh .surf)")->required();
+    cmd->add_option("-o,--output", a->output, "output volume mesh " + volume_formats)->required();
+    cmd->add_option("--max-volume", a->max_volume, "maximum tetrahedron volume of the initial mesh")
+        ->check(CLI::PositiveNumber);
+    cmd->add_option("--time-limit", a->time_limit_s, "seconds TetGen may run before it is stopped")
+        ->check(CLI::PositiveNumber)
+        ->capture_default_str();
+    cmd->add_flag("-q,--quiet", a->quiet, "no progress or summary on stderr");
+    cmd->add_flag("--no-validate", a->no_validate, "skip validating the result before writing it");
+    cmd->callback([&exit_code, a] { exit_code = run_mesh(*a); });
+  }
+  {
+    auto* cmd = app.add_subcommand("quality", "Quality statistics of a volume mesh.");
+    auto path = std::make_shared<std::string>();
+    auto json = std::make_shared<bool>(false);
+    auto svg = std::make_shared<std::string>();
+    cmd->add_option("MESH", *path, "volume mesh " + volume_formats)->required();
+    cmd->add_flag("--json", *json, "print the statistics as JSON");
+    cmd->add_option("--svg", *svg, "also draw the dihedral-angle histogram into this SVG file");
+    cmd->callback([&exit_code, path, json, svg] { exit_code = run_quality(*path, *json, *svg); });
+  }
+  {
+    auto* cmd = app.add_subcommand("validate", "Validate a volume mesh, optionally against its input surface. "
+                                               "Exit 0 when valid, 65 otherwise.");
+    auto path = std::make_shared<std::string>();
+    auto surface = std::make_shared<std::string>();
+    cmd->add_option("MESH", *path, "volume mesh " + volume_formats)->required();
+    cmd->add_option("--surface", *surface, "the input surface the mesh's boundary must equal");
+    cmd->callback([&exit_code, path, surface] { exit_code = run_validate(*path, *surface); });
+  }
+  {
+    auto* cmd = app.add_subcommand("convert", "Convert a volume mesh between formats (by suffix).");
+    auto in = std::make_shared<std::string>();
+    auto out = std::make_shared<std::string>();
+    cmd->add_option("IN", *in, "input volume mesh " + volume_formats)->required();
+    cmd->add_option("OUT", *out, "output volume mesh " + volume_formats)->required();
+    cmd->callback([&exit_code, in, out] { exit_code = run_convert(*in, *out); });
+  }
+}
+
+}  // namespace pdrmesh::cli
