@@ -91,33 +91,6 @@ VolumeMesh cube_with_centre() {
   return m;
 }
 
-/// Minimal Medit reader (Vertices and Triangles only) for the corpus test.
-bool read_medit(const std::string& path, SurfaceMesh& s) {
-  std::ifstream in(path);
-  if (!in) return false;
-  std::string word;
-  while (in >> word) {
-    if (word == "Vertices") {
-      std::size_t n = 0;
-      in >> n;
-      s.points.resize(n);
-      int ref = 0;
-      for (Vec3& p : s.points) in >> p[0] >> p[1] >> p[2] >> ref;
-    } else if (word == "Triangles") {
-      std::size_t n = 0;
-      in >> n;
-      s.triangles.resize(n);
-      int ref = 0;
-      for (Tri& t : s.triangles) {
-        in >> t[0] >> t[1] >> t[2] >> ref;
-        for (Index& v : t) --v;
-      }
-    }
-  }
-  s.name = path;
-  return in.eof() && !s.triangles.empty();
-}
-
 /// A closed convex(ish) surface coned to its bounding-box centre: a background
 /// mesh whose points are the surface points plus one interior point.
 bool cone_mesh(const SurfaceMesh& s, VolumeMesh& m) {
@@ -142,8 +115,8 @@ struct Sphere {
 const Sphere* sphere() {
   static const Sphere* s = [] {
     auto* sp = new Sphere;
-    if (!read_medit(std::string(PDRMESH_CORPUS_DIR) + "/sphere966.mesh", sp->surface) ||
-        !cone_mesh(sp->surface, sp->background)) {
+    sp->surface = fixtures::corpus_surface("sphere966");
+    if (sp->surface.triangles.empty() || !cone_mesh(sp->surface, sp->background)) {
       delete sp;
       return static_cast<Sphere*>(nullptr);
     }

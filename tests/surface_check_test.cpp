@@ -4,6 +4,8 @@
 // exact self-intersection test with an independent brute force.
 #include "pdrmesh/surface_check.hpp"
 
+#include "test_fixtures.hpp"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -699,35 +701,6 @@ TEST(SurfaceCheck, EmptySurfaceDoesNotCrash) {
   EXPECT_TRUE(r.meshable());
 }
 
-// ---------------------------------------------------------------------------
-// The corpus, read by a minimal private Medit (.mesh) loader.
-
-SurfaceMesh load_medit(const std::string& path) {
-  SurfaceMesh s;
-  std::ifstream in(path);
-  std::string word;
-  while (in >> word) {
-    if (word == "Vertices") {
-      std::size_t n = 0;
-      in >> n;
-      s.points.resize(n);
-      int ref = 0;
-      for (auto& p : s.points) in >> p[0] >> p[1] >> p[2] >> ref;
-    } else if (word == "Triangles") {
-      std::size_t n = 0;
-      in >> n;
-      s.triangles.resize(n);
-      int ref = 0;
-      for (auto& t : s.triangles) {
-        in >> t[0] >> t[1] >> t[2] >> ref;
-        for (Index& v : t) --v;
-      }
-    }
-  }
-  s.name = path;
-  return s;
-}
-
 std::string corpus(const std::string& name) {
   return std::string(PDRMESH_CORPUS_DIR) + "/" + name + ".mesh";
 }
@@ -735,7 +708,7 @@ std::string corpus(const std::string& name) {
 void expect_genus(const std::string& name, std::vector<int> genus) {
   const std::string path = corpus(name);
   if (!std::ifstream(path)) GTEST_SKIP() << "no corpus file " << path;
-  const SurfaceMesh s = load_medit(path);
+  const SurfaceMesh s = fixtures::corpus_surface(name);
   ASSERT_FALSE(s.triangles.empty()) << path;
   const SurfaceReport r = check_surface(s);
   EXPECT_TRUE(r.meshable()) << format_report(r, name);
@@ -766,7 +739,7 @@ TEST(SurfaceCheckCorpus, Primitives13ThirteenBodies) {
 TEST(SurfaceCheckCorpus, ElephantWithOneFlippedTriangleIsRejected) {
   const std::string path = corpus("elephant");
   if (!std::ifstream(path)) GTEST_SKIP() << "no corpus file " << path;
-  SurfaceMesh s = load_medit(path);
+  SurfaceMesh s = fixtures::corpus_surface("elephant");
   std::swap(s.triangles[100][1], s.triangles[100][2]);
   const SurfaceReport r = check_surface(s);
   EXPECT_EQ(count(r, DefectKind::kInconsistentOrientation), 3u);

@@ -2,9 +2,13 @@
 // Named mesh fixtures shared by the tests.
 #pragma once
 
+#include <gtest/gtest.h>
+
+#include <string>
 #include <utility>
 
 #include "pdrmesh/surface.hpp"
+#include "pdrmesh/surface_io.hpp"
 #include "pdrmesh/volume_mesh.hpp"
 
 namespace pdrmesh::fixtures {
@@ -39,6 +43,17 @@ inline VolumeMesh unit_cube_mesh() {
   m.boundary = s.triangles;
   m.boundary_ids = s.surface_ids;
   return m;
+}
+
+/// A corpus surface (NAME.mesh beside the project), read with the project's
+/// reader; an empty surface, and a test failure, when it cannot be read.
+inline SurfaceMesh corpus_surface(const std::string& name) {
+  auto s = read_surface(std::string(PDRMESH_CORPUS_DIR) + "/" + name + ".mesh");
+  if (!s.ok()) {
+    ADD_FAILURE() << s.status().to_string();
+    return {};
+  }
+  return std::move(s).value();
 }
 
 }  // namespace pdrmesh::fixtures

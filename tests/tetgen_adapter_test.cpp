@@ -5,6 +5,7 @@
 
 #include "pdrmesh/tetgen_adapter.hpp"
 #include "pdrmesh/validate.hpp"
+#include "test_fixtures.hpp"
 
 #include <dirent.h>
 #include <sys/wait.h>
@@ -26,38 +27,6 @@
 
 namespace pdrmesh {
 namespace {
-
-// A minimal Medit reader (Vertices and Triangles only, 1-based) for the corpus;
-// the project's reader lives in its own module.
-SurfaceMesh load_medit(const std::string& name) {
-  const std::string path = std::string(PDRMESH_CORPUS_DIR) + "/" + name + ".mesh";
-  std::ifstream in(path);
-  EXPECT_TRUE(in) << path;
-  SurfaceMesh s;
-  s.name = name + ".mesh";
-  std::string word;
-  while (in >> word) {
-    if (word == "Vertices") {
-      std::size_t n = 0;
-      in >> n;
-      s.points.resize(n);
-      int ref = 0;
-      for (Vec3& p : s.points) in >> p[0] >> p[1] >> p[2] >> ref;
-    } else if (word == "Triangles") {
-      std::size_t n = 0;
-      in >> n;
-      s.triangles.resize(n);
-      s.surface_ids.resize(n);
-      for (std::size_t i = 0; i < n; ++i) {
-        Tri& t = s.triangles[i];
-        in >> t[0] >> t[1] >> t[2] >> s.surface_ids[i];
-        for (Index& v : t) --v;
-      }
-    }
-  }
-  EXPECT_FALSE(s.triangles.empty()) << path;
-  return s;
-}
 
 /// Appends an axis-aligned box, outward-oriented (or inward if `inward`), with
 /// surface id `id`.
@@ -140,7 +109,7 @@ TEST(TetgenAdapter, MeshesCube) {
 TEST(TetgenAdapter, MeshesCorpusSurfaces) {
   for (const char* name : {"sphere966", "hinge", "elephant", "knot2", "primitives13"}) {
     SCOPED_TRACE(name);
-    const SurfaceMesh s = load_medit(name);
+    const SurfaceMesh s = fixtures::corpus_surface(name);
     expect_valid(s, mesh_ok(s));
   }
 }
@@ -149,7 +118,7 @@ TEST(TetgenAdapter, MeshesCorpusSurfaces) {
 /// checks the result and that it has more than twice the tets of the plain mesh.
 /// Returns the fraction of tets within the bound.
 double refined_fraction_within_bound(const char* name, double divisor) {
-  const SurfaceMesh s = load_medit(name);
+  const SurfaceMesh s = fixtures::corpus_surface(name);
   const VolumeMesh coarse = mesh_ok(s);
   TetgenOptions o;
   o.max_volume = enclosed_volume(s) / divisor;
@@ -174,7 +143,7 @@ TEST(TetgenAdapter, MaxVolumeRefinesCoarseCadSurface) {
 }
 
 TEST(TetgenAdapter, RadiusEdgeKeepsBoundary) {
-  const SurfaceMesh s = load_medit("hinge");
+  const SurfaceMesh s = fixtures::corpus_surface("hinge");
   TetgenOptions o;
   o.radius_edge = 2.0;
   const VolumeMesh m = mesh_ok(s, o);
@@ -265,7 +234,7 @@ TEST(TetgenAdapter, SurvivesFaults) {
   {
     TetgenOptions o;
     o.memory_limit_bytes = 1 << 20;  // far below what the process already maps
-    const Result<VolumeMesh> r = tetrahedralize(load_medit("sphere966"), o);
+    const Result<VolumeMesh> r = tetrahedralize(fixtures::corpus_surface("sphere966"), o);
     ASSERT_FALSE(r.ok());
     EXPECT_TRUE(r.status().code() == StatusCode::kResourceExhausted || r.status().code() == StatusCode::kInternal)
         << r.status().to_string();
@@ -280,7 +249,7 @@ TEST(TetgenAdapter, SurvivesFaults) {
 }
 
 TEST(TetgenAdapter, ConcurrentCallsAgreeAndRunsAreDeterministic) {
-  const SurfaceMesh s = load_medit("sphere966");
+  const SurfaceMesh s = fixtures::corpus_surface("sphere966");
   TetgenOptions o;
   o.max_volume = enclosed_volume(s) / 5000;
   const VolumeMesh first = mesh_ok(s, o);

@@ -3,6 +3,8 @@
 // See sizing.hpp for the definition and the determinism guarantee.
 #include "pdrmesh/sizing.hpp"
 
+#include "pdrmesh/topology.hpp"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -490,7 +492,6 @@ Index SizingField::locate(const Vec3& x) const {
 
 Index SizingField::nearest_tet(const Vec3& x, Vec3& closest) const {
   // Branch and bound over the tet tree, nearer child first; ties to the lower tet.
-  constexpr int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
   double best = kInf;
   Index best_tet = kNoIndex;
   Index stack[kStack];
@@ -509,7 +510,7 @@ Index SizingField::nearest_tet(const Vec3& x, Vec3& closest) const {
       if (box_dist2(bvh_box_[s], x) > best) continue;
       const Index t = bvh_item_[s];
       const Tet& v = tets_[t];
-      for (const auto& face : kFace) {
+      for (const auto& face : topo::kFaceVertex) {
         const Vec3 y = closest_on_triangle(x, points_[v[face[0]]], points_[v[face[1]]], points_[v[face[2]]]);
         const double d2 = dist2(x, y);
         if (d2 < best || (d2 == best && t < best_tet)) {

@@ -32,6 +32,7 @@
 #include <fmt/format.h>
 
 #include "pdrmesh/predicates.hpp"
+#include "pdrmesh/topology.hpp"
 
 #ifndef TETLIBRARY
 #define TETLIBRARY
@@ -382,15 +383,6 @@ Result<RawMesh> parse_answer(const std::vector<char>& bytes, const TetgenOptions
 // ---------------------------------------------------------------------------
 // Validation of the tet mesh against the input surface.
 
-// The four faces of a positively oriented tet (a, b, c, d), each oriented
-// outward (right-hand normal pointing away from the opposite vertex).
-constexpr std::array<std::array<int, 3>, 4> kOutwardFaces = {{{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}}};
-
-Tri sorted(Tri t) {
-  std::sort(t.begin(), t.end());
-  return t;
-}
-
 /// The same oriented triangle (up to rotation).
 bool same_orientation(const Tri& a, const Tri& b) {
   for (int r = 0; r < 3; ++r)
@@ -401,13 +393,8 @@ bool same_orientation(const Tri& a, const Tri& b) {
 struct FaceRecord {
   Tri key;    // sorted vertex indices
   Index tet;  // owning tet
-  int local;  // 0..3: index into kOutwardFaces
+  int local;  // 0..3: the face opposite local vertex `local` (topology.hpp)
 };
-
-Tri outward_face(const Tet& t, int local) {
-  const auto& f = kOutwardFaces[static_cast<std::size_t>(local)];
-  return {t[static_cast<std::size_t>(f[0])], t[static_cast<std::size_t>(f[1])], t[static_cast<std::size_t>(f[2])]};
-}
 
 /// Orients every tet positively in pdrmesh's convention. A degenerate or
 /// wrongly oriented tet is an error (never silently flipped one by one).
@@ -438,7 +425,7 @@ Result<VolumeMesh> build_volume_mesh(RawMesh m, const SurfaceMesh& surface) {
   std::vector<FaceRecord> faces;
   faces.reserve(4 * nt);
   for (std::size_t t = 0; t < nt; ++t)
-    for (int k = 0; k < 4; ++k) faces.push_back({sorted(outward_face(m.tets[t], k)), static_cast<Index>(t), k});
+    for (int k = 0; k < 4; ++k) faces.push_back({topo::sorted_key(topo::face_of(m.tets[t], k)), static_cast<Index>(t), k});
   auto by_key = [](const FaceRecord& a, const FaceRecord& b) {
     return a.key != b.key ? a.key < b.key : a.tet != b.tet ? a.tet < b.tet : a.local < b.local;
   };
@@ -446,7 +433,7 @@ Result<VolumeMesh> build_volume_mesh(RawMesh m, const SurfaceMesh& surface) {
 
   // Input triangles sorted by key, to join with the tet faces.
   std::vector<std::pair<Tri, Index>> input(surface.triangles.size());
-  for (std::size_t i = 0; i < input.size(); ++i) input[i] = {sorted(surface.triangles[i]), static_cast<Index>(i)};
+  for (std::size_t i = 0; i < input.size(); ++i) input[i] = {topo::sorted_key(surface.triangles[i]), static_cast<Index>(i)};
   std::sort(input.begin(), input.end());
   for (std::size_t i = 1; i < input.size(); ++i)
     if (input[i].first == input[i - 1].first)
@@ -467,8 +454,8 @@ Result<VolumeMesh> build_volume_mesh(RawMesh m, const SurfaceMesh& surface) {
     const auto face_text = [&] { return fmt::format("face ({}, {}, {}) of tet {}", key[0], key[1], key[2], faces[g].tet); };
     if (count > 2) return internal_error(fmt::format("TetGen output: {} is shared by {} tets", face_text(), count));
     if (count == 2) {
-      const Tri f0 = outward_face(m.tets[faces[g].tet], faces[g].local);
-      const Tri f1 = outward_face(m.tets[faces[g + 1].tet], faces[g + 1].local);
+      const Tri f0 = topo::face_of(m.tets[faces[g].tet], faces[g].local);
+      const Tri f1 = topo::face_of(m.tets[faces[g + 1].tet], faces[g + 1].local);
       if (!same_orientation(f0, {f1[0], f1[2], f1[1]}))
         return internal_error(fmt::format("TetGen output: {} is oriented the same way by tets {} and {} (overlap)",
                                           face_text(), faces[g].tet, faces[g + 1].tet));
@@ -477,7 +464,7 @@ Result<VolumeMesh> build_volume_mesh(RawMesh m, const SurfaceMesh& surface) {
       const Index tri = input[in_pos].second;
       const Tri& want = surface.triangles[tri];
       for (std::size_t r = g; r < e; ++r) {
-        const bool inside = same_orientation(outward_face(m.tets[faces[r].tet], faces[r].local), want);
+        const bool inside = same_orientation(topo::face_of(m.tets[faces[r].tet], faces[r].local), want);
         if (inside) {
           inside_of[faces[r].tet] = tri;
         } else if (count == 1) {
@@ -529,7 +516,7 @@ Result<VolumeMesh> build_volume_mesh(RawMesh m, const SurfaceMesh& surface) {
     if (e - g == 1 && !outside[faces[g].tet] &&
         !std::binary_search(input.begin(), input.end(), std::pair<Tri, Index>{faces[g].key, 0},
                             [](const auto& a, const auto& b) { return a.first < b.first; })) {
-      const Tri f = outward_face(m.tets[faces[g].tet], faces[g].local);
+      const Tri f = topo::face_of(m.tets[faces[g].tet], faces[g].local);
       const Vec3& p = m.points[f[0]];
       return internal_error(fmt::format(
           "TetGen output: boundary face ({}, {}, {}) of tet {} is not an input triangle (near ({}, {}, {}))", f[0],

@@ -13,14 +13,10 @@
 #include <utility>
 
 #include "pdrmesh/predicates.hpp"
+#include "pdrmesh/topology.hpp"
 
 namespace pdrmesh {
 namespace {
-
-// Outward faces of a positively oriented tet, face i opposite vertex i.
-// TODO(refiner): take these from topology.hpp once it lands, the one place
-// that holds the local numbering tables.
-constexpr std::array<std::array<int, 3>, 4> kOutwardFace{{{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}}};
 
 /// An oriented triangle rotated so that its smallest index comes first: two
 /// oriented triangles are the same iff their canonical forms are equal.
@@ -127,8 +123,8 @@ ValidationReport validate_mesh(const VolumeMesh& mesh, const SurfaceMesh* surfac
   faces.reserve(4 * mesh.tets.size());
   for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
     const Tet& k = mesh.tets[t];
-    for (const auto& f : kOutwardFace) {
-      const Tri o{k[f[0]], k[f[1]], k[f[2]]};
+    for (int f = 0; f < 4; ++f) {
+      const Tri o = topo::face_of(k, f);
       faces.push_back({face_key(o), static_cast<Index>(t), o});
     }
   }
