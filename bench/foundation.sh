@@ -20,12 +20,12 @@ for f in "$corpus"/*.stl; do
   tris=$($pdrmesh check --json "$f" | sed -n 's/.*"triangles":\([0-9]*\).*/\1/p' | head -1)
   /usr/bin/time -f '%e %M' -o "$tmp/check" "$pdrmesh" check "$f" >/dev/null || true
   read -r cs ckb <"$tmp/check"
-  /usr/bin/time -f '%e %M' -o "$tmp/mesh" "$pdrmesh" mesh -q --no-validate "$f" -o "$tmp/out.meshb" || true
+  /usr/bin/time -f "%e %M" -o "$tmp/mesh" "$pdrmesh" mesh -q "$f" -o "$tmp/out.meshb" || true
   read -r ms mkb < <(tail -1 "$tmp/mesh")
   tets=$($pdrmesh quality --json "$tmp/out.meshb" 2>/dev/null | sed -n 's/.*"tets":\([0-9]*\).*/\1/p')
   awk -v n="$name" -v t="${tris:-?}" -v cs="$cs" -v ckb="$ckb" -v tets="${tets:-failed}" -v ms="$ms" -v mkb="$mkb" \
     'BEGIN { printf "%-14s %10s %9.2f %9.1f %10s %9.2f %10.1f\n", n, t, cs, ckb / 1024, tets, ms, mkb / 1024 }'
   rm -f "$tmp/out.meshb"
 done
-echo "check: read + full surface check incl. exact self-intersections; mesh: read + check + TetGen -pYzQ + write .meshb"
+echo "check: read + full surface check incl. exact self-intersections; mesh: read + check + TetGen -pYzQMJF + validate against the surface + write .meshb"
 echo "peak memory is the maximum resident set of the process (TetGen runs in a child process; GNU time reports the larger)"
