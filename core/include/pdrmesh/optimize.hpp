@@ -25,14 +25,17 @@
 //     ends. The created tets join the queue.
 //  2. Sliver removal. Slivers left after reconnection were already offered every
 //     flip. With a sizing field and insert_points, a sliver with no frozen face,
-//     no hull face and no region interface gets a point at its centroid when the
-//     centroid lies strictly inside it (exact location) and is at least
-//     insert_min_distance * h(centroid) away from the sliver's vertices and the
-//     apexes of its four neighbours. The 1-4 split is followed by the
-//     reconnection queue over the new tets (flips joining the new point to the
-//     neighbours' apexes); the sweep's smoothing then moves the new point when
-//     it still belongs to a bad tet. Without sizing (null), no point is ever
-//     inserted.
+//     no hull face and no region interface is removed with its four face
+//     neighbours (the cavity; a face two neighbours share must not be frozen)
+//     and the cavity is re-tiled as the star of one new point over its outer
+//     faces. The point starts at the sliver's centroid and moves towards the
+//     smoothing targets below over the new star; the operation is done only
+//     when every new tet is positive (exact::orient3d), the star's worst quality
+//     (smallest dihedral sine) strictly beats the cavity's, and the point lies
+//     at least insert_min_distance * h(point) from every cavity vertex. The new
+//     tets then go through the reconnection queue. Without sizing (null), no
+//     point is ever inserted. (A sliver whose cavity has no such point, e.g.
+//     two of its edges on the hull, stays: see tests/optimize_test.cpp.)
 //  3. Smoothing. A point is fixed when it lies on a frozen face, a hull face or
 //     a face between two regions; every other point is free. Each free vertex of
 //     a bad tet (ascending index) is moved towards two targets, the mean of its
@@ -76,10 +79,10 @@ struct OptimizeOptions {
   bool smooth = true;
   /// Run the reconnection step (flips; also after insertions).
   bool reconnect = true;
-  /// Sliver removal by centroid insertion (needs a sizing field; see above).
+  /// Sliver removal by point insertion (needs a sizing field; see above).
   bool insert_points = true;
-  /// A point is inserted only this far (times h at the point) from the
-  /// sliver's vertices and its neighbours' apexes.
+  /// A point is inserted only this far (times h at the point) from every
+  /// vertex of the sliver's cavity.
   double insert_min_distance = 0.5;
   /// Safety cap on successful flips per sweep, times the number of tets at the
   /// start of the sweep (the min-max rule already guarantees an end).
@@ -89,7 +92,7 @@ struct OptimizeOptions {
 struct OptimizeStats {
   std::size_t flips = 0;            ///< successful flips (all kinds)
   std::size_t slivers_removed = 0;  ///< successful operations aimed at a sliver (flip or insertion)
-  std::size_t points_inserted = 0;  ///< centroid insertions (counted in slivers_removed too)
+  std::size_t points_inserted = 0;  ///< sliver insertions (counted in slivers_removed too)
   std::size_t points_moved = 0;     ///< accepted smoothing moves
   std::size_t bad_before = 0;       ///< bad tets before / after
   std::size_t bad_after = 0;
