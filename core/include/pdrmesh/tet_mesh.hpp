@@ -86,6 +86,9 @@ class TetMesh {
   GlobalId next_id() const { return next_id_; }
   /// Appends a point with the next global id; returns its index.
   Index add_point(const Vec3& p);
+  /// Moves point v to p (smoothing). The caller keeps every tet around v
+  /// positive (exact::orient3d) and calls invalidate_quality on each of them.
+  void set_point(Index v, const Vec3& p) { points_[v] = p; }
 
   // ---- tets
   /// Number of slots, alive or dead; tet indices run below this.

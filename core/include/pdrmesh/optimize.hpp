@@ -1,0 +1,115 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// The refiner's final optimization phase (AFLR: "sliver removal, grid coordinate
+// smoothing, and further reconnection"), usable alone on any TetMesh: after the
+// refinement passes, after the parallel engine merges leaves, or as a leaf task.
+//
+// What counts as bad
+// ------------------
+// A tet is bad when its smallest dihedral angle is below target_min_dihedral or
+// its largest is above target_max_dihedral (quality.hpp's dihedral_range). A
+// sliver is a bad tet with both (four nearly coplanar points: angles near 0 and
+// near 180 degrees). A cap (one large angle) or a needle/wedge (small angles
+// only) is bad but not a sliver.
+//
+// One sweep = reconnection, sliver removal, smoothing, in that order; sweeps
+// stop early when one changes nothing.
+//
+//  1. Reconnection. A FIFO work queue, seeded with the bad tets in slot order.
+//     For a bad tet: edge removal (flips.hpp remove_edge: 3-2, 4-4 and larger
+//     rings) of its six edges, largest dihedral angle first (ties: lower local
+//     edge), then 2-3 flips of its four faces; if none applies, the edges of its
+//     face neighbours that it does not hold (which may open a flip of its own;
+//     the tet is then queued again). Every flip is accepted only when it raises
+//     the smallest max_dihedral_cosine of the tets it replaces (min-max), so the
+//     sorted vector of tet qualities rises lexicographically and the queue
+//     ends. The created tets join the queue.
+//  2. Sliver removal. Slivers left after reconnection were already offered every
+//     flip. With a sizing field and insert_points, a sliver with no frozen face,
+//     no hull face and no region interface is removed with its four face
+//     neighbours (the cavity; a face two neighbours share must not be frozen)
+//     and the cavity is re-tiled as the star of one new point over its outer
+//     faces. The point starts at the sliver's centroid and moves towards the
+//     smoothing targets below over the new star; the operation is done only
+//     when every new tet is positive (exact::orient3d), the star's worst quality
+//     (smallest dihedral sine) strictly beats the cavity's, and the point lies
+//     at least insert_min_distance * h(point) from every cavity vertex. The new
+//     tets then go through the reconnection queue. Without sizing (null), no
+//     point is ever inserted. (A sliver whose cavity has no such point, e.g.
+//     two of its edges on the hull, stays: see tests/optimize_test.cpp.)
+//  3. Smoothing. A point is fixed when it lies on a frozen face, a hull face or
+//     a face between two regions; every other point is free. Each free vertex of
+//     a bad tet (ascending index) is moved towards two targets, the mean of its
+//     star's other vertices (Laplacian) and the mean over its star's tets of the
+//     position that would make that tet regular over its opposite face, with a
+//     line search back to the old position (steps 1, 1/2, 1/4, 1/8). A move is
+//     accepted only when every tet of the star stays positive by exact::orient3d
+//     with the new coordinates and the star's worst quality (smallest sine of a
+//     dihedral angle, which is small for both near-0 and near-180 angles) rises
+//     strictly; the better of the two targets wins. The star is gathered by a
+//     walk through adjacency from one incident tet (a vertex -> tet map built
+//     per smoothing pass). Moved points have their tets' quality cache reset.
+//
+// Guarantees: frozen faces keep their vertices and coordinates (flips and
+// insertion refuse them; their points are fixed); hull faces and region
+// interfaces likewise; the total volume is conserved up to rounding (points
+// on the boundary do not move, and reconnection and insertion re-tile the
+// same region). Every tet stays positive (exact). Determinism: same mesh and
+// options give the same mesh, bit for bit: every order is by slot or point
+// index, no hashing, no timing (the stats' seconds are measured, not used).
+#pragma once
+
+#include <cstddef>
+
+#include "pdrmesh/sizing.hpp"
+#include "pdrmesh/status.hpp"
+#include "pdrmesh/tet_mesh.hpp"
+
+namespace pdrmesh {
+
+/// The quality threshold options of the final optimization.
+struct OptimizeOptions {
+  /// Degrees: a tet whose smallest dihedral angle is below this is bad.
+  double target_min_dihedral = 15;
+  /// Degrees: a tet whose largest dihedral angle is above this is bad.
+  double target_max_dihedral = 150;
+  /// Rounds of (reconnection, sliver removal, smoothing); fewer when a round
+  /// changes nothing. 0 only measures.
+  int sweeps = 4;
+  /// Run the smoothing step.
+  bool smooth = true;
+  /// Run the reconnection step (flips; also after insertions).
+  bool reconnect = true;
+  /// Sliver removal by point insertion (needs a sizing field; see above).
+  bool insert_points = true;
+  /// A point is inserted only this far (times h at the point) from every
+  /// vertex of the sliver's cavity.
+  double insert_min_distance = 0.5;
+  /// Safety cap on successful flips per sweep, times the number of tets at the
+  /// start of the sweep (the min-max rule already guarantees an end).
+  double max_flips_per_tet = 20;
+};
+
+struct OptimizeStats {
+  std::size_t flips = 0;            ///< successful flips (all kinds)
+  std::size_t slivers_removed = 0;  ///< successful operations aimed at a sliver (flip or insertion)
+  std::size_t points_inserted = 0;  ///< sliver insertions (counted in slivers_removed too)
+  std::size_t points_moved = 0;     ///< accepted smoothing moves
+  std::size_t bad_before = 0;       ///< bad tets before / after
+  std::size_t bad_after = 0;
+  int sweeps_run = 0;
+  double min_dihedral_before = 0, min_dihedral_after = 0;  ///< degrees, over all alive tets
+  double max_dihedral_before = 0, max_dihedral_after = 0;
+  double seconds = 0;  ///< wall time, measured only for reporting
+};
+
+/// Validates the options: targets finite with 0 <= min < max <= 180, sweeps >= 0,
+/// insert_min_distance >= 0, max_flips_per_tet > 0; invalid_input naming the option.
+Status validate(const OptimizeOptions& options);
+
+/// Runs the final optimization on the alive tets of `mesh` (all of them, active
+/// or not). `sizing` may be null (no point insertion then). invalid_input on bad
+/// options; the mesh is left valid (TetMesh::check) in every case.
+Result<OptimizeStats> optimize(TetMesh& mesh, const SizingField* sizing,
+                               const OptimizeOptions& options = {});
+
+}  // namespace pdrmesh

@@ -1,0 +1,395 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// Final optimization: reconnection, sliver removal and smoothing (optimize.hpp).
+#include "pdrmesh/optimize.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "pdrmesh/flips.hpp"
+#include "pdrmesh/insert.hpp"
+#include "pdrmesh/predicates.hpp"
+#include "pdrmesh/quality.hpp"
+#include "pdrmesh/topology.hpp"
+
+namespace pdrmesh {
+namespace {
+
+enum class Badness { kGood, kBad, kSliver };
+
+std::array<Vec3, 4> corners(const TetMesh& m, const Tet& k) {
+  return {m.point(k[0]), m.point(k[1]), m.point(k[2]), m.point(k[3])};
+}
+
+/// Smallest sine of the six dihedral angles of (p0, p1, p2, p3): sin = 6V * l_e
+/// / (|n1| |n2|), with n1, n2 the unnormalised normals of the two faces on edge
+/// e. Small both for angles near 0 and near 180 degrees; negative when the tet
+/// is inverted (the sign of V), 0 when a face is degenerate.
+double min_sine(const std::array<Vec3, 4>& p) {
+  const double v6 = dot(cross(p[1] - p[0], p[2] - p[0]), p[3] - p[0]);
+  std::array<double, 4> n{};
+  for (int f = 0; f < 4; ++f) {
+    const Vec3& a = p[topo::kFaceVertex[f][0]];
+    n[f] = norm(cross(p[topo::kFaceVertex[f][1]] - a, p[topo::kFaceVertex[f][2]] - a));
+  }
+  double lowest = std::numeric_limits<double>::infinity();
+  for (int e = 0; e < 6; ++e) {
+    const double den = n[topo::edge_face(e, 0)] * n[topo::edge_face(e, 1)];
+    if (!(den > 0.0)) return 0.0;
+    const double l = norm(p[topo::kEdgeVertex[e][1]] - p[topo::kEdgeVertex[e][0]]);
+    lowest = std::min(lowest, v6 * l / den);
+  }
+  return lowest;
+}
+
+class Optimizer {
+ public:
+  Optimizer(TetMesh& mesh, const SizingField* sizing, const OptimizeOptions& o, OptimizeStats& st)
+      : m_(mesh), sizing_(sizing), o_(o), st_(st) {}
+
+  Badness badness(Index t) const {
+    const auto p = corners(m_, m_.tet(t));
+    const AngleRange r = dihedral_range(p[0], p[1], p[2], p[3]);
+    const bool small = r.min < o_.target_min_dihedral, large = r.max > o_.target_max_dihedral;
+    if (small && large) return Badness::kSliver;
+    return small || large ? Badness::kBad : Badness::kGood;
+  }
+
+  std::vector<Index> bad_tets() const {
+    std::vector<Index> out;
+    for (Index t = 0; t < m_.num_slots(); ++t)
+      if (m_.alive(t) && badness(t) != Badness::kGood) out.push_back(t);
+    return out;
+  }
+
+  /// Runs the reconnection queue from `seeds` (processed in the given order).
+  std::size_t reconnect(std::vector<Index> seeds) {
+    queue_ = std::move(seeds);
+    std::size_t done = 0;
+    if (!o_.reconnect) return 0;
+    for (std::size_t head = 0; head < queue_.size(); ++head) {
+      if (flips_this_sweep_ >= flip_budget_) break;
+      const Index t = queue_[head];
+      if (!m_.alive(t)) continue;
+      const Badness b = badness(t);
+      if (b == Badness::kGood) continue;
+      if (try_flips(t)) {
+        ++done;
+        ++flips_this_sweep_;
+        if (b == Badness::kSliver) ++st_.slivers_removed;
+      }
+    }
+    st_.flips += done;
+    return done;
+  }
+
+  /// Point insertion into the slivers left in the mesh (see optimize.hpp).
+  std::size_t insert_into_slivers() {
+    if (sizing_ == nullptr || !o_.insert_points) return 0;
+    std::vector<Index> slivers;
+    for (Index t = 0; t < m_.num_slots(); ++t)
+      if (m_.alive(t) && badness(t) == Badness::kSliver) slivers.push_back(t);
+    std::size_t inserted = 0;
+    for (Index t : slivers) {
+      if (!m_.alive(t) || badness(t) != Badness::kSliver) continue;  // a flip took the slot
+      if (!insert_into(t)) continue;
+      ++inserted;
+      ++st_.slivers_removed;
+      const auto created = m_.last_created();
+      reconnect(std::vector<Index>(created.begin(), created.end()));
+    }
+    st_.points_inserted += inserted;
+    return inserted;
+  }
+
+  /// One smoothing pass over the free vertices of bad tets, ascending.
+  std::size_t smooth() {
+    const Index np = m_.num_points();
+    std::vector<Index> one_tet(np, kNoIndex);
+    std::vector<char> fixed(np, 0), wanted(np, 0);
+    for (Index t = 0; t < m_.num_slots(); ++t) {
+      if (!m_.alive(t)) continue;
+      const Tet& k = m_.tet(t);
+      for (int i = 0; i < 4; ++i)
+        if (one_tet[k[i]] == kNoIndex) one_tet[k[i]] = t;
+      for (int f = 0; f < 4; ++f) {
+        const Index n = m_.neighbour(t, f);
+        if (n == kNoIndex || m_.frozen(t, f) || m_.region(face_tet(n)) != m_.region(t))
+          for (int j = 0; j < 3; ++j) fixed[k[topo::kFaceVertex[f][j]]] = 1;
+      }
+      if (badness(t) != Badness::kGood)
+        for (int i = 0; i < 4; ++i) wanted[k[i]] = 1;
+    }
+    std::size_t moved = 0;
+    for (Index v = 0; v < np; ++v)
+      if (wanted[v] && !fixed[v] && one_tet[v] != kNoIndex && smooth_vertex(v, one_tet[v])) ++moved;
+    st_.points_moved += moved;
+    return moved;
+  }
+
+  void start_sweep() {
+    flips_this_sweep_ = 0;
+    flip_budget_ = static_cast<std::size_t>(o_.max_flips_per_tet * m_.num_tets()) + 1;
+  }
+
+ private:
+  bool push_created() {
+    for (Index c : m_.last_created()) queue_.push_back(c);
+    return true;
+  }
+
+  /// One flip that improves the neighbourhood of the bad tet t, or none.
+  bool try_flips(Index t) {
+    const auto p = corners(m_, m_.tet(t));
+    const auto angles = dihedral_angles(p[0], p[1], p[2], p[3]);
+    std::array<int, 6> edges{0, 1, 2, 3, 4, 5};
+    std::stable_sort(edges.begin(), edges.end(),
+                     [&](int a, int b) { return angles[a] > angles[b]; });
+    for (int e : edges)
+      if (remove_edge(m_, t, e) == FlipOutcome::kDone) return push_created();
+    for (int f = 0; f < 4; ++f)
+      if (flip23(m_, t, f) == FlipOutcome::kDone) return push_created();
+    // The neighbourhood: edges of the face neighbours that t does not hold.
+    for (int f = 0; f < 4; ++f) {
+      const Index n = m_.neighbour(t, f);
+      if (n == kNoIndex) continue;
+      const Index u = face_tet(n);
+      const int apex = face_local(n);
+      for (int j = 0; j < 4; ++j) {
+        if (j == apex) continue;
+        if (remove_edge(m_, u, topo::kEdgeIndex[apex][j]) == FlipOutcome::kDone) {
+          push_created();
+          queue_.push_back(t);
+          return true;
+        }
+      }
+    }
+    return false;
+  }
+
+  /// The star of v: (tet, local index of v), by a walk from `start`.
+  void gather_star(Index v, Index start) {
+    star_.clear();
+    star_.push_back({start, topo::local_vertex(m_.tet(start), v)});
+    for (std::size_t i = 0; i < star_.size(); ++i) {
+      const auto [t, lv] = star_[i];
+      for (int f = 0; f < 4; ++f) {
+        if (f == lv) continue;  // the faces through v are those opposite its other vertices
+        const Index n = m_.neighbour(t, f);
+        if (n == kNoIndex) continue;
+        const Index u = face_tet(n);
+        bool seen = false;
+        for (const auto& s : star_) seen = seen || s.first == u;
+        if (!seen) star_.push_back({u, topo::local_vertex(m_.tet(u), v)});
+      }
+    }
+  }
+
+  /// Worst min_sine of the tets (link face, x); -inf when one is not positive.
+  double star_quality(const Vec3& x) const {
+    double worst = std::numeric_limits<double>::infinity();
+    for (const Tri& f : link_) {
+      const std::array<Vec3, 4> p{m_.point(f[0]), m_.point(f[1]), m_.point(f[2]), x};
+      if (exact::orient3d(p[0], p[1], p[2], p[3]) <= 0)
+        return -std::numeric_limits<double>::infinity();
+      worst = std::min(worst, min_sine(p));
+    }
+    return worst;
+  }
+
+  /// Best position for the apex of the tets over link_ (star_quality), starting
+  /// from `old` and moving towards the candidate targets with a line search
+  /// (steps 1, 1/2, 1/4, 1/8; the first step that beats q0 is taken per target).
+  /// Returns the best quality found, > q0 only when `best` improves.
+  double best_position(const Vec3& old, double q0, Vec3& best) {
+    // Target 1: the mean of the link's vertices (each once).
+    link_points_.clear();
+    for (const Tri& f : link_) link_points_.insert(link_points_.end(), f.begin(), f.end());
+    std::sort(link_points_.begin(), link_points_.end());
+    link_points_.erase(std::unique(link_points_.begin(), link_points_.end()), link_points_.end());
+    Vec3 laplace{0, 0, 0};
+    for (Index u : link_points_) laplace = laplace + m_.point(u);
+    laplace = (1.0 / static_cast<double>(link_points_.size())) * laplace;
+    // Target 2: the mean of the apexes that would make each tet regular.
+    Vec3 ideal{0, 0, 0};
+    for (const Tri& f : link_) {
+      const Vec3 &a = m_.point(f[0]), &b = m_.point(f[1]), &c = m_.point(f[2]);
+      const Vec3 n = cross(b - a, c - a);  // towards the apex
+      const double ln = norm(n);
+      const double edge = (norm(b - a) + norm(c - b) + norm(a - c)) / 3.0;
+      const Vec3 g = (1.0 / 3.0) * (a + b + c);
+      ideal = ideal + (ln > 0.0 ? g + (std::sqrt(2.0 / 3.0) * edge / ln) * n : g);
+    }
+    ideal = (1.0 / static_cast<double>(link_.size())) * ideal;
+
+    double best_q = q0;
+    best = old;
+    for (const Vec3& target : {laplace, ideal}) {
+      double step = 1.0;
+      for (int i = 0; i < 4; ++i, step *= 0.5) {
+        const Vec3 x = old + step * (target - old);
+        const double q = star_quality(x);
+        if (q > q0) {
+          if (q > best_q) {
+            best_q = q;
+            best = x;
+          }
+          break;
+        }
+      }
+    }
+    return best_q;
+  }
+
+  bool smooth_vertex(Index v, Index start) {
+    gather_star(v, start);
+    link_.clear();
+    for (const auto& [t, lv] : star_) {
+      const Tri f = topo::face_of(m_.tet(t), lv);  // outward: away from v
+      link_.push_back({f[0], f[2], f[1]});
+    }
+    const Vec3 old = m_.point(v);
+    Vec3 best;
+    const double q0 = star_quality(old);
+    if (!(best_position(old, q0, best) > q0)) return false;
+    m_.set_point(v, best);
+    for (const auto& s : star_) m_.invalidate_quality(s.first);
+    return true;
+  }
+
+  /// Replaces the sliver t and its four face neighbours by the star of a new
+  /// point over the cavity's boundary, when the new tets are all positive, beat
+  /// the cavity's worst min_sine, and the point keeps its distance.
+  bool insert_into(Index t) {
+    if ((m_.flags(t) & TetMesh::kFrozenMask) != 0) return false;
+    std::array<Index, 5> cavity{t, 0, 0, 0, 0};
+    for (int f = 0; f < 4; ++f) {
+      const Index n = m_.neighbour(t, f);
+      if (n == kNoIndex || m_.region(face_tet(n)) != m_.region(t)) return false;
+      cavity[static_cast<std::size_t>(f + 1)] = face_tet(n);
+    }
+    double q_old = std::numeric_limits<double>::infinity();
+    for (Index u : cavity) q_old = std::min(q_old, min_sine(corners(m_, m_.tet(u))));
+    // The cavity's boundary: the neighbours' faces away from t, less the faces
+    // two neighbours share (seen once each way), which must not be frozen.
+    link_.clear();
+    std::vector<std::pair<Tri, bool>> faces;  // (sorted key, frozen), with link_ in step
+    for (int f = 0; f < 4; ++f) {
+      const Index n = m_.neighbour(t, f);
+      const Index u = face_tet(n);
+      for (int g = 0; g < 4; ++g) {
+        if (g == face_local(n)) continue;
+        const Tri k = topo::face_of(m_.tet(u), g);
+        link_.push_back({k[0], k[2], k[1]});  // the new point lies inside: reversed
+        faces.push_back({topo::sorted_key(k), m_.frozen(u, g)});
+      }
+    }
+    std::vector<Tri> outer;
+    for (std::size_t i = 0; i < link_.size(); ++i) {
+      int same = 0;
+      for (std::size_t j = 0; j < faces.size(); ++j) same += faces[j].first == faces[i].first ? 1 : 0;
+      if (same == 1) {
+        outer.push_back(link_[i]);
+      } else if (faces[i].second) {
+        return false;  // a frozen face inside the cavity
+      }
+    }
+    link_ = outer;
+    const Tet& k = m_.tet(t);
+    const Vec3 centroid =
+        0.25 * (m_.point(k[0]) + m_.point(k[1]) + m_.point(k[2]) + m_.point(k[3]));
+    Vec3 x;
+    const double q_centroid = star_quality(centroid);
+    double q = best_position(centroid, q_centroid, x);
+    if (!(q > q_centroid)) x = centroid;
+    q = std::max(q, q_centroid);
+    if (!(q > q_old)) return false;
+    const double h = sizing_->at(x);
+    for (Index u : link_points_)
+      if (norm(m_.point(u) - x) < o_.insert_min_distance * h) return false;
+    const Index p = m_.add_point(x);
+    std::vector<Tet> fresh;
+    for (const Tri& f : link_) fresh.push_back({f[0], f[1], f[2], p});
+    const std::vector<Index> parent(fresh.size(), 0);
+    m_.replace_cavity(cavity, fresh, parent);
+    return true;
+  }
+
+  TetMesh& m_;
+  const SizingField* sizing_;
+  const OptimizeOptions& o_;
+  OptimizeStats& st_;
+  std::vector<Index> queue_;
+  std::vector<std::pair<Index, int>> star_;
+  std::vector<Tri> link_;  ///< faces of the star being optimised, turned towards its apex
+  std::vector<Index> link_points_;
+  std::size_t flips_this_sweep_ = 0;
+  std::size_t flip_budget_ = 0;
+};
+
+AngleRange mesh_range(const TetMesh& m) {
+  AngleRange r{180.0, 0.0};
+  for (Index t = 0; t < m.num_slots(); ++t) {
+    if (!m.alive(t)) continue;
+    const auto p = corners(m, m.tet(t));
+    const AngleRange a = dihedral_range(p[0], p[1], p[2], p[3]);
+    r.min = std::min(r.min, a.min);
+    r.max = std::max(r.max, a.max);
+  }
+  return r;
+}
+
+}  // namespace
+
+Status validate(const OptimizeOptions& o) {
+  const auto bad = [](const char* name, double v) {
+    return invalid_input(fmt::format("optimize option {} = {} is out of range", name, v));
+  };
+  if (!std::isfinite(o.target_min_dihedral) || o.target_min_dihedral < 0)
+    return bad("target_min_dihedral", o.target_min_dihedral);
+  if (!std::isfinite(o.target_max_dihedral) || o.target_max_dihedral > 180 ||
+      o.target_max_dihedral <= o.target_min_dihedral)
+    return bad("target_max_dihedral", o.target_max_dihedral);
+  if (o.sweeps < 0) return bad("sweeps", o.sweeps);
+  if (!std::isfinite(o.insert_min_distance) || o.insert_min_distance < 0)
+    return bad("insert_min_distance", o.insert_min_distance);
+  if (!std::isfinite(o.max_flips_per_tet) || !(o.max_flips_per_tet > 0))
+    return bad("max_flips_per_tet", o.max_flips_per_tet);
+  return Status{};
+}
+
+Result<OptimizeStats> optimize(TetMesh& mesh, const SizingField* sizing,
+                               const OptimizeOptions& options) {
+  PDR_TRY(validate(options));
+  const auto clock_start = std::chrono::steady_clock::now();
+  OptimizeStats st;
+  Optimizer opt(mesh, sizing, options, st);
+  const AngleRange before = mesh_range(mesh);
+  st.min_dihedral_before = before.min;
+  st.max_dihedral_before = before.max;
+  std::vector<Index> bad = opt.bad_tets();
+  st.bad_before = bad.size();
+  for (int sweep = 0; sweep < options.sweeps && !bad.empty(); ++sweep) {
+    ++st.sweeps_run;
+    opt.start_sweep();
+    std::size_t changes = opt.reconnect(std::move(bad));
+    changes += opt.insert_into_slivers();
+    if (options.smooth) changes += opt.smooth();
+    bad = opt.bad_tets();
+    if (changes == 0) break;
+  }
+  st.bad_after = bad.size();
+  const AngleRange after = mesh_range(mesh);
+  st.min_dihedral_after = after.min;
+  st.max_dihedral_after = after.max;
+  st.seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - clock_start).count();
+  return st;
+}
+
+}  // namespace pdrmesh

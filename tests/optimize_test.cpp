@@ -1,0 +1,317 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// Tests of the final optimization (reconnection, sliver removal, smoothing).
+#include "pdrmesh/optimize.hpp"
+
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <vector>
+
+#include "pdrmesh/insert.hpp"
+#include "pdrmesh/predicates.hpp"
+#include "pdrmesh/quality.hpp"
+#include "pdrmesh/sizing.hpp"
+#include "pdrmesh/surface_io.hpp"
+#include "pdrmesh/tetgen_adapter.hpp"
+#include "pdrmesh/topology.hpp"
+#include "pdrmesh/validate.hpp"
+#include "tet_fixtures.hpp"
+
+namespace pdrmesh {
+namespace {
+
+/// n x n x n unit cubes, each cut into the 6 Kuhn tets of fixtures::cube();
+/// point (x, y, z) has index x + (n+1) (y + (n+1) z). The hull is the frozen boundary.
+VolumeMesh kuhn_grid(int n) {
+  VolumeMesh m;
+  const auto id = [n](int x, int y, int z) { return static_cast<Index>(x + (n + 1) * (y + (n + 1) * z)); };
+  for (int z = 0; z <= n; ++z)
+    for (int y = 0; y <= n; ++y)
+      for (int x = 0; x <= n; ++x) m.points.push_back({double(x), double(y), double(z)});
+  const VolumeMesh cube = fixtures::cube();
+  for (int z = 0; z < n; ++z)
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x)
+        for (const Tet& k : cube.tets) {
+          Tet g{};
+          for (int i = 0; i < 4; ++i) {
+            const Index c = k[i];
+            g[i] = id(x + int(c & 1), y + int((c >> 1) & 1), z + int(c >> 2));
+          }
+          m.tets.push_back(g);
+        }
+  return fixtures::with_hull_boundary(m);
+}
+
+std::vector<char> hull_points(const VolumeMesh& m) {
+  std::vector<char> on(m.points.size(), 0);
+  for (const Tri& f : m.boundary)
+    for (Index v : f) on[v] = 1;
+  return on;
+}
+
+bool all_positive(const VolumeMesh& m) {
+  for (const Tet& k : m.tets)
+    if (exact::orient3d(m.points[k[0]], m.points[k[1]], m.points[k[2]], m.points[k[3]]) <= 0)
+      return false;
+  return true;
+}
+
+/// The Kuhn grid with every interior point moved by a deterministic pseudo-random
+/// offset of up to `amount` per axis (halved until every tet stays positive).
+VolumeMesh jittered_grid(int n, double amount) {
+  VolumeMesh m = kuhn_grid(n);
+  const auto on_hull = hull_points(m);
+  std::uint64_t state = 0x2545F4914F6CDD1Dull;
+  const auto next = [&state] {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return static_cast<double>(state >> 11) / 9007199254740992.0 * 2.0 - 1.0;
+  };
+  for (Index v = 0; v < m.points.size(); ++v) {
+    if (on_hull[v]) continue;
+    const Vec3 old = m.points[v];
+    const Vec3 d{next() * amount, next() * amount, next() * amount};
+    double s = 1.0;
+    for (int tries = 0; tries < 8; ++tries, s *= 0.5) {
+      m.points[v] = old + s * d;
+      if (all_positive(m)) break;
+      m.points[v] = old;
+    }
+  }
+  return m;
+}
+
+SurfaceMesh surface_of(const VolumeMesh& m) {
+  SurfaceMesh s;
+  s.points = m.points;
+  s.triangles = m.boundary;
+  s.surface_ids = m.boundary_ids;
+  s.name = "fixture";
+  return s;
+}
+
+SizingField uniform_sizing(const VolumeMesh& m, double h) {
+  SizingOptions o;
+  o.size = h;
+  auto f = SizingField::build(surface_of(m), m, o);
+  EXPECT_TRUE(f.ok()) << f.status().to_string();
+  return std::move(f).value();
+}
+
+/// Smallest dihedral angle over tets with no vertex in `fixed` (or over all).
+double min_dihedral(const TetMesh& m, const std::vector<char>* fixed = nullptr) {
+  double lo = 180;
+  for (Index t = 0; t < m.num_slots(); ++t) {
+    if (!m.alive(t)) continue;
+    const Tet& k = m.tet(t);
+    bool skip = false;
+    for (Index v : k) skip = skip || (fixed != nullptr && v < fixed->size() && (*fixed)[v]);
+    if (skip) continue;
+    lo = std::min(lo, dihedral_range(m.point(k[0]), m.point(k[1]), m.point(k[2]), m.point(k[3])).min);
+  }
+  return lo;
+}
+
+/// Sorted keys of the frozen faces with their coordinates.
+std::vector<std::array<Vec3, 3>> frozen_faces(const TetMesh& m) {
+  std::vector<std::array<Vec3, 3>> out;
+  for (Index t = 0; t < m.num_slots(); ++t) {
+    if (!m.alive(t)) continue;
+    for (int f = 0; f < 4; ++f) {
+      if (!m.frozen(t, f)) continue;
+      const Tri k = topo::face_of(m.tet(t), f);
+      std::array<Vec3, 3> c{m.point(k[0]), m.point(k[1]), m.point(k[2])};
+      std::rotate(c.begin(), std::min_element(c.begin(), c.end()), c.end());  // keep orientation
+      out.push_back(c);
+    }
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+void expect_valid(const TetMesh& m, const SurfaceMesh* surface = nullptr) {
+  ASSERT_TRUE(m.check().ok()) << m.check().to_string();
+  TetMesh copy = m;
+  copy.compact();
+  const ValidationReport r = validate_mesh(copy.to_volume_mesh(), surface);
+  EXPECT_TRUE(r.ok()) << format_validation(r);
+}
+
+/// A sliver (four nearly coplanar points at the corners of a square, two raised,
+/// two lowered by e) with a near-regular cap tet on each face; the hull is frozen.
+VolumeMesh capped_sliver(double e) {
+  VolumeMesh m;
+  m.points = {{1, 0, e}, {-1, 0, e}, {0, 1, -e}, {0, -1, -e}};
+  Tet s{0, 1, 2, 3};
+  if (signed_volume(m.points[0], m.points[1], m.points[2], m.points[3]) < 0) std::swap(s[2], s[3]);
+  m.tets.push_back(s);
+  for (int f = 0; f < 4; ++f) {
+    const Tri k = topo::face_of(s, f);
+    const Vec3 &a = m.points[k[0]], &b = m.points[k[1]], &c = m.points[k[2]];
+    const Vec3 n = cross(b - a, c - a);
+    const double edge = (norm(b - a) + norm(c - b) + norm(a - c)) / 3.0;
+    const Vec3 apex = (1.0 / 3.0) * (a + b + c) + (std::sqrt(2.0 / 3.0) * edge / norm(n)) * n;
+    m.points.push_back(apex);
+    m.tets.push_back({k[0], k[1], k[2], static_cast<Index>(m.points.size() - 1)});
+  }
+  return fixtures::with_hull_boundary(m);
+}
+
+TEST(Optimize, RejectsBadOptions) {
+  TetMesh m = fixtures::build(kuhn_grid(1));
+  OptimizeOptions o;
+  o.target_max_dihedral = 10;
+  EXPECT_FALSE(optimize(m, nullptr, o).ok());
+  o = {};
+  o.sweeps = -1;
+  EXPECT_FALSE(optimize(m, nullptr, o).ok());
+  o = {};
+  o.insert_min_distance = std::nan("");
+  EXPECT_FALSE(optimize(m, nullptr, o).ok());
+  EXPECT_TRUE(optimize(m, nullptr, {}).ok());
+}
+
+TEST(Optimize, GoodMeshIsLeftAlone) {
+  const VolumeMesh v = kuhn_grid(2);  // Kuhn tets: dihedral angles 45..90 degrees
+  TetMesh m = fixtures::build(v);
+  auto st = optimize(m, nullptr, {});
+  ASSERT_TRUE(st.ok());
+  EXPECT_EQ(st->bad_before, 0u);
+  EXPECT_EQ(st->flips + st->points_moved, 0u);
+  EXPECT_EQ(m.points(), v.points);
+}
+
+/// The Kuhn grid with interior point (2, 2, 2) moved to (2.95, 2.3, 2.6): close
+/// to the face x = 3 of its cube, where the Kuhn tet (v, v+x, v+x+y, v+1)
+/// becomes a sliver (its four points nearly coplanar, forming a convex
+/// quadrilateral), and its neighbour (v, v+x, v+x+z, v+1) a flat cap. Every tet
+/// stays positive: v stays inside the convex star of the Kuhn vertex.
+VolumeMesh grid_with_planted_sliver(double gap) {
+  VolumeMesh v = kuhn_grid(4);
+  v.points[2 + 5 * (2 + 5 * 2)] = {3.0 - gap, 2.3, 2.6};
+  return v;
+}
+
+TEST(Optimize, PlantedSliverIsRemoved) {
+  const VolumeMesh v = grid_with_planted_sliver(0.05);
+  ASSERT_TRUE(all_positive(v));
+  TetMesh m = fixtures::build(v);
+  const double volume = fixtures::total_volume(m);
+  auto st = optimize(m, nullptr, {});
+  ASSERT_TRUE(st.ok());
+  EXPECT_LT(st->min_dihedral_before, 5.0);  // the planted sliver
+  EXPECT_GT(st->max_dihedral_before, 170.0);
+  EXPECT_GE(st->slivers_removed, 1u);
+  EXPECT_EQ(st->bad_after, 0u);
+  // Above the 15-degree target: every tet's angles lie in [15, 150] degrees.
+  EXPECT_GT(min_dihedral(m), 15.0);
+  EXPECT_GT(st->min_dihedral_after, 15.0);
+  EXPECT_LT(st->max_dihedral_after, 150.0);
+  EXPECT_NEAR(fixtures::total_volume(m), volume, 1e-12 * volume);
+  expect_valid(m, nullptr);
+}
+
+TEST(Optimize, SliverBetweenHullEdgesStaysWhenNothingImproves) {
+  // Its edges are on the hull and any point inserted in the cavity lies within
+  // e of two of them: no operation improves it, and none may make it worse.
+  const VolumeMesh v = capped_sliver(0.02);
+  TetMesh m = fixtures::build(v);
+  const SizingField h = uniform_sizing(v, 1.5);
+  auto st = optimize(m, &h, {});
+  ASSERT_TRUE(st.ok()) << st.status().to_string();
+  EXPECT_EQ(st->slivers_removed, 0u);
+  EXPECT_EQ(st->points_inserted, 0u);
+  EXPECT_EQ(st->min_dihedral_after, st->min_dihedral_before);
+  EXPECT_EQ(m.points(), v.points);
+  expect_valid(m, nullptr);
+}
+
+TEST(Optimize, SmoothingRepairsMisplacedPoint) {
+  VolumeMesh v = kuhn_grid(3);
+  const Index p = 1 + 4 * (1 + 4 * 1);  // interior point (1, 1, 1); (2, 2, 2) is a neighbour
+  v.points[p] = {1.95, 1.92, 1.96};
+  ASSERT_TRUE(all_positive(v));
+  TetMesh m = fixtures::build(v);
+  const double before = min_dihedral(m);
+  ASSERT_LT(before, 5.0);
+  OptimizeOptions o;
+  o.reconnect = false;  // smoothing alone
+  auto st = optimize(m, nullptr, o);
+  ASSERT_TRUE(st.ok());
+  EXPECT_GE(st->points_moved, 1u);
+  EXPECT_NE(m.point(p), v.points[p]);
+  EXPECT_EQ(st->flips, 0u);
+  EXPECT_GT(min_dihedral(m), 30.0);
+  EXPECT_NEAR(fixtures::total_volume(m), 27.0, 1e-12);
+  expect_valid(m, nullptr);
+}
+
+TEST(Optimize, BoundaryAndFrozenFacesStayAndVolumeIsKept) {
+  const VolumeMesh v = jittered_grid(4, 0.45);
+  TetMesh m = fixtures::build(v);
+  const auto on_hull = hull_points(v);
+  const auto frozen = frozen_faces(m);
+  const double volume = fixtures::total_volume(m);
+  const SizingField h = uniform_sizing(v, 1.0);
+  auto st = optimize(m, &h, {});
+  ASSERT_TRUE(st.ok());
+  EXPECT_GT(st->bad_before, 0u);
+  EXPECT_LT(st->bad_after, st->bad_before);
+  EXPECT_GT(st->flips, 0u);
+  EXPECT_GT(st->points_moved, 0u);
+  EXPECT_GT(st->min_dihedral_after, st->min_dihedral_before);
+  EXPECT_LT(st->max_dihedral_after, st->max_dihedral_before);
+  for (Index i = 0; i < v.points.size(); ++i)
+    if (on_hull[i]) {
+      EXPECT_EQ(m.point(i), v.points[i]) << "boundary point " << i << " moved";
+    }
+  EXPECT_EQ(frozen_faces(m), frozen);
+  EXPECT_NEAR(fixtures::total_volume(m), volume, 1e-12 * volume);
+  expect_valid(m, nullptr);
+}
+
+TEST(Optimize, Deterministic) {
+  const VolumeMesh v = jittered_grid(4, 0.45);
+  const SizingField h = uniform_sizing(v, 1.0);
+  std::vector<VolumeMesh> out;
+  for (int run = 0; run < 2; ++run) {
+    TetMesh m = fixtures::build(v);
+    ASSERT_TRUE(optimize(m, &h, {}).ok());
+    m.compact();
+    out.push_back(m.to_volume_mesh());
+  }
+  ASSERT_EQ(out[0].points.size(), out[1].points.size());
+  EXPECT_EQ(std::memcmp(out[0].points.data(), out[1].points.data(),
+                        out[0].points.size() * sizeof(Vec3)),
+            0);
+  EXPECT_EQ(out[0].tets, out[1].tets);
+}
+
+TEST(Optimize, ImprovesTetgenSphereInterior) {
+  auto surface = read_surface(PDRMESH_CORPUS_DIR "/sphere966.stl");
+  ASSERT_TRUE(surface.ok()) << surface.status().to_string();
+  TetgenOptions to;
+  to.max_volume = enclosed_volume(*surface) / 2000;
+  auto vm = tetrahedralize(*surface, to);
+  ASSERT_TRUE(vm.ok()) << vm.status().to_string();
+  auto built = TetMesh::from_volume_mesh(*vm);
+  ASSERT_TRUE(built.ok()) << built.status().to_string();
+  TetMesh m = std::move(built).value();
+  const auto on_hull = hull_points(*vm);
+  const double before = min_dihedral(m, &on_hull);
+  auto h = SizingField::build(*surface, *vm, {});
+  ASSERT_TRUE(h.ok()) << h.status().to_string();
+  auto st = optimize(m, &*h, {});
+  ASSERT_TRUE(st.ok());
+  const double after = min_dihedral(m, &on_hull);
+  EXPECT_GT(after, before);
+  EXPECT_LE(st->bad_after, st->bad_before);
+  expect_valid(m, &*surface);
+}
+
+}  // namespace
+}  // namespace pdrmesh
