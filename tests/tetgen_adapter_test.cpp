@@ -248,6 +248,20 @@ TEST(TetgenAdapter, SurvivesFaults) {
   EXPECT_EQ(open_fd_count(), fds_before);
 }
 
+TEST(TetgenAdapter, ChildDoesNotRepeatTheParentsPendingOutput) {
+  // Text the parent has buffered but not flushed at fork time belongs to the
+  // parent: it must not reach TetGen's log (and so the error message).
+  std::fputs("pending-parent-output-marker", stdout);
+  TetgenOptions o;
+  o.inject_fault = TetgenOptions::Fault::kCrash;
+  const Result<VolumeMesh> r = tetrahedralize(cube(), o);
+  std::fputs("\n", stdout);
+  std::fflush(stdout);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.status().message().find("pending-parent-output-marker"), std::string::npos)
+      << r.status().to_string();
+}
+
 TEST(TetgenAdapter, ConcurrentCallsAgreeAndRunsAreDeterministic) {
   const SurfaceMesh s = fixtures::corpus_surface("sphere966");
   TetgenOptions o;

@@ -9,6 +9,7 @@
 #include <poll.h>
 #include <signal.h>
 #include <sys/resource.h>
+#include <stdio_ext.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -172,11 +173,12 @@ struct BorrowedInput : tetgenio {
 /// Child: runs TetGen and sends the answer; never returns.
 [[noreturn]] void child_main(ChildInput& input, int result_w, int log_w) {
   child_setup(result_w, log_w, input.memory_limit);
-  // TetGen prints with printf: without buffering, what it printed before a
-  // crash reaches the log. (Line buffering is not reliable on a stream the
-  // parent already used. The flush sends anything inherited from the parent's
-  // buffer to the log pipe, not to the parent's stdout.)
-  std::fflush(stdout);
+  // The stdio buffers are copies of the parent's: what they hold is the
+  // parent's pending output, which the parent writes itself. Discard it here,
+  // so it neither appears twice nor pollutes TetGen's log. Then no buffering,
+  // so that what TetGen printed before a crash reaches the log.
+  __fpurge(stdout);
+  __fpurge(stderr);
   std::setvbuf(stdout, nullptr, _IONBF, 0);
   bool sent = false;
   try {
