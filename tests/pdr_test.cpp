@@ -52,10 +52,13 @@ void expect_valid(const VolumeMesh& m, const SurfaceMesh& s) {
   EXPECT_EQ(m.tet_regions.size(), m.tets.size());
 }
 
+/// Depth 2 with a lighter initial mesh than the default (about 60 tets per
+/// full leaf), to keep the tests fast.
 PdrOptions depth2(std::size_t workers = 1) {
   PdrOptions o;
   o.depth = 2;
   o.workers = workers;
+  o.initial_volume_divisor = 60;
   return o;
 }
 
@@ -78,7 +81,7 @@ TEST(Pdr, NativeKernelMeshesACube) {
 
 TEST(Pdr, TetgenKernelMeshesACube) {
   const SurfaceMesh cube = fixtures::unit_cube_surface();
-  const SizingField h = uniform_sizing(0.12);
+  const SizingField h = uniform_sizing(0.15);
   const TetgenLeafKernel kernel;
   PdrProfile prof;
   Result<VolumeMesh> m = run_pdr(cube, h, kernel, depth2(), &prof);
@@ -86,7 +89,7 @@ TEST(Pdr, TetgenKernelMeshesACube) {
   expect_valid(*m, cube);
   EXPECT_EQ(prof.fixup_unresolved, 0u);
   // Refilled to the sizing: about volume / regular volume tets, give or take.
-  const double expected = 1.0 / regular_tet_volume(0.12);
+  const double expected = 1.0 / regular_tet_volume(0.15);
   EXPECT_GT(static_cast<double>(m->tets.size()), 0.5 * expected);
 }
 
@@ -149,10 +152,13 @@ TEST(Pdr, ByteIdenticalFor1And2And4Workers) {
 
 TEST(Pdr, TetgenKernelByteIdenticalFor1And4Workers) {
   const SurfaceMesh cube = fixtures::unit_cube_surface();
-  const SizingField h = uniform_sizing(0.15);
+  const SizingField h = uniform_sizing(0.2);
   const TetgenLeafKernel kernel;
-  Result<VolumeMesh> a = run_pdr(cube, h, kernel, depth2(1), nullptr);
-  Result<VolumeMesh> b = run_pdr(cube, h, kernel, depth2(4), nullptr);
+  PdrOptions o = depth2(1);
+  o.interface_round = false;
+  Result<VolumeMesh> a = run_pdr(cube, h, kernel, o, nullptr);
+  o.workers = 4;
+  Result<VolumeMesh> b = run_pdr(cube, h, kernel, o, nullptr);
   ASSERT_TRUE(a.ok() && b.ok());
   EXPECT_EQ(a->points, b->points);
   EXPECT_EQ(a->tets, b->tets);
