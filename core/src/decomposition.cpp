@@ -80,6 +80,12 @@ Vec3 tet_barycenter(const VolumeMesh& mesh, Index t) {
 }
 
 Result<Decomposition> decompose(const VolumeMesh& mesh, int depth) {
+  Box bb;
+  for (const Vec3& p : mesh.points) bb.add(p);
+  return decompose(mesh, depth, root_cube(bb));
+}
+
+Result<Decomposition> decompose(const VolumeMesh& mesh, int depth, const Box& box) {
   if (depth < 0 || depth > kMaxDepth) {
     return invalid_input(fmt::format("octree depth {} is outside [0, {}]", depth, kMaxDepth));
   }
@@ -99,9 +105,7 @@ Result<Decomposition> decompose(const VolumeMesh& mesh, int depth) {
   Decomposition d;
   d.depth = depth;
   d.per_side = 1 << depth;
-  Box bb;
-  for (const Vec3& p : mesh.points) bb.add(p);
-  d.box = root_cube(bb);
+  d.box = box;
 
   // Leaf assignment by barycenter.
   std::vector<LeafId> grid_of_tet(nt);

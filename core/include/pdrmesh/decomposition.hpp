@@ -77,6 +77,12 @@ Vec3 tet_barycenter(const VolumeMesh& mesh, Index t);
 /// on the mesh.
 Result<Decomposition> decompose(const VolumeMesh& mesh, int depth);
 
+/// The same over a caller-given root box (any box; `box` is stored as is).
+/// Barycenters outside it go to the nearest edge leaf (leaf_of_point clamps),
+/// so a box shifted by half a leaf puts every interface of the unshifted
+/// grid inside a leaf (the PDR interface round).
+Result<Decomposition> decompose(const VolumeMesh& mesh, int depth, const Box& box);
+
 /// The octree depth for a mesh of `target_tets` (the initial mesh's tet count)
 /// so that leaves hold about `tets_per_leaf` tets: the smallest d with
 /// 8^d * tets_per_leaf >= target_tets, clamped to [0, kMaxDepth]. It counts all

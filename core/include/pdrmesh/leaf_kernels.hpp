@@ -1,0 +1,61 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// The two PDR leaf kernels (leaf_task.hpp's LeafKernel):
+//  * NativeLeafKernel: the leaf as a TetMesh with its hull frozen, refined in
+//    place by a refine hook (the native refiner, refine.hpp, plugs in here);
+//    every input point is kept.
+//  * TetgenLeafKernel: the paper's black-box approach: the leaf's hull (its
+//    frozen faces) is handed to TetGen as a closed surface and TetGen fills it
+//    anew (interior input points are dropped), with a volume bound from the
+//    sizing field. Needs each leaf's hull to be a closed 2-manifold and the leaf
+//    face-connected: run_pdr applies the paper's fix-ups for it.
+#pragma once
+
+#include <functional>
+#include <string_view>
+
+#include "pdrmesh/leaf_task.hpp"
+#include "pdrmesh/sizing.hpp"
+#include "pdrmesh/status.hpp"
+#include "pdrmesh/tet_mesh.hpp"
+
+namespace pdrmesh {
+
+/// Refines a mesh in place towards h(x) without touching frozen faces; must be
+/// deterministic and thread-safe across distinct meshes. The lead wires
+/// refine(mesh, sizing, options, progress) in here.
+using RefineHook = std::function<Status(TetMesh&, const SizingField&)>;
+
+class NativeLeafKernel final : public LeafKernel {
+ public:
+  explicit NativeLeafKernel(RefineHook refine) : refine_(std::move(refine)) {}
+  /// leaf_tet_mesh(in), the hook, then leaf_output_from. Errors of the hook are
+  /// returned with the leaf named.
+  Result<LeafTaskOutput> run(const LeafTaskInput& in, const SizingField& sizing) const override;
+  std::string_view name() const override { return "native"; }
+
+ private:
+  RefineHook refine_;
+};
+
+struct TetgenLeafOptions {
+  double time_limit_s = 600;  ///< per leaf (TetGen runs in a child process)
+};
+
+class TetgenLeafKernel final : public LeafKernel {
+ public:
+  explicit TetgenLeafKernel(TetgenLeafOptions options = {}) : options_(options) {}
+  /// The hull points (ascending local index) and frozen faces as a surface,
+  /// tetrahedralized with max_volume = h^3 / (6 sqrt 2), h the mean of
+  /// sizing.at over all the leaf's input points (a regular tet of edge h).
+  Result<LeafTaskOutput> run(const LeafTaskInput& in, const SizingField& sizing) const override;
+  std::string_view name() const override { return "tetgen"; }
+  bool needs_manifold_hull() const override { return true; }
+
+ private:
+  TetgenLeafOptions options_;
+};
+
+/// Volume of the regular tetrahedron of edge h: h^3 / (6 sqrt 2).
+double regular_tet_volume(double h);
+
+}  // namespace pdrmesh

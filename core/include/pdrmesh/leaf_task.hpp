@@ -1,0 +1,105 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// A PDR leaf task as a pure, serialisable function: the coordinator packs one
+// octree leaf (its tets, its points with their global ids, and its frozen hull)
+// into LeafTaskInput bytes; a kernel refines the leaf's interior and returns
+// LeafTaskOutput bytes; the coordinator decodes and validates them before it
+// trusts anything (the task may run on a remote worker: a result that lies about
+// counts, indices or the frozen hull is rejected).
+//
+// Local numbering. Input point i (0 <= i < points.size()) has the global id
+// point_ids[i]. Output tets use local references: r < input_points is input
+// point r, r >= input_points is new point r - input_points. The output names no
+// global ids at all, so the coordinator numbers new points itself (see pdr.hpp)
+// and merges by id, never by matching coordinates.
+//
+// Frozen faces are the leaf's hull: every face of a leaf tet that no other leaf
+// tet shares, oriented outward w.r.t. the leaf. Each is an interface face (id 0:
+// shared with another leaf) or a geometry boundary face (its surface id, >= 1).
+// A kernel must return a tet set whose hull is exactly these faces (same
+// triangles, same orientation), so that the neighbours still conform. Input
+// points off the hull may be dropped (TetGen re-fills the hull); hull points
+// may not.
+//
+// Binary layout (little-endian; u32/u64 unsigned, f64 IEEE bits):
+//   input:  magic "PDRLEAFI", u32 version, u32 leaf,
+//           u64 n, n x (u64 id, 3 x f64), u64 m, m x 4 x u32,
+//           u64 k, k x (3 x u32, u32 id as two's complement)
+//   output: magic "PDRLEAFO", u32 version, u32 leaf, u32 input_points,
+//           u64 n, n x 3 x f64, u64 m, m x 4 x u32
+// decode() checks every count against the bytes left, indices against the
+// point count, finiteness, repeated vertices and trailing bytes.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "pdrmesh/sizing.hpp"
+#include "pdrmesh/status.hpp"
+#include "pdrmesh/tet_mesh.hpp"
+#include "pdrmesh/types.hpp"
+#include "pdrmesh/volume_mesh.hpp"
+
+namespace pdrmesh {
+
+struct LeafTaskInput {
+  std::uint32_t leaf = 0;              ///< index into the decomposition's leaves
+  std::vector<GlobalId> point_ids;     ///< one per point
+  std::vector<Vec3> points;            ///< the points used by `tets`
+  std::vector<Tet> tets;               ///< local indices into points, positive
+  std::vector<Tri> frozen_faces;       ///< the leaf's hull, outward, local indices
+  std::vector<int> frozen_ids;         ///< per frozen face: surface id, 0 = interface
+
+  std::string encode() const;
+  static Result<LeafTaskInput> decode(std::string_view bytes);
+};
+
+struct LeafTaskOutput {
+  std::uint32_t leaf = 0;          ///< must equal the input's leaf
+  std::uint32_t input_points = 0;  ///< must equal the input's point count
+  std::vector<Vec3> new_points;    ///< local reference input_points + k
+  std::vector<Tet> tets;           ///< local references (see the file comment), positive
+
+  std::string encode() const;
+  static Result<LeafTaskOutput> decode(std::string_view bytes);
+};
+
+/// The coordinator's acceptance test of `out` for `in`: same leaf and input
+/// point count; references in range; every new point finite and used; no tet
+/// with a repeated vertex or not positively oriented (exact::orient3d); every
+/// face shared by at most two tets, with opposite orientations; and the hull
+/// (faces used once) equal to in.frozen_faces exactly, orientation included.
+/// invalid_input naming the leaf and the first problem otherwise.
+Status validate_leaf_output(const LeafTaskInput& in, const LeafTaskOutput& out);
+
+/// The leaf as a TetMesh: points and global-id-free local numbering (point i
+/// has id i, new points get ids from points.size() on), frozen faces as its
+/// frozen boundary with their ids.
+Result<TetMesh> leaf_tet_mesh(const LeafTaskInput& in);
+
+/// The inverse for a TetMesh built by leaf_tet_mesh and then refined: its
+/// alive tets in slot order, with points beyond in.points as new points.
+LeafTaskOutput leaf_output_from(const LeafTaskInput& in, const TetMesh& mesh);
+
+/// A leaf refinement kernel. run() must be a deterministic function of its
+/// arguments (same bytes in, same bytes out), thread-safe (it is called for
+/// several leaves at once), and must keep the frozen faces (see above).
+class LeafKernel {
+ public:
+  virtual ~LeafKernel() = default;
+  virtual Result<LeafTaskOutput> run(const LeafTaskInput& in, const SizingField& sizing) const = 0;
+  virtual std::string_view name() const = 0;
+  /// True when the kernel needs each leaf's hull to be a closed 2-manifold and
+  /// each leaf face-connected (the paper's partition swap and boundary
+  /// extraction fix-ups; run_pdr applies them before building the tasks).
+  virtual bool needs_manifold_hull() const { return false; }
+};
+
+/// Bytes in, bytes out: decodes an input, runs the kernel, encodes its output.
+/// What a remote worker runs.
+Result<std::string> run_leaf_task(const LeafKernel& kernel, std::string_view input,
+                                  const SizingField& sizing);
+
+}  // namespace pdrmesh

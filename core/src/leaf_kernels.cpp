@@ -1,0 +1,72 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// The native (TetMesh + refine hook) and TetGen (refill the frozen hull) leaf kernels.
+#include "pdrmesh/leaf_kernels.hpp"
+
+#include <fmt/format.h>
+
+#include <cmath>
+
+#include "pdrmesh/surface.hpp"
+#include "pdrmesh/tetgen_adapter.hpp"
+
+namespace pdrmesh {
+
+double regular_tet_volume(double h) { return h * h * h / (6.0 * std::sqrt(2.0)); }
+
+Result<LeafTaskOutput> NativeLeafKernel::run(const LeafTaskInput& in, const SizingField& sizing) const {
+  Result<TetMesh> mesh = leaf_tet_mesh(in);
+  if (!mesh.ok()) {
+    return Status(mesh.status().code(), fmt::format("leaf {}: {}", in.leaf, mesh.status().message()));
+  }
+  if (refine_) {
+    const Status s = refine_(*mesh, sizing);
+    if (!s.ok()) return Status(s.code(), fmt::format("leaf {}: refinement: {}", in.leaf, s.message()));
+  }
+  return leaf_output_from(in, *mesh);
+}
+
+Result<LeafTaskOutput> TetgenLeafKernel::run(const LeafTaskInput& in, const SizingField& sizing) const {
+  LeafTaskOutput out;
+  out.leaf = in.leaf;
+  out.input_points = static_cast<std::uint32_t>(in.points.size());
+  if (in.tets.empty()) return out;
+
+  // The hull surface: its points in ascending local index.
+  std::vector<Index> to_hull(in.points.size(), kNoIndex);
+  for (const Tri& f : in.frozen_faces)
+    for (Index v : f) to_hull[v] = 0;
+  SurfaceMesh surface;
+  surface.name = fmt::format("leaf {} hull", in.leaf);
+  std::vector<Index> from_hull;
+  for (Index v = 0; v < in.points.size(); ++v) {
+    if (to_hull[v] == kNoIndex) continue;
+    to_hull[v] = static_cast<Index>(from_hull.size());
+    from_hull.push_back(v);
+    surface.points.push_back(in.points[v]);
+  }
+  for (const Tri& f : in.frozen_faces) surface.triangles.push_back({to_hull[f[0]], to_hull[f[1]], to_hull[f[2]]});
+  surface.surface_ids.assign(surface.triangles.size(), 1);
+
+  double sum_h = 0;
+  for (const Vec3& p : in.points) sum_h += sizing.at(p);
+  TetgenOptions options;
+  options.max_volume = regular_tet_volume(sum_h / static_cast<double>(in.points.size()));
+  options.time_limit_s = options_.time_limit_s;
+  Result<VolumeMesh> filled = tetrahedralize(surface, options);
+  if (!filled.ok()) {
+    return Status(filled.status().code(), fmt::format("leaf {}: TetGen on its hull ({} faces): {}", in.leaf,
+                                                      surface.triangles.size(), filled.status().message()));
+  }
+  const std::size_t nh = from_hull.size();
+  const auto ni = static_cast<Index>(in.points.size());
+  out.new_points.assign(filled->points.begin() + static_cast<std::ptrdiff_t>(nh), filled->points.end());
+  out.tets.reserve(filled->tets.size());
+  for (const Tet& t : filled->tets) {
+    Tet r;
+    for (int i = 0; i < 4; ++i) r[i] = t[i] < nh ? from_hull[t[i]] : ni + (t[i] - static_cast<Index>(nh));
+    out.tets.push_back(r);
+  }
+  return out;
+}
+
+}  // namespace pdrmesh

@@ -1,0 +1,266 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// Leaf task serialisation and the coordinator's acceptance test of a result.
+#include "pdrmesh/leaf_task.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <utility>
+
+#include "byte_codec.hpp"
+#include "pdrmesh/predicates.hpp"
+#include "pdrmesh/topology.hpp"
+
+namespace pdrmesh {
+
+namespace {
+
+constexpr char kInputMagic[8] = {'P', 'D', 'R', 'L', 'E', 'A', 'F', 'I'};
+constexpr char kOutputMagic[8] = {'P', 'D', 'R', 'L', 'E', 'A', 'F', 'O'};
+constexpr std::uint32_t kVersion = 1;
+
+Status decode_error(std::string_view what, std::string_view detail) {
+  return invalid_input(fmt::format("leaf task {}: {}", what, detail));
+}
+
+void put_point(codec::Writer& w, const Vec3& p) {
+  for (double c : p) w.f64(c);
+}
+
+bool get_point(codec::Reader& r, Vec3& p) {
+  for (double& c : p)
+    if (!r.f64(c) || !std::isfinite(c)) return false;
+  return true;
+}
+
+template <std::size_t N>
+void put_indices(codec::Writer& w, const std::array<Index, N>& a) {
+  for (Index v : a) w.u32(v);
+}
+
+/// Reads N indices, each below `limit` and pairwise distinct.
+template <std::size_t N>
+bool get_indices(codec::Reader& r, std::array<Index, N>& a, std::size_t limit) {
+  for (std::size_t i = 0; i < N; ++i) {
+    if (!r.u32(a[i]) || a[i] >= limit) return false;
+    for (std::size_t j = 0; j < i; ++j)
+      if (a[j] == a[i]) return false;
+  }
+  return true;
+}
+
+bool get_header(codec::Reader& r, const char (&magic)[8]) {
+  char m[8];
+  std::uint32_t version = 0;
+  return r.bytes(m, 8) && std::memcmp(m, magic, 8) == 0 && r.u32(version) && version == kVersion;
+}
+
+/// Rotates a triangle so that its smallest index comes first (keeps orientation).
+Tri canonical(const Tri& t) {
+  const int m = t[0] < t[1] ? (t[0] < t[2] ? 0 : 2) : (t[1] < t[2] ? 1 : 2);
+  return {t[static_cast<std::size_t>(m)], t[static_cast<std::size_t>((m + 1) % 3)],
+          t[static_cast<std::size_t>((m + 2) % 3)]};
+}
+
+std::string tri_str(const Tri& t) { return fmt::format("({}, {}, {})", t[0], t[1], t[2]); }
+
+}  // namespace
+
+std::string LeafTaskInput::encode() const {
+  codec::Writer w;
+  w.bytes(kInputMagic, 8);
+  w.u32(kVersion);
+  w.u32(leaf);
+  w.u64(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    w.u64(i < point_ids.size() ? point_ids[i] : GlobalId{0});
+    put_point(w, points[i]);
+  }
+  w.u64(tets.size());
+  for (const Tet& t : tets) put_indices(w, t);
+  w.u64(frozen_faces.size());
+  for (std::size_t i = 0; i < frozen_faces.size(); ++i) {
+    put_indices(w, frozen_faces[i]);
+    w.u32(static_cast<std::uint32_t>(i < frozen_ids.size() ? frozen_ids[i] : 0));
+  }
+  return w.take();
+}
+
+Result<LeafTaskInput> LeafTaskInput::decode(std::string_view bytes) {
+  codec::Reader r(bytes);
+  LeafTaskInput in;
+  if (!get_header(r, kInputMagic)) return decode_error("input", "bad magic or version");
+  if (!r.u32(in.leaf)) return decode_error("input", "truncated header");
+  std::size_t n = 0;
+  if (!r.count(32, n)) return decode_error("input", "point count exceeds the buffer");
+  in.point_ids.resize(n);
+  in.points.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!r.u64(in.point_ids[i]) || !get_point(r, in.points[i]))
+      return decode_error("input", fmt::format("point {} is truncated or not finite", i));
+  }
+  std::vector<GlobalId> ids = in.point_ids;
+  std::sort(ids.begin(), ids.end());
+  if (std::adjacent_find(ids.begin(), ids.end()) != ids.end())
+    return decode_error("input", "two points have the same global id");
+  std::size_t m = 0;
+  if (!r.count(16, m)) return decode_error("input", "tet count exceeds the buffer");
+  in.tets.resize(m);
+  for (std::size_t t = 0; t < m; ++t) {
+    if (!get_indices(r, in.tets[t], n))
+      return decode_error("input", fmt::format("tet {} has an index out of range (of {}) or repeated", t, n));
+  }
+  std::size_t k = 0;
+  if (!r.count(16, k)) return decode_error("input", "frozen face count exceeds the buffer");
+  in.frozen_faces.resize(k);
+  in.frozen_ids.resize(k);
+  for (std::size_t f = 0; f < k; ++f) {
+    std::uint32_t id = 0;
+    if (!get_indices(r, in.frozen_faces[f], n) || !r.u32(id))
+      return decode_error("input", fmt::format("frozen face {} has an index out of range (of {}) or repeated", f, n));
+    in.frozen_ids[f] = static_cast<int>(id);
+  }
+  if (r.left() != 0) return decode_error("input", fmt::format("{} trailing bytes", r.left()));
+  return in;
+}
+
+std::string LeafTaskOutput::encode() const {
+  codec::Writer w;
+  w.bytes(kOutputMagic, 8);
+  w.u32(kVersion);
+  w.u32(leaf);
+  w.u32(input_points);
+  w.u64(new_points.size());
+  for (const Vec3& p : new_points) put_point(w, p);
+  w.u64(tets.size());
+  for (const Tet& t : tets) put_indices(w, t);
+  return w.take();
+}
+
+Result<LeafTaskOutput> LeafTaskOutput::decode(std::string_view bytes) {
+  codec::Reader r(bytes);
+  LeafTaskOutput out;
+  if (!get_header(r, kOutputMagic)) return decode_error("output", "bad magic or version");
+  if (!r.u32(out.leaf) || !r.u32(out.input_points)) return decode_error("output", "truncated header");
+  std::size_t n = 0;
+  if (!r.count(24, n)) return decode_error("output", "new point count exceeds the buffer");
+  out.new_points.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!get_point(r, out.new_points[i]))
+      return decode_error("output", fmt::format("new point {} is truncated or not finite", i));
+  }
+  const std::size_t limit = std::size_t{out.input_points} + n;
+  std::size_t m = 0;
+  if (!r.count(16, m)) return decode_error("output", "tet count exceeds the buffer");
+  out.tets.resize(m);
+  for (std::size_t t = 0; t < m; ++t) {
+    if (!get_indices(r, out.tets[t], limit))
+      return decode_error("output", fmt::format("tet {} has a reference out of range (of {}) or repeated", t, limit));
+  }
+  if (r.left() != 0) return decode_error("output", fmt::format("{} trailing bytes", r.left()));
+  return out;
+}
+
+Status validate_leaf_output(const LeafTaskInput& in, const LeafTaskOutput& out) {
+  auto fail = [&](std::string what) {
+    return invalid_input(fmt::format("leaf {} result rejected: {}", in.leaf, what));
+  };
+  if (out.leaf != in.leaf) return fail(fmt::format("it names leaf {}", out.leaf));
+  if (out.input_points != in.points.size())
+    return fail(fmt::format("it counts {} input points, the task had {}", out.input_points, in.points.size()));
+  const std::size_t ni = in.points.size();
+  const std::size_t limit = ni + out.new_points.size();
+  auto point = [&](Index r) -> const Vec3& { return r < ni ? in.points[r] : out.new_points[r - ni]; };
+  std::vector<unsigned char> used(out.new_points.size(), 0);
+  struct Face {
+    Tri key;  // sorted
+    Tri tri;  // canonical rotation, oriented
+    bool operator<(const Face& o) const { return key < o.key || (key == o.key && tri < o.tri); }
+  };
+  std::vector<Face> faces;
+  faces.reserve(4 * out.tets.size());
+  for (std::size_t t = 0; t < out.tets.size(); ++t) {
+    const Tet& v = out.tets[t];
+    for (int i = 0; i < 4; ++i) {
+      if (v[i] >= limit) return fail(fmt::format("tet {} refers to {} of {} points", t, v[i], limit));
+      for (int j = 0; j < i; ++j)
+        if (v[i] == v[j]) return fail(fmt::format("tet {} repeats point {}", t, v[i]));
+      if (v[i] >= ni) used[v[i] - ni] = 1;
+    }
+    if (exact::orient3d(point(v[0]), point(v[1]), point(v[2]), point(v[3])) <= 0)
+      return fail(fmt::format("tet {} ({}, {}, {}, {}) is not positively oriented", t, v[0], v[1], v[2], v[3]));
+    for (int f = 0; f < 4; ++f) {
+      const Tri tri = topo::face_of(v, f);
+      faces.push_back({topo::sorted_key(tri), canonical(tri)});
+    }
+  }
+  for (std::size_t k = 0; k < used.size(); ++k)
+    if (used[k] == 0) return fail(fmt::format("new point {} is used by no tet", k));
+  for (const Vec3& p : out.new_points)
+    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+      return fail(fmt::format("a new point is not finite ({}, {}, {})", p[0], p[1], p[2]));
+  std::sort(faces.begin(), faces.end());
+  std::vector<Tri> hull;
+  for (std::size_t i = 0; i < faces.size();) {
+    std::size_t j = i + 1;
+    while (j < faces.size() && faces[j].key == faces[i].key) ++j;
+    if (j - i > 2) return fail(fmt::format("face {} is shared by {} tets", tri_str(faces[i].key), j - i));
+    if (j - i == 2) {
+      const Tri& a = faces[i].tri;
+      const Tri& b = faces[i + 1].tri;
+      if (!(a[1] == b[2] && a[2] == b[1]))
+        return fail(fmt::format("face {} is used twice with the same orientation", tri_str(faces[i].key)));
+    } else {
+      hull.push_back(faces[i].tri);
+    }
+    i = j;
+  }
+  std::vector<Tri> frozen;
+  frozen.reserve(in.frozen_faces.size());
+  for (const Tri& f : in.frozen_faces) frozen.push_back(canonical(f));
+  std::sort(hull.begin(), hull.end());
+  std::sort(frozen.begin(), frozen.end());
+  if (hull != frozen) {
+    std::vector<Tri> extra, missing;
+    std::set_difference(hull.begin(), hull.end(), frozen.begin(), frozen.end(), std::back_inserter(extra));
+    std::set_difference(frozen.begin(), frozen.end(), hull.begin(), hull.end(), std::back_inserter(missing));
+    return fail(fmt::format("its hull has {} faces, the frozen hull {}: {} faces not frozen (first {}), {} frozen "
+                            "faces missing (first {})",
+                            hull.size(), frozen.size(), extra.size(), extra.empty() ? "-" : tri_str(extra[0]),
+                            missing.size(), missing.empty() ? "-" : tri_str(missing[0])));
+  }
+  return {};
+}
+
+Result<TetMesh> leaf_tet_mesh(const LeafTaskInput& in) {
+  VolumeMesh v;
+  v.points = in.points;
+  v.tets = in.tets;
+  v.boundary = in.frozen_faces;
+  v.boundary_ids = in.frozen_ids;
+  std::vector<GlobalId> ids(in.points.size());
+  for (std::size_t i = 0; i < ids.size(); ++i) ids[i] = i;
+  return TetMesh::from_volume_mesh(v, std::move(ids), static_cast<GlobalId>(in.points.size()));
+}
+
+LeafTaskOutput leaf_output_from(const LeafTaskInput& in, const TetMesh& mesh) {
+  LeafTaskOutput out;
+  out.leaf = in.leaf;
+  out.input_points = static_cast<std::uint32_t>(in.points.size());
+  out.new_points.assign(mesh.points().begin() + static_cast<std::ptrdiff_t>(in.points.size()),
+                        mesh.points().end());
+  out.tets.reserve(mesh.num_tets());
+  for (Index t = 0; t < mesh.num_slots(); ++t)
+    if (mesh.alive(t)) out.tets.push_back(mesh.tet(t));
+  return out;
+}
+
+Result<std::string> run_leaf_task(const LeafKernel& kernel, std::string_view input, const SizingField& sizing) {
+  PDR_ASSIGN_OR_RETURN(LeafTaskInput in, LeafTaskInput::decode(input));
+  PDR_ASSIGN_OR_RETURN(LeafTaskOutput out, kernel.run(in, sizing));
+  return out.encode();
+}
+
+}  // namespace pdrmesh

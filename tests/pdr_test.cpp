@@ -1,0 +1,228 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// The PDR engine end to end: both kernels on a cube and on sphere966, results
+// validated against the surface, byte-identical for 1, 2 and 4 workers, and
+// lying kernels rejected.
+#include "pdrmesh/pdr.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <optional>
+#include <string>
+
+#include "pdr_fixtures.hpp"
+#include "pdrmesh/leaf_kernels.hpp"
+#include "pdrmesh/surface_io.hpp"
+#include "pdrmesh/tetgen_adapter.hpp"
+#include "pdrmesh/validate.hpp"
+#include "pdrmesh/volume_io.hpp"
+#include "test_fixtures.hpp"
+
+namespace pdrmesh {
+namespace {
+
+using fixtures::barycenter_hook;
+using fixtures::uniform_sizing;
+
+struct Sphere {
+  SurfaceMesh surface;
+  std::optional<SizingField> sizing;
+};
+
+/// sphere966 with its surface-derived sizing field (nullptr when unreadable).
+const Sphere* sphere() {
+  static const std::optional<Sphere> s = []() -> std::optional<Sphere> {
+    Result<SurfaceMesh> surface = read_surface(std::string(PDRMESH_CORPUS_DIR) + "/sphere966.mesh");
+    if (!surface.ok()) return std::nullopt;
+    Result<VolumeMesh> background = tetrahedralize(*surface);
+    if (!background.ok()) return std::nullopt;
+    Result<SizingField> h = SizingField::build(*surface, *background, {});
+    if (!h.ok()) return std::nullopt;
+    Sphere sp;
+    sp.surface = std::move(*surface);
+    sp.sizing.emplace(std::move(*h));
+    return sp;
+  }();
+  return s ? &*s : nullptr;
+}
+
+void expect_valid(const VolumeMesh& m, const SurfaceMesh& s) {
+  const ValidationReport rep = validate_mesh(m, &s);
+  EXPECT_TRUE(rep.ok()) << format_validation(rep);
+  EXPECT_EQ(m.tet_regions.size(), m.tets.size());
+}
+
+/// Depth 2 with a lighter initial mesh than the default (about 60 tets per
+/// full leaf), to keep the tests fast.
+PdrOptions depth2(std::size_t workers = 1) {
+  PdrOptions o;
+  o.depth = 2;
+  o.workers = workers;
+  o.initial_volume_divisor = 60;
+  return o;
+}
+
+TEST(Pdr, NativeKernelMeshesACube) {
+  const SurfaceMesh cube = fixtures::unit_cube_surface();
+  const SizingField h = uniform_sizing(0.1);
+  const NativeLeafKernel kernel(barycenter_hook(30));
+  PdrProfile prof;
+  Result<VolumeMesh> m = run_pdr(cube, h, kernel, depth2(), &prof);
+  ASSERT_TRUE(m.ok()) << m.status().to_string();
+  expect_valid(*m, cube);
+  EXPECT_EQ(prof.depth, 2);
+  EXPECT_GT(prof.leaf_count, 8u);
+  EXPECT_GT(prof.interface_leaf_count, 8u);
+  EXPECT_EQ(prof.fixup_swaps + prof.fixup_moves, 0u);  // the native kernel needs no fix-ups
+  // Both rounds inserted points: at least 30 per leaf that had a large tet.
+  EXPECT_GT(prof.interior_points, prof.initial_tets / 10);
+  EXPECT_EQ(prof.final_tets, m->tets.size());
+}
+
+TEST(Pdr, TetgenKernelMeshesACube) {
+  const SurfaceMesh cube = fixtures::unit_cube_surface();
+  const SizingField h = uniform_sizing(0.15);
+  const TetgenLeafKernel kernel;
+  PdrProfile prof;
+  Result<VolumeMesh> m = run_pdr(cube, h, kernel, depth2(), &prof);
+  ASSERT_TRUE(m.ok()) << m.status().to_string();
+  expect_valid(*m, cube);
+  EXPECT_EQ(prof.fixup_unresolved, 0u);
+  // Refilled to the sizing: about volume / regular volume tets, give or take.
+  const double expected = 1.0 / regular_tet_volume(0.15);
+  EXPECT_GT(static_cast<double>(m->tets.size()), 0.5 * expected);
+}
+
+TEST(Pdr, BothKernelsMeshSphere966) {
+  const Sphere* sp = sphere();
+  if (sp == nullptr) GTEST_SKIP() << "sphere966.mesh not readable";
+  const NativeLeafKernel native(barycenter_hook(20));
+  const TetgenLeafKernel tetgen;
+  for (const LeafKernel* k : {static_cast<const LeafKernel*>(&native), static_cast<const LeafKernel*>(&tetgen)}) {
+    SCOPED_TRACE(std::string(k->name()));
+    PdrProfile prof;
+    Result<VolumeMesh> m = run_pdr(sp->surface, *sp->sizing, *k, depth2(2), &prof);
+    ASSERT_TRUE(m.ok()) << m.status().to_string();
+    expect_valid(*m, sp->surface);
+    EXPECT_EQ(prof.fixup_unresolved, 0u);
+    EXPECT_GT(prof.interior_points, 0u);
+  }
+}
+
+VolumeMesh run_native(const Sphere& sp, std::size_t workers, SchedulePolicy policy = SchedulePolicy::kColoured) {
+  const NativeLeafKernel kernel(barycenter_hook(20));
+  PdrOptions o = depth2(workers);
+  o.policy = policy;
+  Result<VolumeMesh> m = run_pdr(sp.surface, *sp.sizing, kernel, o, nullptr);
+  EXPECT_TRUE(m.ok()) << m.status().to_string();
+  return m.ok() ? std::move(*m) : VolumeMesh{};
+}
+
+std::string meshb_bytes(const VolumeMesh& m, const std::string& name) {
+  const auto path = std::filesystem::temp_directory_path() / (name + ".meshb");
+  EXPECT_TRUE(write_volume(m, path).ok());
+  std::string bytes;
+  if (FILE* f = std::fopen(path.c_str(), "rb")) {
+    char buf[65536];
+    std::size_t n = 0;
+    while ((n = std::fread(buf, 1, sizeof buf, f)) > 0) bytes.append(buf, n);
+    std::fclose(f);
+  }
+  std::filesystem::remove(path);
+  return bytes;
+}
+
+TEST(Pdr, ByteIdenticalFor1And2And4Workers) {
+  const Sphere* sp = sphere();
+  if (sp == nullptr) GTEST_SKIP() << "sphere966.mesh not readable";
+  const VolumeMesh one = run_native(*sp, 1);
+  expect_valid(one, sp->surface);
+  const std::string ref = meshb_bytes(one, "pdr_w1");
+  ASSERT_GT(ref.size(), 1000u);
+  for (std::size_t w : {2u, 4u}) {
+    const VolumeMesh m = run_native(*sp, w);
+    EXPECT_EQ(m.points, one.points) << w;
+    EXPECT_EQ(m.tets, one.tets) << w;
+    EXPECT_EQ(m.tet_regions, one.tet_regions) << w;
+    EXPECT_EQ(meshb_bytes(m, "pdr_w" + std::to_string(w)), ref) << w;
+  }
+  // kDynamic is valid too, though its numbering may follow the timing.
+  expect_valid(run_native(*sp, 4, SchedulePolicy::kDynamic), sp->surface);
+}
+
+TEST(Pdr, TetgenKernelByteIdenticalFor1And4Workers) {
+  const SurfaceMesh cube = fixtures::unit_cube_surface();
+  const SizingField h = uniform_sizing(0.2);
+  const TetgenLeafKernel kernel;
+  PdrOptions o = depth2(1);
+  o.interface_round = false;
+  Result<VolumeMesh> a = run_pdr(cube, h, kernel, o, nullptr);
+  o.workers = 4;
+  Result<VolumeMesh> b = run_pdr(cube, h, kernel, o, nullptr);
+  ASSERT_TRUE(a.ok() && b.ok());
+  EXPECT_EQ(a->points, b->points);
+  EXPECT_EQ(a->tets, b->tets);
+}
+
+/// Returns the honest result minus its last tet (a frozen face goes missing).
+class DroppingKernel final : public LeafKernel {
+ public:
+  Result<LeafTaskOutput> run(const LeafTaskInput& in, const SizingField& h) const override {
+    Result<LeafTaskOutput> r = inner_.run(in, h);
+    if (r.ok() && in.leaf == 3 && !r->tets.empty()) r->tets.pop_back();
+    return r;
+  }
+  std::string_view name() const override { return "dropping"; }
+
+ private:
+  NativeLeafKernel inner_{barycenter_hook(5)};
+};
+
+TEST(Pdr, RejectsALyingKernel) {
+  const DroppingKernel kernel;
+  Result<VolumeMesh> m = run_pdr(fixtures::unit_cube_surface(), uniform_sizing(0.2), kernel, depth2(2), nullptr);
+  ASSERT_FALSE(m.ok());
+  EXPECT_NE(m.status().message().find("leaf 3 result rejected"), std::string::npos) << m.status().to_string();
+}
+
+TEST(Pdr, InterfaceRoundRefinesMore) {
+  const SurfaceMesh cube = fixtures::unit_cube_surface();
+  const SizingField h = uniform_sizing(0.1);
+  const NativeLeafKernel kernel(barycenter_hook(30));
+  PdrOptions once = depth2();
+  once.interface_round = false;
+  PdrProfile p1, p2;
+  Result<VolumeMesh> a = run_pdr(cube, h, kernel, once, &p1);
+  Result<VolumeMesh> b = run_pdr(cube, h, kernel, depth2(), &p2);
+  ASSERT_TRUE(a.ok() && b.ok());
+  expect_valid(*a, cube);
+  EXPECT_EQ(p1.interface_leaf_count, 0u);
+  EXPECT_GT(b->points.size(), a->points.size());
+}
+
+TEST(Pdr, RejectsBadOptions) {
+  const NativeLeafKernel kernel(barycenter_hook(1));
+  PdrOptions o;
+  o.depth = kMaxDepth + 1;
+  EXPECT_EQ(run_pdr(fixtures::unit_cube_surface(), uniform_sizing(0.5), kernel, o, nullptr).status().code(),
+            StatusCode::kInvalidInput);
+  o = PdrOptions{};
+  o.initial_volume_divisor = 0;
+  EXPECT_EQ(run_pdr(fixtures::unit_cube_surface(), uniform_sizing(0.5), kernel, o, nullptr).status().code(),
+            StatusCode::kInvalidInput);
+}
+
+TEST(Pdr, DefaultDepthFollowsTheSizing) {
+  const NativeLeafKernel kernel(barycenter_hook(1));
+  PdrOptions o;
+  o.final_tets_per_leaf = 1000;
+  PdrProfile prof;
+  // h = 0.2: about 1 / regular_tet_volume(0.2) = 1060 tets expected, so depth 1.
+  Result<VolumeMesh> m = run_pdr(fixtures::unit_cube_surface(), uniform_sizing(0.2), kernel, o, &prof);
+  ASSERT_TRUE(m.ok()) << m.status().to_string();
+  EXPECT_EQ(prof.depth, 1);
+  EXPECT_EQ(prof.depth, default_depth(static_cast<std::size_t>(1.0 / regular_tet_volume(0.2)), 1000));
+}
+
+}  // namespace
+}  // namespace pdrmesh
