@@ -6,12 +6,18 @@
 #include <chrono>
 #include <cstdio>
 #include <fstream>
+#include <memory>
 #include <string>
 
 #include "exit_codes.hpp"
+#include "pdrmesh/leaf_kernels.hpp"
+#include "pdrmesh/optimize.hpp"
+#include "pdrmesh/pdr.hpp"
 #include "pdrmesh/quality.hpp"
+#include "pdrmesh/sizing.hpp"
 #include "pdrmesh/surface_check.hpp"
 #include "pdrmesh/surface_io.hpp"
+#include "pdrmesh/tet_mesh.hpp"
 #include "pdrmesh/tetgen_adapter.hpp"
 #include "pdrmesh/validate.hpp"
 #include "pdrmesh/volume_io.hpp"
@@ -111,6 +117,110 @@ int run_mesh(const MeshArgs& a) {
   return kExitOk;
 }
 
+/// Size options shared by the commands that refine (the point distribution function).
+struct SizeArgs {
+  double size = 0, hmin = 0, hmax = 0, growth = 1.2;
+
+  void add_to(CLI::App* cmd) {
+    cmd->add_option("--size", size, "uniform target edge length (default: the surface's own spacing)")
+        ->check(CLI::PositiveNumber);
+    cmd->add_option("--hmin", hmin, "smallest target edge length")->check(CLI::PositiveNumber);
+    cmd->add_option("--hmax", hmax, "largest target edge length")->check(CLI::PositiveNumber);
+    cmd->add_option("--growth", growth, "how fast the spacing may grow away from the boundary (> 1)")
+        ->capture_default_str();
+  }
+  SizingOptions options() const {
+    SizingOptions o;
+    if (size > 0) o.size = size;
+    if (hmin > 0) o.hmin = hmin;
+    if (hmax > 0) o.hmax = hmax;
+    o.growth = growth;
+    return o;
+  }
+};
+
+struct RunArgs {
+  std::string surface;
+  std::string output;
+  std::size_t workers = 1;
+  int depth = -1;
+  std::string kernel = "tetgen";
+  bool profile = false;
+  bool no_interface_round = false;
+  bool no_optimize = false;
+  bool quiet = false;
+  SizeArgs size;
+};
+
+/// The final optimization over a merged mesh: boundary frozen, sizing-aware.
+Status optimize_volume(VolumeMesh& mesh, const SizingField& sizing) {
+  auto tets = TetMesh::from_volume_mesh(mesh);
+  if (!tets.ok()) return tets.status();
+  auto stats = optimize(*tets, &sizing);
+  if (!stats.ok()) return stats.status();
+  mesh = tets->to_volume_mesh();
+  return {};
+}
+
+void print_profile(const PdrProfile& p) {
+  const double total = p.total > 0 ? p.total : 1;
+  fmt::print(stderr, "profile: depth {}, {} leaves (+{} in the interface round), {} initial tets, {} final tets, "
+                     "max concurrency {}\n",
+             p.depth, p.leaf_count, p.interface_leaf_count, p.initial_tets, p.final_tets, p.max_concurrency);
+  const std::pair<const char*, double> phases[] = {
+      {"initial mesh", p.initial},       {"decomposition", p.decomposition}, {"fix-ups", p.fixups},
+      {"leaf refinement", p.leaves},     {"merge", p.merge},                 {"interface round", p.interface_round},
+      {"optimization", p.optimization}};
+  for (const auto& [name, s] : phases)
+    fmt::print(stderr, "  {:<16} {:9.3f} s {:6.1f}%\n", name, s, 100 * s / total);
+  fmt::print(stderr, "  {:<16} {:9.3f} s; fix-ups moved {} tets by partition swap, {} by boundary extraction\n",
+             "total", p.total, p.fixup_swaps, p.fixup_moves);
+}
+
+int run_run(const RunArgs& a) {
+  const Progress progress(a.quiet);
+  if (auto f = volume_format_from_path(a.output); !f.ok()) return fail(f.status());
+  SurfaceMesh surface;
+  if (int code = load_checked_surface(a.surface, progress, surface); code != kExitOk) return code;
+
+  auto background = tetrahedralize(surface);
+  if (!background.ok()) return fail(background.status());
+  auto sizing = SizingField::build(surface, *background, a.size.options());
+  if (!sizing.ok()) return fail(sizing.status());
+  progress.say("point distribution function built from {} boundary points", sizing->boundary_points());
+
+  std::unique_ptr<LeafKernel> kernel;
+  if (a.kernel == "tetgen") {
+    kernel = std::make_unique<TetgenLeafKernel>();
+  } else {
+    return fail(unsupported(fmt::format("--kernel {}: this build has the tetgen kernel only", a.kernel)));
+  }
+  PdrOptions options;
+  options.depth = a.depth;
+  options.workers = a.workers;
+  options.interface_round = !a.no_interface_round;
+  if (!a.no_optimize) {
+    options.optimize = [&sizing](VolumeMesh& m) { return optimize_volume(m, *sizing); };
+  }
+  PdrProfile profile;
+  auto mesh = run_pdr(surface, *sizing, *kernel, options, &profile);
+  if (!mesh.ok()) return fail(mesh.status());
+  progress.say("parallel refinement ({} kernel, {} worker(s), depth {}): {} tets, {} points", kernel->name(),
+               a.workers, profile.depth, mesh->tets.size(), mesh->points.size());
+
+  const ValidationReport v = validate_mesh(*mesh, &surface);
+  if (!v.ok()) {
+    fmt::print(stderr, "{}", format_validation(v));
+    return fail(internal_error("the generated mesh failed validation; please report this with the input"));
+  }
+  progress.say("validated: conforming, positive, boundary identical to the input, volume conserved");
+  if (Status s = write_volume(*mesh, a.output); !s.ok()) return fail(s);
+  progress.say("wrote {}", a.output);
+  if (a.profile) print_profile(profile);
+  if (!a.quiet) fmt::print(stderr, "{}", format_quality(measure_quality(*mesh)));
+  return kExitOk;
+}
+
 int run_quality(const std::string& path, bool json, const std::string& svg) {
   auto mesh = read_volume(path);
   if (!mesh.ok()) return fail(mesh.status());
@@ -178,6 +288,24 @@ void add_local_commands(CLI::App& app, int& exit_code) {
     cmd->add_flag("-q,--quiet", a->quiet, "no progress or summary on stderr");
     cmd->add_flag("--no-validate", a->no_validate, "skip validating the result before writing it");
     cmd->callback([&exit_code, a] { exit_code = run_mesh(*a); });
+  }
+  {
+    auto* cmd = app.add_subcommand("run", "Mesh a surface with the parallel method (PDR) in this process: "
+                                          "octree decomposition, leaf refinement under the lock table, merge, "
+                                          "interface round, final optimization.");
+    auto a = std::make_shared<RunArgs>();
+    cmd->add_option("SURFACE", a->surface, "surface file (.stl .obj .off .ply .mesh .surf)")->required();
+    cmd->add_option("-o,--output", a->output, "output volume mesh " + volume_formats)->required();
+    cmd->add_option("--workers", a->workers, "leaf tasks run at once")->check(CLI::PositiveNumber)->capture_default_str();
+    cmd->add_option("--depth", a->depth, "octree depth (2^d leaves a side); default: chosen from the target size")
+        ->check(CLI::Range(0, 10));
+    cmd->add_option("--kernel", a->kernel, "leaf kernel")->check(CLI::IsMember({"native", "tetgen"}))->capture_default_str();
+    cmd->add_flag("--profile", a->profile, "print the time of each phase and its share");
+    cmd->add_flag("--no-interface-round", a->no_interface_round, "skip the second, shifted round over the interfaces");
+    cmd->add_flag("--no-optimize", a->no_optimize, "skip the final optimization");
+    cmd->add_flag("-q,--quiet", a->quiet, "no progress or summary on stderr");
+    a->size.add_to(cmd);
+    cmd->callback([&exit_code, a] { exit_code = run_run(*a); });
   }
   {
     auto* cmd = app.add_subcommand("quality", "Quality statistics of a volume mesh.");
