@@ -66,6 +66,24 @@ int load_checked_surface(const std::string& path, const Progress& progress, Surf
   return kExitOk;
 }
 
+/// The end of every meshing command: validate against the surface (a failure
+/// is our bug, never the user's), write, and print the quality summary.
+int finish(const VolumeMesh& mesh, const SurfaceMesh& surface, const std::string& output, bool validate,
+           const Progress& progress, bool quiet) {
+  if (validate) {
+    const ValidationReport v = validate_mesh(mesh, &surface);
+    if (!v.ok()) {
+      fmt::print(stderr, "{}", format_validation(v));
+      return fail(internal_error("the generated mesh failed validation; please report this with the input"));
+    }
+    progress.say("validated: conforming, positive, boundary identical to the input, volume conserved");
+  }
+  if (Status s = write_volume(mesh, output); !s.ok()) return fail(s);
+  progress.say("wrote {}", output);
+  if (!quiet) fmt::print(stderr, "{}", format_quality(measure_quality(mesh)));
+  return kExitOk;
+}
+
 int run_check(const std::string& path, bool json, bool no_self_intersections) {
   auto surface = read_surface(path);
   if (!surface.ok()) return fail(surface.status());
@@ -103,18 +121,7 @@ int run_mesh(const MeshArgs& a) {
   progress.say("initial mesh (TetGen -{}): {} tets, {} points", tetgen_switches(options), mesh->tets.size(),
                mesh->points.size());
 
-  if (!a.no_validate) {
-    const ValidationReport v = validate_mesh(*mesh, &surface);
-    if (!v.ok()) {
-      fmt::print(stderr, "{}", format_validation(v));
-      return fail(internal_error("the generated mesh failed validation; please report this with the input"));
-    }
-    progress.say("validated: conforming, positive, boundary identical to the input, volume conserved");
-  }
-  if (Status s = write_volume(*mesh, a.output); !s.ok()) return fail(s);
-  progress.say("wrote {}", a.output);
-  if (!a.quiet) fmt::print(stderr, "{}", format_quality(measure_quality(*mesh)));
-  return kExitOk;
+  return finish(*mesh, surface, a.output, !a.no_validate, progress, a.quiet);
 }
 
 /// Size options shared by the commands that refine (the point distribution function).
@@ -208,17 +215,8 @@ int run_run(const RunArgs& a) {
   progress.say("parallel refinement ({} kernel, {} worker(s), depth {}): {} tets, {} points", kernel->name(),
                a.workers, profile.depth, mesh->tets.size(), mesh->points.size());
 
-  const ValidationReport v = validate_mesh(*mesh, &surface);
-  if (!v.ok()) {
-    fmt::print(stderr, "{}", format_validation(v));
-    return fail(internal_error("the generated mesh failed validation; please report this with the input"));
-  }
-  progress.say("validated: conforming, positive, boundary identical to the input, volume conserved");
-  if (Status s = write_volume(*mesh, a.output); !s.ok()) return fail(s);
-  progress.say("wrote {}", a.output);
   if (a.profile) print_profile(profile);
-  if (!a.quiet) fmt::print(stderr, "{}", format_quality(measure_quality(*mesh)));
-  return kExitOk;
+  return finish(*mesh, surface, a.output, true, progress, a.quiet);
 }
 
 int run_quality(const std::string& path, bool json, const std::string& svg) {
