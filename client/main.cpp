@@ -4,6 +4,9 @@
 
 #include "exit_codes.hpp"
 #include "local_commands.hpp"
+#ifdef PDRMESH_WITH_SERVICE
+#include "service_commands.hpp"
+#endif
 
 int main(int argc, char** argv) {
   CLI::App app{"pdrmesh: tetrahedral volume meshes for CFD from closed surface triangulations"};
@@ -11,6 +14,9 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   int exit_code = pdrmesh::cli::kExitOk;
   pdrmesh::cli::add_local_commands(app, exit_code);
+#ifdef PDRMESH_WITH_SERVICE
+  pdrmesh::cli::add_service_commands(app, exit_code);
+#endif
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
