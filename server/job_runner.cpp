@@ -256,19 +256,19 @@ void JobRunner::run_job(const Entry& entry) {
   RunnerProgress progress(job, store_, changes_, keep_going);
   spdlog::info("job {} ({}): running", job.id, job.user);
   const Status status = mesh_job(job, progress);
-  const bool go_on = keep_going();  // a cancel or stop that arrived during the last phase wins
-  if (stopped || (!go_on && !cancelled)) {
+  keep_going();  // reads the latest cancel and stop requests
+  if (status.ok()) {  // the result is stored: a cancel or stop that came later changes nothing
+    job.state = JobState::kSucceeded;
+    job.phase = "done";
+    job.progress = 1;
+  } else if (cancelled) {
+    job.state = JobState::kCancelled;
+    job.phase = "cancelled";
+  } else if (stopped) {
     job.state = JobState::kQueued;  // runs again after the restart
     job.phase = "queued";
     job.progress = 0;
     job.started_ms = 0;
-  } else if (cancelled) {
-    job.state = JobState::kCancelled;
-    job.phase = "cancelled";
-  } else if (status.ok()) {
-    job.state = JobState::kSucceeded;
-    job.phase = "done";
-    job.progress = 1;
   } else {
     job.state = JobState::kFailed;
     job.phase = "failed";

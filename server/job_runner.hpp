@@ -106,8 +106,9 @@ class JobRunner {
   /// Appends a queued job (stored already) to the queue.
   void enqueue(const JobRecord& job);
   /// Cancels `job` (read from the store by the caller): a queued job becomes
-  /// cancelled now; a running one at its next phase boundary; a final job is
-  /// returned unchanged. Returns the job as it is now.
+  /// cancelled now; a running one at its next phase boundary (one that stores
+  /// its result first stays succeeded); a final job is returned unchanged.
+  /// Returns the job as it is now.
   Result<JobRecord> cancel(const JobRecord& job);
 
  private:

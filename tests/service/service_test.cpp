@@ -5,7 +5,9 @@
 #include <gtest/gtest.h>
 #include <spdlog/spdlog.h>
 
+#include <condition_variable>
 #include <fstream>
+#include <mutex>
 #include <memory>
 #include <string>
 #include <vector>
@@ -21,6 +23,47 @@ namespace pdrmesh::server {
 namespace {
 
 const std::filesystem::path kSphere = std::filesystem::path(PDRMESH_CORPUS_DIR) / "sphere966.stl";
+
+/// What the gated engine's jobs wait for; shared by the test and the engine.
+struct Gate {
+  std::mutex mu;
+  std::condition_variable cv;
+  int entered = 0;
+  bool open = false;
+  void release() {
+    std::lock_guard lock(mu);
+    open = true;
+    cv.notify_all();
+  }
+  /// True when `n` jobs have entered the engine within 10 s.
+  bool wait_entered(int n) {
+    std::unique_lock lock(mu);
+    return cv.wait_for(lock, std::chrono::seconds(10), [&] { return entered >= n; });
+  }
+};
+
+/// Holds every job in "tetrahedralizing" until the gate opens (or the job must
+/// stop), then meshes it serially: running jobs on demand, without sleeps.
+class GatedEngine final : public MeshEngine {
+ public:
+  explicit GatedEngine(std::shared_ptr<Gate> gate) : gate_(std::move(gate)) {}
+  Result<VolumeMesh> mesh(const SurfaceMesh& surface, const JobOptions& options, JobProgress& progress) override {
+    {
+      std::lock_guard lock(gate_->mu);
+      ++gate_->entered;
+      gate_->cv.notify_all();
+    }
+    for (;;) {
+      if (!progress.report("tetrahedralizing", 0.3)) return internal_error("stopped");
+      std::unique_lock lock(gate_->mu);
+      if (gate_->cv.wait_for(lock, std::chrono::milliseconds(20), [&] { return gate_->open; })) break;
+    }
+    return SerialEngine().mesh(surface, options, progress);
+  }
+
+ private:
+  std::shared_ptr<Gate> gate_;
+};
 
 class Service : public ::testing::Test {
  protected:
@@ -39,8 +82,8 @@ class Service : public ::testing::Test {
     return o;
   }
 
-  void start(int threads, UserLimits limits = {}) {
-    auto c = Coordinator::BuildAndStart(options(threads, limits));
+  void start(int threads, UserLimits limits = {}, std::unique_ptr<MeshEngine> engine = nullptr) {
+    auto c = Coordinator::BuildAndStart(options(threads, limits), std::move(engine));
     ASSERT_TRUE(c.ok()) << c.status().to_string();
     coordinator_ = std::move(c).value();
     ASSERT_GT(coordinator_->port(), 0);
@@ -219,6 +262,63 @@ TEST_F(Service, QueuedJobRunsAfterARestartOnTheSameDataDirectory) {
   EXPECT_EQ(done.state(), v1::JOB_STATE_SUCCEEDED) << done.error();
   ASSERT_TRUE(alice->fetch(id, dir_.path() / "after_restart.meshb").ok());
   EXPECT_TRUE(read_volume(dir_.path() / "after_restart.meshb").ok());
+}
+
+TEST_F(Service, RunningJobIsCancelledAtItsNextPhase) {
+  auto gate = std::make_shared<Gate>();
+  start(1, {}, std::make_unique<GatedEngine>(gate));
+  auto alice = client("tok-alice");
+  v1::Job job;
+  ASSERT_TRUE(alice->submit(kSphere, v1::MeshOptions(), job).ok());
+  ASSERT_TRUE(gate->wait_entered(1));
+  v1::Job now;
+  ASSERT_TRUE(alice->cancel(job.id(), now).ok());
+  EXPECT_EQ(now.state(), v1::JOB_STATE_RUNNING) << "running jobs end at their next phase boundary";
+  EXPECT_EQ(watch(*alice, job.id()).state(), v1::JOB_STATE_CANCELLED);
+  EXPECT_EQ(alice->fetch(job.id(), dir_.path() / "x.meshb").error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+}
+
+TEST_F(Service, RunningJobLimitKeepsAUsersFurtherJobsQueued) {
+  auto gate = std::make_shared<Gate>();
+  UserLimits limits;
+  limits.max_running_jobs = 1;
+  start(2, limits, std::make_unique<GatedEngine>(gate));
+  auto alice = client("tok-alice");
+  auto bob = client("tok-bob");
+  v1::Job a1, a2, b1;
+  ASSERT_TRUE(alice->submit(kSphere, v1::MeshOptions(), a1).ok());
+  ASSERT_TRUE(alice->submit(kSphere, v1::MeshOptions(), a2).ok());
+  ASSERT_TRUE(bob->submit(kSphere, v1::MeshOptions(), b1).ok());
+  ASSERT_TRUE(gate->wait_entered(2)) << "alice's first and bob's job run on the two threads";
+  v1::Job seen;
+  ASSERT_TRUE(alice->get(a1.id(), seen).ok());
+  EXPECT_EQ(seen.state(), v1::JOB_STATE_RUNNING);
+  ASSERT_TRUE(alice->get(a2.id(), seen).ok());
+  EXPECT_EQ(seen.state(), v1::JOB_STATE_QUEUED);
+  ASSERT_TRUE(bob->get(b1.id(), seen).ok());
+  EXPECT_EQ(seen.state(), v1::JOB_STATE_RUNNING);
+  gate->release();
+  EXPECT_EQ(watch(*alice, a2.id()).state(), v1::JOB_STATE_SUCCEEDED);
+  EXPECT_EQ(watch(*alice, a1.id()).state(), v1::JOB_STATE_SUCCEEDED);
+  EXPECT_EQ(watch(*bob, b1.id()).state(), v1::JOB_STATE_SUCCEEDED);
+}
+
+TEST_F(Service, ShutdownRequeuesARunningJobAndTheRestartFinishesIt) {
+  auto gate = std::make_shared<Gate>();
+  start(1, {}, std::make_unique<GatedEngine>(gate));
+  std::string id;
+  {
+    auto alice = client("tok-alice");
+    v1::Job job;
+    ASSERT_TRUE(alice->submit(kSphere, v1::MeshOptions(), job).ok());
+    id = job.id();
+  }
+  ASSERT_TRUE(gate->wait_entered(1));
+  coordinator_->Shutdown();
+  coordinator_.reset();
+  start(1);
+  const v1::Job done = watch(*client("tok-alice"), id);
+  EXPECT_EQ(done.state(), v1::JOB_STATE_SUCCEEDED) << done.error();
 }
 
 TEST_F(Service, RefusesPlaintextOnANonLoopbackAddress) {
