@@ -8,12 +8,15 @@ namespace pdrmesh::cli {
 
 enum ExitCode : int {
   kExitOk = 0,
+  kExitJobFailed = 1,     ///< the service ran the job and it failed or was cancelled
   kExitUsage = 64,        ///< bad command line, unknown file suffix
   kExitBadInput = 65,     ///< the input is defective (surface check, malformed file, invalid mesh)
-  kExitNoInput = 66,      ///< an input file does not exist or cannot be opened
+  kExitNoInput = 66,      ///< an input file does not exist or cannot be opened (or no such job)
+  kExitUnavailable = 69,  ///< the coordinator cannot be reached
   kExitInternal = 70,     ///< a bug, or TetGen failed unexpectedly
   kExitIo = 74,           ///< reading or writing failed
   kExitTempFail = 75,     ///< a time or resource limit was hit; trying again may help
+  kExitNoPerm = 77,       ///< the coordinator refused the token (missing or unknown)
 };
 
 inline int exit_code_for(const Status& s) {

@@ -4,6 +4,7 @@
 
 #include "exit_codes.hpp"
 #include "local_commands.hpp"
+#include "service_commands.hpp"
 
 int main(int argc, char** argv) {
   CLI::App app{"pdrmesh: tetrahedral volume meshes for CFD from closed surface triangulations"};
@@ -11,6 +12,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   int exit_code = pdrmesh::cli::kExitOk;
   pdrmesh::cli::add_local_commands(app, exit_code);
+  pdrmesh::cli::add_service_commands(app, exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,0 +1,71 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// The coordinator daemon: Options, BuildAndStart (which checks that the server
+// really listens and reports the bound port) and a clean Shutdown. The gRPC
+// service is a thin adapter over JobManager (job_manager.hpp).
+#pragma once
+
+#include <atomic>
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include "job_manager.hpp"
+#include "pdrmesh/status.hpp"
+#include "tokens.hpp"
+
+namespace grpc {
+class Server;
+class Service;
+}  // namespace grpc
+
+namespace pdrmesh::server {
+
+struct Options {
+  /// host:port; port 0 picks a free port (see Coordinator::port()). Loopback by
+  /// default: serving elsewhere needs TLS or allow_insecure_remote.
+  std::string listen_address = "127.0.0.1:0";
+  std::filesystem::path data_dir;     ///< required
+  std::filesystem::path tokens_file;  ///< required: lines `user token`
+  UserLimits limits;
+  int runner_threads = 1;
+  double default_time_limit_s = 600;
+  double max_time_limit_s = 3600;
+  /// PEM files; both or neither. Without them the server speaks plaintext.
+  std::filesystem::path tls_cert_file;
+  std::filesystem::path tls_key_file;
+  /// Allow plaintext (tokens in clear) on a non-loopback address.
+  bool allow_insecure_remote = false;
+  /// Server-side limit on one WatchJob stream, seconds.
+  double max_watch_s = 24 * 3600;
+};
+
+/// True for 127.0.0.0/8, localhost, [::1] and unix: addresses.
+bool is_loopback_address(std::string_view address);
+
+class Coordinator {
+ public:
+  /// Loads the tokens, opens the data directory (re-queuing interrupted jobs),
+  /// starts the runner and the gRPC server. `engine` null: the serial engine.
+  static Result<std::unique_ptr<Coordinator>> BuildAndStart(const Options& options,
+                                                            std::unique_ptr<MeshEngine> engine = nullptr);
+  ~Coordinator();  ///< shuts down
+  Coordinator(const Coordinator&) = delete;
+  Coordinator& operator=(const Coordinator&) = delete;
+
+  /// The port the server listens on (the chosen one when asked for 0).
+  int port() const { return port_; }
+  /// Ends watch streams, stops accepting calls (in-flight calls get
+  /// `grace_s`), stops the runner. Idempotent.
+  void Shutdown(double grace_s = 2.0);
+
+ private:
+  Coordinator() = default;
+  std::unique_ptr<JobManager> manager_;
+  TokenTable tokens_;
+  std::atomic<bool> stopping_{false};
+  std::unique_ptr<grpc::Service> service_;
+  std::unique_ptr<grpc::Server> server_;
+  int port_ = 0;
+};
+
+}  // namespace pdrmesh::server

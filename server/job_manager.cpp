@@ -1,0 +1,165 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// JobManager: admission, storage and results of jobs.
+#include "job_manager.hpp"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <array>
+#include <cstdio>
+#include <fstream>
+#include <random>
+
+#include "pdrmesh/surface_check.hpp"
+#include "pdrmesh/surface_io.hpp"
+#include "pdrmesh/volume_io.hpp"
+
+namespace pdrmesh::server {
+namespace {
+
+/// 128 random bits as 32 hex digits (ids are not secrets, but must not collide).
+std::string new_job_id() {
+  std::random_device rd;
+  std::string id;
+  for (int i = 0; i < 4; ++i) id += fmt::format("{:08x}", static_cast<std::uint32_t>(rd()));
+  return id;
+}
+
+Status write_file_atomically(const std::filesystem::path& path, std::string_view bytes) {
+  auto tmp = path;
+  tmp += ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary);
+    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    out.flush();
+    if (!out) return io_error(fmt::format("{}: cannot write", tmp.string()));
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) return io_error(fmt::format("{}: cannot store: {}", path.string(), ec.message()));
+  return {};
+}
+
+}  // namespace
+
+Result<std::string> volume_suffix(std::string_view format) {
+  static constexpr std::array<std::string_view, 8> kKnown = {".mesh", ".meshb", ".vtu", ".ugrid",
+                                                             ".lb8.ugrid", ".b8.ugrid", ".msh", ".su2"};
+  const std::string suffix = format.empty() ? std::string(".meshb") : "." + std::string(format);
+  for (std::string_view k : kKnown) {
+    if (suffix == k) return suffix;
+  }
+  return unsupported(fmt::format("unknown volume format '{}'; supported: {}", format, volume_format_suffixes()));
+}
+
+JobManager::JobManager(ManagerConfig config, std::unique_ptr<JobStore> store, std::unique_ptr<MeshEngine> engine)
+    : config_(std::move(config)),
+      store_(std::move(store)),
+      engine_(std::move(engine)),
+      runner_(*store_, config_.data_dir, *engine_,
+              RunnerOptions{config_.runner_threads, config_.limits.max_running_jobs}, changes_) {}
+
+JobManager::~JobManager() { stop(); }
+
+void JobManager::stop() { runner_.stop(); }
+
+Result<std::unique_ptr<JobManager>> JobManager::open(ManagerConfig config, std::unique_ptr<MeshEngine> engine) {
+  std::error_code ec;
+  std::filesystem::create_directories(config.data_dir / "jobs", ec);
+  if (ec) return io_error(fmt::format("{}: cannot create the data directory: {}", config.data_dir.string(), ec.message()));
+  PDR_ASSIGN_OR_RETURN(auto store, JobStore::open(config.data_dir / "jobs.db"));
+  PDR_ASSIGN_OR_RETURN(const auto queued, store->recover());
+  std::unique_ptr<JobManager> m(new JobManager(std::move(config), std::move(store), std::move(engine)));
+  for (const JobRecord& j : queued) m->runner_.enqueue(j);
+  if (!queued.empty()) spdlog::info("re-queued {} job(s) from the previous run", queued.size());
+  m->runner_.start();
+  return m;
+}
+
+Status JobManager::admit(std::string_view user, std::uint64_t total_bytes) const {
+  if (total_bytes > config_.limits.max_upload_bytes) {
+    return resource_exhausted(fmt::format("the upload ({} bytes) exceeds the per-user limit max_upload_bytes={}",
+                                          total_bytes, config_.limits.max_upload_bytes));
+  }
+  PDR_ASSIGN_OR_RETURN(const std::int64_t queued, store_->count(user, JobState::kQueued));
+  if (queued >= config_.limits.max_queued_jobs) {
+    return resource_exhausted(fmt::format("{} has {} queued jobs, the per-user limit max_queued_jobs={}", user,
+                                          queued, config_.limits.max_queued_jobs));
+  }
+  return {};
+}
+
+Result<JobRecord> JobManager::submit(std::string_view user, std::string_view file_name, std::string_view bytes,
+                                     JobOptions options) {
+  const std::string name = std::filesystem::path(file_name).filename().string();
+  if (name.empty()) return invalid_input("the upload has no file name");
+  PDR_ASSIGN_OR_RETURN(const SurfaceFormat format, surface_format_from_path(name));
+  if (options.time_limit_s > config_.max_time_limit_s) {
+    return invalid_input(fmt::format("time limit {} s exceeds the coordinator's max_time_limit_s={}",
+                                     options.time_limit_s, config_.max_time_limit_s));
+  }
+  PDR_TRY(admit(user, bytes.size()));
+  // The whole check before anything is stored: a broken surface costs nothing else.
+  PDR_ASSIGN_OR_RETURN(const SurfaceMesh surface, parse_surface(bytes, format, name));
+  PDR_TRY(require_meshable(check_surface(surface), name));
+
+  JobRecord job;
+  job.id = new_job_id();
+  job.user = std::string(user);
+  job.options_json = options.to_json();
+  job.input_name = name;
+  job.input_bytes = bytes.size();
+  job.created_ms = now_unix_ms();
+  const auto dir = JobPaths::dir(config_.data_dir, job.id);
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) return io_error(fmt::format("{}: cannot create: {}", dir.string(), ec.message()));
+  if (Status s = write_file_atomically(JobPaths::input(config_.data_dir, job), bytes); !s.ok()) {
+    std::filesystem::remove_all(dir, ec);
+    return s;
+  }
+  {
+    std::lock_guard lock(admit_mu_);
+    Status s = admit(user, bytes.size());  // again: other uploads may have been queued meanwhile
+    if (s.ok()) s = store_->create(job);
+    if (!s.ok()) {
+      std::filesystem::remove_all(dir, ec);
+      return s;
+    }
+  }
+  runner_.enqueue(job);
+  changes_.notify();
+  spdlog::info("job {} ({}): queued {} ({} bytes)", job.id, job.user, name, bytes.size());
+  return job;
+}
+
+Result<JobRecord> JobManager::get(std::string_view user, std::string_view id) { return store_->get(id, user); }
+
+Result<std::vector<JobRecord>> JobManager::list(std::string_view user) { return store_->list(user); }
+
+Result<JobRecord> JobManager::cancel(std::string_view user, std::string_view id) {
+  PDR_ASSIGN_OR_RETURN(const JobRecord job, store_->get(id, user));
+  return runner_.cancel(job);
+}
+
+Result<std::filesystem::path> JobManager::result_file(std::string_view user, std::string_view id,
+                                                      std::string_view format) {
+  PDR_ASSIGN_OR_RETURN(const std::string suffix, volume_suffix(format));
+  PDR_ASSIGN_OR_RETURN(const JobRecord job, store_->get(id, user));
+  if (job.state != JobState::kSucceeded) {
+    return not_found(fmt::format("job {} has no result: it is {}", id, to_string(job.state)));
+  }
+  const auto meshb = JobPaths::result(config_.data_dir, job.id);
+  const auto path = JobPaths::result(config_.data_dir, job.id, suffix);
+  if (std::filesystem::exists(path)) return path;
+  PDR_ASSIGN_OR_RETURN(const VolumeMesh mesh, read_volume(meshb));
+  // A private temporary name (concurrent fetches of one format each convert), renamed into place.
+  const auto tmp = JobPaths::dir(config_.data_dir, job.id) / fmt::format("tmp-{}{}", new_job_id(), suffix);
+  PDR_TRY(write_volume(mesh, tmp));
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) return io_error(fmt::format("{}: cannot store: {}", path.string(), ec.message()));
+  return path;
+}
+
+}  // namespace pdrmesh::server

@@ -1,0 +1,80 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// JobManager: the coordinator's logic, with no transport. It admits uploads
+// (per-user limits, surface check before a job exists), stores jobs and their
+// files, runs them through the JobRunner, and serves results in any volume
+// format. The gRPC service is a thin adapter on top; tests call this directly.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "job_runner.hpp"
+#include "job_store.hpp"
+#include "pdrmesh/status.hpp"
+
+namespace pdrmesh::server {
+
+/// Per-user limits; hitting one is resource_exhausted naming it.
+struct UserLimits {
+  std::uint64_t max_upload_bytes = 256ULL << 20;  ///< size of one surface file
+  int max_queued_jobs = 16;                       ///< queued jobs at once
+  int max_running_jobs = 1;                       ///< running at once (more wait queued)
+};
+
+struct ManagerConfig {
+  std::filesystem::path data_dir;  ///< jobs.db and jobs/<id>/ live here
+  UserLimits limits;
+  int runner_threads = 1;  ///< 0: jobs are queued but never run (tests, drain)
+  double default_time_limit_s = 600;
+  double max_time_limit_s = 3600;  ///< a job asking for more is refused
+};
+
+class JobManager {
+ public:
+  /// Opens the store in `config.data_dir` (created when absent), re-queues the
+  /// jobs that were queued or running when the coordinator stopped, and starts
+  /// the runner.
+  static Result<std::unique_ptr<JobManager>> open(ManagerConfig config, std::unique_ptr<MeshEngine> engine);
+  ~JobManager();
+
+  /// Cheap checks before any byte is received: the upload size and the user's
+  /// queued-job count against the limits.
+  Status admit(std::string_view user, std::uint64_t total_bytes) const;
+  /// Checks the surface (parse + surface check) and creates a queued job; a
+  /// defective surface is invalid_input naming the defects and creates nothing.
+  Result<JobRecord> submit(std::string_view user, std::string_view file_name, std::string_view bytes,
+                           JobOptions options);
+  Result<JobRecord> get(std::string_view user, std::string_view id);
+  Result<std::vector<JobRecord>> list(std::string_view user);
+  Result<JobRecord> cancel(std::string_view user, std::string_view id);
+  /// The result file of a succeeded job in the format named by `format`
+  /// ("vtu", "lb8.ugrid", ...; empty: meshb), converted once and kept.
+  /// not_found unless the job succeeded.
+  Result<std::filesystem::path> result_file(std::string_view user, std::string_view id, std::string_view format);
+
+  ChangeSignal& changes() { return changes_; }
+  const ManagerConfig& config() const { return config_; }
+  /// Stops the runner (see JobRunner::stop). Idempotent.
+  void stop();
+
+ private:
+  JobManager(ManagerConfig config, std::unique_ptr<JobStore> store, std::unique_ptr<MeshEngine> engine);
+
+  ManagerConfig config_;
+  std::unique_ptr<JobStore> store_;
+  std::unique_ptr<MeshEngine> engine_;
+  ChangeSignal changes_;
+  JobRunner runner_;
+  std::mutex admit_mu_;  ///< makes count-then-create atomic per coordinator
+};
+
+/// The canonical suffix (".vtu", ".lb8.ugrid", ...) of a volume format given
+/// without the dot; empty means ".meshb". unsupported for anything else.
+Result<std::string> volume_suffix(std::string_view format);
+
+}  // namespace pdrmesh::server

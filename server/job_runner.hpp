@@ -1,0 +1,139 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// JobRunner: a pool of threads that runs queued jobs from the JobStore, one job
+// per thread, through a MeshEngine, updating the job's phase and progress as it
+// goes. MeshEngine is the seam where the parallel engine (octree leaves refined
+// by workers) replaces today's serial path (SerialEngine: TetGen in an isolated
+// child, then validation).
+#pragma once
+
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <filesystem>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <thread>
+#include <vector>
+
+#include "job_store.hpp"
+#include "pdrmesh/status.hpp"
+#include "pdrmesh/surface.hpp"
+#include "pdrmesh/volume_mesh.hpp"
+
+namespace pdrmesh::server {
+
+/// What a client may ask of a job; stored as JSON in JobRecord::options_json.
+struct JobOptions {
+  std::optional<double> max_volume;
+  double time_limit_s = 600;
+  std::string to_json() const;
+  /// invalid_input for malformed JSON or out-of-range values.
+  static Result<JobOptions> from_json(std::string_view json);
+};
+
+/// Where a job's files live under the data directory.
+struct JobPaths {
+  static std::filesystem::path dir(const std::filesystem::path& data_dir, std::string_view id);
+  /// The uploaded surface, keeping the suffix of `input_name` (it names the format).
+  static std::filesystem::path input(const std::filesystem::path& data_dir, const JobRecord& job);
+  /// The result in the format named by `suffix` (".meshb" is the one the runner writes).
+  static std::filesystem::path result(const std::filesystem::path& data_dir, std::string_view id,
+                                      std::string_view suffix = ".meshb");
+};
+
+/// Wakes whoever waits for a change of any job (WatchJob). Never loses a change:
+/// waiters remember the version they saw.
+class ChangeSignal {
+ public:
+  void notify();
+  std::uint64_t version() const;
+  /// Returns when the version differs from `seen` or after `timeout`.
+  void wait(std::uint64_t seen, std::chrono::milliseconds timeout) const;
+
+ private:
+  mutable std::mutex mu_;
+  mutable std::condition_variable cv_;
+  std::uint64_t version_ = 0;
+};
+
+/// Told by the engine what it is doing.
+class JobProgress {
+ public:
+  virtual ~JobProgress() = default;
+  /// Records the phase and progress (0..1). Returns false when the job must stop
+  /// (cancelled, or the coordinator is shutting down): the engine then returns
+  /// any error as soon as it can; the runner decides what the job becomes.
+  virtual bool report(std::string_view phase, double progress) = 0;
+  virtual void mesh_size(std::uint64_t tets, std::uint64_t points) = 0;
+};
+
+/// Turns a checked, meshable surface into a validated volume mesh.
+class MeshEngine {
+ public:
+  virtual ~MeshEngine() = default;
+  virtual Result<VolumeMesh> mesh(const SurfaceMesh& surface, const JobOptions& options,
+                                  JobProgress& progress) = 0;
+};
+
+/// Today's path: tetrahedralize (TetGen in a child process), validate against
+/// the surface (a failure is an internal error: the mesh is never served).
+class SerialEngine final : public MeshEngine {
+ public:
+  Result<VolumeMesh> mesh(const SurfaceMesh& surface, const JobOptions& options, JobProgress& progress) override;
+};
+
+struct RunnerOptions {
+  int threads = 1;                ///< jobs run at once in total; 0: none run (queue only)
+  int max_running_per_user = 1;   ///< a user's further jobs wait in the queue
+};
+
+class JobRunner {
+ public:
+  JobRunner(JobStore& store, std::filesystem::path data_dir, MeshEngine& engine, RunnerOptions options,
+            ChangeSignal& changes);
+  ~JobRunner();  ///< stops
+  JobRunner(const JobRunner&) = delete;
+  JobRunner& operator=(const JobRunner&) = delete;
+
+  void start();
+  /// Stops taking jobs and joins the threads. A running job is interrupted at
+  /// its next phase boundary and goes back to queued (it runs again after a
+  /// restart); the TetGen step itself is not interrupted.
+  void stop();
+  /// Appends a queued job (stored already) to the queue.
+  void enqueue(const JobRecord& job);
+  /// Cancels `job` (read from the store by the caller): a queued job becomes
+  /// cancelled now; a running one at its next phase boundary (one that stores
+  /// its result first stays succeeded); a final job is returned unchanged.
+  /// Returns the job as it is now.
+  Result<JobRecord> cancel(const JobRecord& job);
+
+ private:
+  struct Entry {
+    std::string id;
+    std::string user;
+  };
+  void loop();
+  void run_job(const Entry& entry);
+  /// The job's surface, checked and meshed, written as the .meshb result.
+  Status mesh_job(JobRecord& job, JobProgress& progress);
+
+  JobStore& store_;
+  std::filesystem::path data_dir_;
+  MeshEngine& engine_;
+  RunnerOptions options_;
+  ChangeSignal& changes_;
+
+  std::mutex mu_;
+  std::condition_variable cv_;
+  bool stopping_ = false;
+  std::deque<Entry> queue_;
+  std::map<std::string, bool> running_;          ///< job id -> cancel requested
+  std::map<std::string, int> running_per_user_;  ///< user -> jobs running
+  std::vector<std::thread> threads_;
+};
+
+}  // namespace pdrmesh::server

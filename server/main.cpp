@@ -1,0 +1,70 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// pdrmesh-coordinator: the job server. Prints "listening on HOST:PORT" on
+// stdout once it serves; stops cleanly on SIGINT or SIGTERM.
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+
+#include <csignal>
+#include <cstdio>
+
+#include "coordinator.hpp"
+
+int main(int argc, char** argv) {
+  CLI::App app{"pdrmesh-coordinator: the pdrmesh job server"};
+  app.set_version_flag("--version", "pdrmesh-coordinator " PDRMESH_VERSION);
+  pdrmesh::server::Options o;
+  std::string log_level = "info";
+  app.add_option("--listen", o.listen_address, "host:port to serve on (port 0: any free port)")->capture_default_str();
+  app.add_option("--data-dir", o.data_dir, "directory of the job database and files")->required();
+  app.add_option("--tokens", o.tokens_file, "tokens file: one 'user token' per line")->required()->check(CLI::ExistingFile);
+  app.add_option("--max-upload-bytes", o.limits.max_upload_bytes, "per user: largest surface upload")
+      ->capture_default_str();
+  app.add_option("--max-queued-jobs", o.limits.max_queued_jobs, "per user: queued jobs at once")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--max-running-jobs", o.limits.max_running_jobs, "per user: running jobs at once")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--threads", o.runner_threads, "jobs run at once in total")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--default-time-limit", o.default_time_limit_s, "seconds a job may mesh unless it asks otherwise")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--max-time-limit", o.max_time_limit_s, "largest time limit a job may ask for")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--tls-cert", o.tls_cert_file, "PEM certificate chain (with --tls-key: serve TLS)")
+      ->check(CLI::ExistingFile);
+  app.add_option("--tls-key", o.tls_key_file, "PEM private key")->check(CLI::ExistingFile);
+  app.add_flag("--allow-insecure", o.allow_insecure_remote,
+               "allow plaintext on a non-loopback address (tokens travel in clear)");
+  app.add_option("--log-level", log_level, "trace, debug, info, warn, error, off")->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+  spdlog::set_default_logger(spdlog::stderr_color_mt("pdrmesh-coordinator"));  // stdout: the address only
+  spdlog::set_level(spdlog::level::from_str(log_level));
+
+  // Signals are taken synchronously by this thread; every thread started later
+  // (gRPC, runner) inherits the blocked mask.
+  sigset_t stop_signals;
+  sigemptyset(&stop_signals);
+  sigaddset(&stop_signals, SIGINT);
+  sigaddset(&stop_signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
+
+  auto coordinator = pdrmesh::server::Coordinator::BuildAndStart(o);
+  if (!coordinator.ok()) {
+    fmt::print(stderr, "pdrmesh-coordinator: error: {}\n", coordinator.status().to_string());
+    return 1;
+  }
+  const auto colon = o.listen_address.rfind(':');
+  fmt::print("listening on {}:{}\n", o.listen_address.substr(0, colon), (*coordinator)->port());
+  std::fflush(stdout);
+  int sig = 0;
+  sigwait(&stop_signals, &sig);
+  spdlog::info("signal {}: shutting down", sig);
+  (*coordinator)->Shutdown();
+  return 0;
+}

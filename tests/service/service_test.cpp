@@ -1,0 +1,346 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// End-to-end tests of the service: an in-process coordinator on 127.0.0.1 with
+// a temporary data directory, driven through the real client (ServiceClient
+// over the generated stub).
+#include <gtest/gtest.h>
+#include <spdlog/spdlog.h>
+
+#include <condition_variable>
+#include <fstream>
+#include <mutex>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "coordinator.hpp"
+#include "pdrmesh/surface_io.hpp"
+#include "pdrmesh/validate.hpp"
+#include "pdrmesh/volume_io.hpp"
+#include "service_client.hpp"
+#include "temp_dir.hpp"
+
+namespace pdrmesh::server {
+namespace {
+
+const std::filesystem::path kSphere = std::filesystem::path(PDRMESH_CORPUS_DIR) / "sphere966.stl";
+
+/// What the gated engine's jobs wait for; shared by the test and the engine.
+struct Gate {
+  std::mutex mu;
+  std::condition_variable cv;
+  int entered = 0;
+  bool open = false;
+  void release() {
+    std::lock_guard lock(mu);
+    open = true;
+    cv.notify_all();
+  }
+  /// True when `n` jobs have entered the engine within 10 s.
+  bool wait_entered(int n) {
+    std::unique_lock lock(mu);
+    return cv.wait_for(lock, std::chrono::seconds(10), [&] { return entered >= n; });
+  }
+};
+
+/// Holds every job in "tetrahedralizing" until the gate opens (or the job must
+/// stop), then meshes it serially: running jobs on demand, without sleeps.
+class GatedEngine final : public MeshEngine {
+ public:
+  explicit GatedEngine(std::shared_ptr<Gate> gate) : gate_(std::move(gate)) {}
+  Result<VolumeMesh> mesh(const SurfaceMesh& surface, const JobOptions& options, JobProgress& progress) override {
+    {
+      std::lock_guard lock(gate_->mu);
+      ++gate_->entered;
+      gate_->cv.notify_all();
+    }
+    for (;;) {
+      if (!progress.report("tetrahedralizing", 0.3)) return internal_error("stopped");
+      std::unique_lock lock(gate_->mu);
+      if (gate_->cv.wait_for(lock, std::chrono::milliseconds(20), [&] { return gate_->open; })) break;
+    }
+    return SerialEngine().mesh(surface, options, progress);
+  }
+
+ private:
+  std::shared_ptr<Gate> gate_;
+};
+
+class Service : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    spdlog::set_level(spdlog::level::off);
+    std::ofstream(dir_.path() / "tokens") << "# user token\nalice tok-alice\nbob tok-bob\n";
+  }
+
+  Options options(int threads, UserLimits limits = {}) const {
+    Options o;
+    o.data_dir = dir_.path() / "data";
+    o.tokens_file = dir_.path() / "tokens";
+    o.runner_threads = threads;
+    o.limits = limits;
+    o.default_time_limit_s = 60;
+    return o;
+  }
+
+  void start(int threads, UserLimits limits = {}, std::unique_ptr<MeshEngine> engine = nullptr) {
+    auto c = Coordinator::BuildAndStart(options(threads, limits), std::move(engine));
+    ASSERT_TRUE(c.ok()) << c.status().to_string();
+    coordinator_ = std::move(c).value();
+    ASSERT_GT(coordinator_->port(), 0);
+  }
+
+  std::unique_ptr<cli::ServiceClient> client(const std::string& token) const {
+    cli::ClientConfig config;
+    config.server = "127.0.0.1:" + std::to_string(coordinator_->port());
+    config.token = token;
+    config.timeout_s = 30;
+    config.watch_timeout_s = 60;
+    std::unique_ptr<cli::ServiceClient> c;
+    EXPECT_TRUE(cli::ServiceClient::connect(config, c).ok());
+    return c;
+  }
+
+  /// Watches to the end; returns the final job and the events' states in order.
+  static v1::Job watch(cli::ServiceClient& c, const std::string& id, std::vector<v1::JobEvent>* events = nullptr) {
+    v1::Job last;
+    const grpc::Status s = c.watch(
+        id, [&](const v1::JobEvent& e) { if (events) events->push_back(e); }, last);
+    EXPECT_TRUE(s.ok()) << s.error_message();
+    return last;
+  }
+
+  std::filesystem::path write_open_tetrahedron() const {
+    // A tetrahedron with its fourth face missing: three open edges.
+    const auto path = dir_.path() / "open.stl";
+    std::ofstream(path) << "solid open\n"
+                           "facet normal 0 0 0\nouter loop\nvertex 0 0 0\nvertex 0 1 0\nvertex 1 0 0\nendloop\nendfacet\n"
+                           "facet normal 0 0 0\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 0 1\nendloop\nendfacet\n"
+                           "facet normal 0 0 0\nouter loop\nvertex 0 0 0\nvertex 0 0 1\nvertex 0 1 0\nendloop\nendfacet\n"
+                           "endsolid open\n";
+    return path;
+  }
+
+  test::TempDir dir_;
+  std::unique_ptr<Coordinator> coordinator_;
+};
+
+TEST_F(Service, SubmitWatchFetchGivesAValidMeshOfTheSurface) {
+  start(1);
+  auto alice = client("tok-alice");
+  v1::Job job;
+  ASSERT_TRUE(alice->submit(kSphere, v1::MeshOptions(), job).ok());
+  EXPECT_EQ(job.user(), "alice");
+  EXPECT_EQ(job.input_name(), "sphere966.stl");
+  std::vector<v1::JobEvent> events;
+  const v1::Job done = watch(*alice, job.id(), &events);
+  ASSERT_EQ(done.state(), v1::JOB_STATE_SUCCEEDED) << done.error();
+  EXPECT_EQ(done.phase(), "done");
+  EXPECT_EQ(done.progress(), 1.0);
+  EXPECT_GT(done.tets(), 0U);
+  ASSERT_FALSE(events.empty());
+  for (std::size_t i = 1; i < events.size(); ++i) {
+    EXPECT_GE(events[i].job().progress(), events[i - 1].job().progress()) << "progress never goes back";
+  }
+  EXPECT_GE(events.back().elapsed_s(), 0.0);
+
+  const auto meshb = dir_.path() / "out.meshb";
+  const grpc::Status fetched = alice->fetch(job.id(), meshb);
+  ASSERT_TRUE(fetched.ok()) << fetched.error_message();
+  auto mesh = read_volume(meshb);
+  ASSERT_TRUE(mesh.ok()) << mesh.status().to_string();
+  auto surface = read_surface(kSphere);
+  ASSERT_TRUE(surface.ok());
+  const ValidationReport report = validate_mesh(*mesh, &*surface);
+  EXPECT_TRUE(report.ok()) << format_validation(report);
+  EXPECT_EQ(mesh->tets.size(), done.tets());
+
+  // Another format, converted by the coordinator: the same mesh.
+  const auto vtu = dir_.path() / "out.lb8.ugrid";
+  ASSERT_TRUE(alice->fetch(job.id(), vtu).ok());
+  auto again = read_volume(vtu);
+  ASSERT_TRUE(again.ok()) << again.status().to_string();
+  EXPECT_EQ(again->tets, mesh->tets);
+  EXPECT_EQ(again->points, mesh->points);
+}
+
+TEST_F(Service, DefectiveSurfaceIsInvalidArgumentNamingTheDefectAndCreatesNoJob) {
+  start(1);
+  auto alice = client("tok-alice");
+  v1::Job job;
+  const grpc::Status s = alice->submit(write_open_tetrahedron(), v1::MeshOptions(), job);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(s.error_message().find("open edge"), std::string::npos) << s.error_message();
+  EXPECT_NE(s.error_message().find("open.stl"), std::string::npos) << s.error_message();
+  v1::ListJobsResponse jobs;
+  ASSERT_TRUE(alice->list(jobs).ok());
+  EXPECT_EQ(jobs.jobs_size(), 0);
+  EXPECT_FALSE(std::filesystem::exists(dir_.path() / "data" / "jobs") &&
+               !std::filesystem::is_empty(dir_.path() / "data" / "jobs"))
+      << "no job directory is left behind";
+}
+
+TEST_F(Service, MissingOrUnknownTokenIsUnauthenticated) {
+  start(0);
+  for (const std::string token : {"", "tok-mallory", "tok-alic"}) {
+    auto c = client(token);
+    v1::ListJobsResponse jobs;
+    EXPECT_EQ(c->list(jobs).error_code(), grpc::StatusCode::UNAUTHENTICATED) << "token '" << token << "'";
+    v1::Job job;
+    EXPECT_EQ(c->submit(kSphere, v1::MeshOptions(), job).error_code(), grpc::StatusCode::UNAUTHENTICATED);
+  }
+}
+
+TEST_F(Service, AUsersJobIsNotFoundForAnotherUser) {
+  start(0);
+  auto alice = client("tok-alice");
+  auto bob = client("tok-bob");
+  v1::Job job;
+  ASSERT_TRUE(alice->submit(kSphere, v1::MeshOptions(), job).ok());
+  v1::Job seen;
+  EXPECT_EQ(bob->get(job.id(), seen).error_code(), grpc::StatusCode::NOT_FOUND);
+  EXPECT_EQ(bob->cancel(job.id(), seen).error_code(), grpc::StatusCode::NOT_FOUND);
+  EXPECT_EQ(bob->fetch(job.id(), dir_.path() / "stolen.meshb").error_code(), grpc::StatusCode::NOT_FOUND);
+  EXPECT_EQ(bob->watch(job.id(), [](const v1::JobEvent&) {}, seen).error_code(), grpc::StatusCode::NOT_FOUND);
+  v1::ListJobsResponse jobs;
+  ASSERT_TRUE(bob->list(jobs).ok());
+  EXPECT_EQ(jobs.jobs_size(), 0);
+  ASSERT_TRUE(alice->get(job.id(), seen).ok());
+  EXPECT_EQ(seen.state(), v1::JOB_STATE_QUEUED);
+}
+
+TEST_F(Service, QueuedJobLimitIsResourceExhaustedPerUser) {
+  UserLimits limits;
+  limits.max_queued_jobs = 1;
+  start(0, limits);
+  auto alice = client("tok-alice");
+  v1::Job job;
+  ASSERT_TRUE(alice->submit(kSphere, v1::MeshOptions(), job).ok());
+  const grpc::Status s = alice->submit(kSphere, v1::MeshOptions(), job);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_NE(s.error_message().find("max_queued_jobs=1"), std::string::npos) << s.error_message();
+  EXPECT_TRUE(client("tok-bob")->submit(kSphere, v1::MeshOptions(), job).ok()) << "bob has his own limit";
+}
+
+TEST_F(Service, UploadLimitIsResourceExhausted) {
+  UserLimits limits;
+  limits.max_upload_bytes = 1000;
+  start(0, limits);
+  v1::Job job;
+  const grpc::Status s = client("tok-alice")->submit(kSphere, v1::MeshOptions(), job);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_NE(s.error_message().find("max_upload_bytes=1000"), std::string::npos) << s.error_message();
+}
+
+TEST_F(Service, CancelledQueuedJobEndsAndHasNoResult) {
+  start(0);
+  auto alice = client("tok-alice");
+  v1::Job job;
+  ASSERT_TRUE(alice->submit(kSphere, v1::MeshOptions(), job).ok());
+  v1::Job cancelled;
+  ASSERT_TRUE(alice->cancel(job.id(), cancelled).ok());
+  EXPECT_EQ(cancelled.state(), v1::JOB_STATE_CANCELLED);
+  EXPECT_EQ(watch(*alice, job.id()).state(), v1::JOB_STATE_CANCELLED);
+  EXPECT_EQ(alice->fetch(job.id(), dir_.path() / "x.meshb").error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+  EXPECT_FALSE(std::filesystem::exists(dir_.path() / "x.meshb"));
+  EXPECT_FALSE(std::filesystem::exists(dir_.path() / "x.meshb.part"));
+}
+
+TEST_F(Service, QueuedJobRunsAfterARestartOnTheSameDataDirectory) {
+  start(0);  // nothing runs: the job stays queued
+  std::string id;
+  {
+    auto alice = client("tok-alice");
+    v1::Job job;
+    ASSERT_TRUE(alice->submit(kSphere, v1::MeshOptions(), job).ok());
+    id = job.id();
+  }
+  coordinator_->Shutdown();
+  coordinator_.reset();
+  start(1);
+  auto alice = client("tok-alice");
+  const v1::Job done = watch(*alice, id);
+  EXPECT_EQ(done.state(), v1::JOB_STATE_SUCCEEDED) << done.error();
+  ASSERT_TRUE(alice->fetch(id, dir_.path() / "after_restart.meshb").ok());
+  EXPECT_TRUE(read_volume(dir_.path() / "after_restart.meshb").ok());
+}
+
+TEST_F(Service, RunningJobIsCancelledAtItsNextPhase) {
+  auto gate = std::make_shared<Gate>();
+  start(1, {}, std::make_unique<GatedEngine>(gate));
+  auto alice = client("tok-alice");
+  v1::Job job;
+  ASSERT_TRUE(alice->submit(kSphere, v1::MeshOptions(), job).ok());
+  ASSERT_TRUE(gate->wait_entered(1));
+  v1::Job now;
+  ASSERT_TRUE(alice->cancel(job.id(), now).ok());
+  EXPECT_EQ(now.state(), v1::JOB_STATE_RUNNING) << "running jobs end at their next phase boundary";
+  EXPECT_EQ(watch(*alice, job.id()).state(), v1::JOB_STATE_CANCELLED);
+  EXPECT_EQ(alice->fetch(job.id(), dir_.path() / "x.meshb").error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+}
+
+TEST_F(Service, RunningJobLimitKeepsAUsersFurtherJobsQueued) {
+  auto gate = std::make_shared<Gate>();
+  UserLimits limits;
+  limits.max_running_jobs = 1;
+  start(2, limits, std::make_unique<GatedEngine>(gate));
+  auto alice = client("tok-alice");
+  auto bob = client("tok-bob");
+  v1::Job a1, a2, b1;
+  ASSERT_TRUE(alice->submit(kSphere, v1::MeshOptions(), a1).ok());
+  ASSERT_TRUE(alice->submit(kSphere, v1::MeshOptions(), a2).ok());
+  ASSERT_TRUE(bob->submit(kSphere, v1::MeshOptions(), b1).ok());
+  ASSERT_TRUE(gate->wait_entered(2)) << "alice's first and bob's job run on the two threads";
+  v1::Job seen;
+  ASSERT_TRUE(alice->get(a1.id(), seen).ok());
+  EXPECT_EQ(seen.state(), v1::JOB_STATE_RUNNING);
+  ASSERT_TRUE(alice->get(a2.id(), seen).ok());
+  EXPECT_EQ(seen.state(), v1::JOB_STATE_QUEUED);
+  ASSERT_TRUE(bob->get(b1.id(), seen).ok());
+  EXPECT_EQ(seen.state(), v1::JOB_STATE_RUNNING);
+  gate->release();
+  EXPECT_EQ(watch(*alice, a2.id()).state(), v1::JOB_STATE_SUCCEEDED);
+  EXPECT_EQ(watch(*alice, a1.id()).state(), v1::JOB_STATE_SUCCEEDED);
+  EXPECT_EQ(watch(*bob, b1.id()).state(), v1::JOB_STATE_SUCCEEDED);
+}
+
+TEST_F(Service, ShutdownRequeuesARunningJobAndTheRestartFinishesIt) {
+  auto gate = std::make_shared<Gate>();
+  start(1, {}, std::make_unique<GatedEngine>(gate));
+  std::string id;
+  {
+    auto alice = client("tok-alice");
+    v1::Job job;
+    ASSERT_TRUE(alice->submit(kSphere, v1::MeshOptions(), job).ok());
+    id = job.id();
+  }
+  ASSERT_TRUE(gate->wait_entered(1));
+  coordinator_->Shutdown();
+  coordinator_.reset();
+  start(1);
+  const v1::Job done = watch(*client("tok-alice"), id);
+  EXPECT_EQ(done.state(), v1::JOB_STATE_SUCCEEDED) << done.error();
+}
+
+TEST_F(Service, RefusesPlaintextOnANonLoopbackAddress) {
+  Options o = options(0);
+  o.listen_address = "0.0.0.0:0";
+  const auto c = Coordinator::BuildAndStart(o);
+  ASSERT_FALSE(c.ok());
+  EXPECT_NE(c.status().message().find("clear text"), std::string::npos) << c.status().message();
+  EXPECT_TRUE(is_loopback_address("127.0.0.1:0"));
+  EXPECT_TRUE(is_loopback_address("[::1]:5000"));
+  EXPECT_FALSE(is_loopback_address("[::]:5000"));
+}
+
+TEST(VolumeFormatOf, PicksTheLongestSuffix) {
+  EXPECT_EQ(cli::volume_format_of("a/b.lb8.ugrid"), "lb8.ugrid");
+  EXPECT_EQ(cli::volume_format_of("b.UGRID"), "ugrid");
+  EXPECT_EQ(cli::volume_format_of("b.meshb"), "meshb");
+  EXPECT_EQ(cli::volume_format_of("b.mesh"), "mesh");
+  EXPECT_EQ(cli::volume_format_of("b.stl"), "");
+  EXPECT_EQ(volume_suffix("").value(), ".meshb");
+  EXPECT_EQ(volume_suffix("../x.vtu").status().code(), StatusCode::kUnsupported);
+}
+
+}  // namespace
+}  // namespace pdrmesh::server
