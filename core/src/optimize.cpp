@@ -299,6 +299,14 @@ class Optimizer {
         return false;  // a frozen face inside the cavity
       }
     }
+    // Every vertex of the cavity must stay a vertex of the refill: one whose
+    // whole star lies inside the cavity (e.g. the point of a 1-4 split whose
+    // tets include the sliver) would vanish from the mesh.
+    for (Index u : cavity)
+      for (Index v : m_.tet(u))
+        if (std::none_of(outer.begin(), outer.end(),
+                         [v](const Tri& f) { return f[0] == v || f[1] == v || f[2] == v; }))
+          return false;
     link_ = outer;
     const Tet& k = m_.tet(t);
     const Vec3 centroid =
