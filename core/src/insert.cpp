@@ -81,12 +81,11 @@ std::string_view to_string(InsertOutcome o) {
   return "?";
 }
 
-Location locate(const TetMesh& m, Index start, const Vec3& p) {
-  if (start >= m.num_slots() || !m.alive(start)) return scan(m, p);
+Location walk(const TetMesh& m, Index start, const Vec3& p, Index max_steps, bool cross_frozen) {
+  if (start >= m.num_slots() || !m.alive(start)) return {};
   Index t = start;
   std::uint32_t rotation = 0x9e3779b9u;  // fixed seed: deterministic exit choice
-  const Index limit = m.num_slots() + 16;
-  for (Index step = 0; step < limit; ++step) {
+  for (Index step = 0; step < max_steps; ++step) {
     const auto s = face_signs(m, t, p);
     if (inside(s)) return classify(t, s);
     rotation ^= rotation << 13;
@@ -95,12 +94,17 @@ Location locate(const TetMesh& m, Index start, const Vec3& p) {
     Index next = kNoIndex;
     for (int i = 0; i < 4 && next == kNoIndex; ++i) {
       const int f = static_cast<int>((rotation + static_cast<std::uint32_t>(i)) & 3u);
-      if (s[f] > 0) next = m.neighbour(t, f);
+      if (s[f] > 0 && (cross_frozen || !m.frozen(t, f))) next = m.neighbour(t, f);
     }
-    if (next == kNoIndex) break;  // p lies beyond hull faces only
+    if (next == kNoIndex) break;  // p lies beyond hull (or uncrossable) faces only
     t = face_tet(next);
   }
-  return scan(m, p);
+  return {};
+}
+
+Location locate(const TetMesh& m, Index start, const Vec3& p) {
+  const Location l = walk(m, start, p, m.num_slots() + 16);
+  return l.kind != LocationKind::kOutside ? l : scan(m, p);
 }
 
 InsertResult insert_at(TetMesh& m, const Location& where, const Vec3& p) {

@@ -34,6 +34,13 @@ struct Location {
 /// mesh or a dead start tet), so the answer is exact and deterministic.
 Location locate(const TetMesh& mesh, Index start, const Vec3& p);
 
+/// The walk of locate() alone, bounded: kOutside when it reaches a hull face
+/// (or, unless cross_frozen, a frozen face) that p lies beyond with no other way
+/// on, when it runs more than max_steps tets, or when start is not alive. Never
+/// scans the mesh, so a kOutside answer does not prove that p is in no tet.
+Location walk(const TetMesh& mesh, Index start, const Vec3& p, Index max_steps,
+              bool cross_frozen = true);
+
 enum class InsertOutcome : std::uint8_t {
   kDone,           ///< inserted; the new tets are mesh.last_created()
   kTooClose,       ///< declined: p coincides with a vertex

@@ -1,0 +1,128 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// pdrmesh_bench_refine: runs the serial pipeline's steps (TetGen initial mesh,
+// sizing field, refinement) on corpus surfaces at the default spacing and at
+// size = bounding-box diagonal / 100, validates each mesh and prints a table:
+// tets, refinement seconds and tets/s, the share of interior edges (no boundary
+// endpoint) with length in [0.6, 1.5] h(midpoint) (and the shares below/above),
+// dihedral extremes over all tets and over interior tets (no boundary vertex),
+// and the share of interior tets with every dihedral angle in [15, 150].
+// Not a test: it asserts nothing.
+//   usage: pdrmesh_bench_refine [CORPUS_DIR [NAME...]]
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "pdrmesh/quality.hpp"
+#include "pdrmesh/refine.hpp"
+#include "pdrmesh/sizing.hpp"
+#include "pdrmesh/surface_io.hpp"
+#include "pdrmesh/tet_mesh.hpp"
+#include "pdrmesh/tetgen_adapter.hpp"
+#include "pdrmesh/topology.hpp"
+#include "pdrmesh/validate.hpp"
+
+namespace {
+
+using namespace pdrmesh;
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+void run(const std::string& dir, const std::string& name, bool fine) {
+  auto surface = read_surface(dir + "/" + name + ".stl");
+  if (!surface.ok()) {
+    fmt::print("{:<13} read failed: {}\n", name, surface.status().to_string());
+    return;
+  }
+  auto initial = tetrahedralize(*surface);
+  if (!initial.ok()) {
+    fmt::print("{:<13} tetgen failed: {}\n", name, initial.status().to_string());
+    return;
+  }
+  SizingOptions so;
+  if (fine) so.size = surface->bounds().diagonal() / 100.0;
+  auto field = SizingField::build(*surface, *initial, so);
+  auto mesh = TetMesh::from_volume_mesh(*initial);
+  if (!field.ok() || !mesh.ok()) {
+    fmt::print("{:<13} setup failed\n", name);
+    return;
+  }
+  const auto t0 = Clock::now();
+  const bool verbose = std::getenv("PDRMESH_BENCH_VERBOSE") != nullptr;
+  auto stats = refine(*mesh, *field, {}, [&](const RefinePassStats& p) {
+    if (verbose)
+      fmt::print(stderr, "  pass {:>3}: {:>8} candidates {:>8} accepted {:>8} inserted {:>8} flips {:>9} tets {:.3f}s\n",
+                 p.pass, p.candidates, p.accepted, p.inserted, p.flips, p.tets, p.seconds);
+  });
+  const double seconds = seconds_since(t0);
+  if (!stats.ok()) {
+    fmt::print("{:<13} refine failed: {}\n", name, stats.status().to_string());
+    return;
+  }
+  const VolumeMesh out = mesh->to_volume_mesh();
+  const ValidationReport report = validate_mesh(out, &*surface);
+
+  std::vector<bool> on_boundary(out.points.size(), false);
+  for (const Tri& t : out.boundary)
+    for (Index v : t) on_boundary[v] = true;
+  std::vector<std::pair<Index, Index>> edges;
+  edges.reserve(out.tets.size() * 6);
+  for (const Tet& k : out.tets)
+    for (int e = 0; e < 6; ++e) {
+      const Index a = k[topo::kEdgeVertex[e][0]], b = k[topo::kEdgeVertex[e][1]];
+      if (!on_boundary[a] && !on_boundary[b]) edges.push_back({std::min(a, b), std::max(a, b)});
+    }
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  std::size_t good = 0, shorter = 0, longer = 0;
+  for (const auto& [a, b] : edges) {
+    const double h = field->at(0.5 * (out.points[a] + out.points[b]));
+    const double l = norm(out.points[a] - out.points[b]);
+    if (l < 0.6 * h) ++shorter;
+    else if (l > 1.5 * h) ++longer;
+    else ++good;
+  }
+  AngleRange all{180, 0}, inner{180, 0};
+  std::size_t inner_tets = 0, inner_good = 0;
+  for (const Tet& k : out.tets) {
+    const auto r = dihedral_range(out.points[k[0]], out.points[k[1]], out.points[k[2]], out.points[k[3]]);
+    all.min = std::min(all.min, r.min);
+    all.max = std::max(all.max, r.max);
+    if (on_boundary[k[0]] || on_boundary[k[1]] || on_boundary[k[2]] || on_boundary[k[3]]) continue;
+    ++inner_tets;
+    if (r.min >= 15 && r.max <= 150) ++inner_good;
+    inner.min = std::min(inner.min, r.min);
+    inner.max = std::max(inner.max, r.max);
+  }
+  const double n = edges.empty() ? 1.0 : double(edges.size());
+  fmt::print("{:<13} {:>5} {:>9} {:>4} {:>8.2f} {:>9.0f} {:>6.1f}% {:>5.1f}% {:>5.1f}% {:>6.1f} {:>6.1f} {:>6.1f} {:>6.1f} {:>6.1f}% {}\n",
+             name, fine ? "d/100" : "dflt", out.tets.size(), stats->passes.size(), seconds,
+             double(out.tets.size()) / seconds, 100.0 * double(good) / n, 100.0 * double(shorter) / n,
+             100.0 * double(longer) / n, all.min, all.max, inner.min, inner.max,
+             inner_tets ? 100.0 * double(inner_good) / double(inner_tets) : 0.0,
+             report.ok() ? "valid" : "INVALID: " + (report.errors.empty() ? std::string() : report.errors[0]));
+  std::fflush(stdout);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const std::string dir = argc > 1 ? argv[1] : PDRMESH_DEFAULT_CORPUS;
+  std::vector<std::string> names;
+  for (int i = 2; i < argc; ++i) names.emplace_back(argv[i]);
+  if (names.empty())
+    names = {"sphere966", "bunny_npm", "hinge", "elephant", "couplingdown",
+             "knot2", "fandisk", "primitives13", "armadillo", "frame"};
+  fmt::print("{:<13} {:>5} {:>9} {:>4} {:>8} {:>9} {:>7} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>7} {}\n", "surface",
+             "size", "tets", "pass", "refine_s", "tets/s", "in[.6,1.5]", "<.6", ">1.5", "dmin", "dmax", "idmin",
+             "idmax", "i[15,150]", "validate");
+  for (const std::string& name : names)
+    for (bool fine : {false, true}) run(dir, name, fine);
+  return 0;
+}

@@ -1,0 +1,376 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// The grid generation passes: advancing-front point creation, rejection,
+// insertion and local reconnection (see refine.hpp).
+#include "pdrmesh/refine.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <array>
+#include <span>
+#include <chrono>
+#include <cmath>
+
+#include "pdrmesh/flips.hpp"
+#include "pdrmesh/insert.hpp"
+#include "pdrmesh/predicates.hpp"
+#include "pdrmesh/topology.hpp"
+
+namespace pdrmesh {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+struct Candidate {
+  Vec3 p;
+  Index tet;  ///< the tet it advances into: where its location walk starts
+  Tet vertices;  ///< that tet's vertices when the candidate was made
+};
+
+/// Lower bound of the distance from p to triangle (a, b, c): the larger of the
+/// distance to its plane and the distance to its bounding sphere about the centroid.
+double face_distance_bound(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& p) {
+  const Vec3 n = cross(b - a, c - a);
+  const double ln = norm(n);
+  const double plane = ln > 0.0 ? std::fabs(dot(n, p - a)) / ln : 0.0;
+  const Vec3 g = (1.0 / 3.0) * (a + b + c);
+  const double r = std::sqrt(std::max({dot(a - g, a - g), dot(b - g, b - g), dot(c - g, c - g)}));
+  return std::max(plane, norm(p - g) - r);
+}
+
+class Refiner {
+ public:
+  Refiner(TetMesh& mesh, const SizingField& sizing, const RefineOptions& options)
+      : m_(mesh), sizing_(sizing), o_(options) {}
+
+  RefineStats run(const RefineProgress& progress) {
+    const auto t0 = Clock::now();
+    RefineStats stats;
+    h_.resize(m_.num_points());
+    for (Index v = 0; v < m_.num_points(); ++v) h_[v] = sizing_.at(m_.point(v));
+    while (last_tet_ + 1 < m_.num_slots() && !m_.alive(last_tet_)) ++last_tet_;
+    bool midpoints = false;
+    for (int pass = 1; pass <= o_.max_passes; ++pass) {
+      const auto tp = Clock::now();
+      RefinePassStats ps;
+      ps.pass = pass;
+      deactivate();
+      collect(midpoints);
+      ps.candidates = candidates_.size();
+      // A tet none of whose candidates went in, and that no insertion or flip
+      // has replaced meanwhile, is retired (inactive) until an operation
+      // touches it again: its candidates would fail the same way next pass.
+      for (std::size_t i = 0; i < candidates_.size();) {
+        const Candidate& first = candidates_[i];
+        bool any = false;
+        std::size_t j = i;
+        for (; j < candidates_.size() && candidates_[j].tet == first.tet &&
+               candidates_[j].vertices == first.vertices;
+             ++j)
+          any = process(candidates_[j], ps) || any;
+        if (!any && m_.alive(first.tet) && m_.tet(first.tet) == first.vertices)
+          m_.set_active(first.tet, false);
+        i = j;
+      }
+      ps.tets = m_.num_tets();
+      ps.seconds = seconds_since(tp);
+      stats.points_added += ps.inserted;
+      stats.passes.push_back(ps);
+      if (progress) progress(ps);
+      if (ps.inserted == 0) {
+        if (midpoints) break;
+        midpoints = true;
+      } else {
+        midpoints = false;
+      }
+    }
+    stats.seconds = seconds_since(t0);
+    return stats;
+  }
+
+ private:
+  /// True when every edge of t is within split_ratio of the mean h of its ends.
+  bool satisfied(Index t) const {
+    const Tet& k = m_.tet(t);
+    for (int e = 0; e < 6; ++e)
+      if (!short_edge(k[topo::kEdgeVertex[e][0]], k[topo::kEdgeVertex[e][1]])) return false;
+    return true;
+  }
+
+  void deactivate() {
+    for (Index t = 0; t < m_.num_slots(); ++t)
+      if (m_.alive(t) && m_.active(t) && satisfied(t)) m_.set_active(t, false);
+  }
+
+  /// True when the edge (a, b) is no longer than split_ratio times its mean h.
+  bool short_edge(Index a, Index b) const {
+    const Vec3 d = m_.point(a) - m_.point(b);
+    const double limit = o_.split_ratio * 0.5 * (h_[a] + h_[b]);
+    return dot(d, d) <= limit * limit;
+  }
+
+  /// Front stage: from every face of an active tet that is a hull or frozen
+  /// face or has no long edge, a point advanced into the tet. Midpoint stage:
+  /// the midpoint of every long edge of an active tet (each edge once per tet).
+  /// Slot order, then face or edge order.
+  void collect(bool midpoints) {
+    candidates_.clear();
+    for (Index t = 0; t < m_.num_slots(); ++t) {
+      if (!m_.alive(t) || !m_.active(t)) continue;
+      const Tet& k = m_.tet(t);
+      if (midpoints) {
+        for (int e = 0; e < 6; ++e) {
+          const Index a = k[topo::kEdgeVertex[e][0]], b = k[topo::kEdgeVertex[e][1]];
+          if (!short_edge(a, b)) candidates_.push_back({0.5 * (m_.point(a) + m_.point(b)), t, k});
+        }
+        continue;
+      }
+      for (int f = 0; f < 4; ++f) {
+        const Index a = k[topo::kFaceVertex[f][0]], b = k[topo::kFaceVertex[f][1]],
+                    c = k[topo::kFaceVertex[f][2]];
+        const bool wall = m_.neighbour(t, f) == kNoIndex || m_.frozen(t, f);
+        if (!wall && !(short_edge(a, b) && short_edge(b, c) && short_edge(c, a))) continue;
+        const Vec3& pa = m_.point(a);
+        const Vec3& pb = m_.point(b);
+        const Vec3& pc = m_.point(c);
+        const Vec3 normal = cross(pb - pa, pc - pa);  // outward from t
+        const double ln = norm(normal);
+        if (!(ln > 0.0)) continue;
+        const double hf = (h_[a] + h_[b] + h_[c]) / 3.0;
+        const Vec3 g = (1.0 / 3.0) * (pa + pb + pc);
+        candidates_.push_back({g - (o_.advance_ratio * hf / ln) * normal, t, k});
+      }
+    }
+  }
+
+  /// The proximity test: false when a point lies within `r_point` of p, or a
+  /// hull or frozen face within `r_face`, among the tets reachable from `start`
+  /// across unfrozen faces that may lie within r_point of p.
+  bool clear_around(Index start, const Vec3& p, double r_point, double r_face) {
+    if (stamp_.size() < m_.num_slots()) stamp_.resize(m_.num_slots(), 0);
+    if (++epoch_ == 0) {  // wrapped: reset the stamps
+      std::fill(stamp_.begin(), stamp_.end(), 0u);
+      epoch_ = 1;
+    }
+    const double rp2 = r_point * r_point;
+    stack_.clear();
+    stack_.push_back(start);
+    stamp_[start] = epoch_;
+    Index visited = 0;
+    while (!stack_.empty() && visited < o_.max_search_tets) {
+      const Index t = stack_.back();
+      stack_.pop_back();
+      ++visited;
+      const Tet& k = m_.tet(t);
+      for (int i = 0; i < 4; ++i) {
+        const Vec3 d = m_.point(k[i]) - p;
+        if (dot(d, d) < rp2) return false;
+      }
+      for (int f = 0; f < 4; ++f) {
+        const Index n = m_.neighbour(t, f);
+        const bool wall = n == kNoIndex || m_.frozen(t, f);
+        if (!wall && stamp_[face_tet(n)] == epoch_) continue;
+        const double lb =
+            face_distance_bound(m_.point(k[topo::kFaceVertex[f][0]]), m_.point(k[topo::kFaceVertex[f][1]]),
+                                m_.point(k[topo::kFaceVertex[f][2]]), p);
+        if (wall) {
+          if (lb < r_face) return false;
+          continue;
+        }
+        if (lb < r_point) {
+          stamp_[face_tet(n)] = epoch_;
+          stack_.push_back(face_tet(n));
+        }
+      }
+    }
+    return true;
+  }
+
+  /// Where a candidate may be inserted: strictly inside a tet, or on an
+  /// interior unfrozen face or edge (insert_at declines frozen ones itself).
+  bool insertable(const Location& l) {
+    switch (l.kind) {
+      case LocationKind::kInTet:
+        return true;
+      case LocationKind::kOnFace:
+        return m_.neighbour(l.tet, l.local) != kNoIndex && !m_.frozen(l.tet, l.local);
+      case LocationKind::kOnEdge:
+        return m_.edge_ring(l.tet, l.local, ring_) && ring_.closed;
+      default:
+        return false;
+    }
+  }
+
+  /// Locates, checks and inserts one candidate; true when it went in.
+  bool process(const Candidate& c, RefinePassStats& ps) {
+    Index start = c.tet;
+    if (!m_.alive(start)) start = last_tet_;
+    const Location l = walk(m_, start, c.p, o_.max_walk_steps, /*cross_frozen=*/false);
+    if (!insertable(l)) return false;
+    const double h = sizing_.at(c.p);
+    if (!clear_around(l.tet, c.p, o_.reject_distance * h, o_.boundary_reject_distance * h))
+      return false;
+    ++ps.accepted;
+    const InsertResult r = insert_at(m_, l, c.p);
+    if (r.outcome != InsertOutcome::kDone) return false;
+    ++ps.inserted;
+    h_.push_back(h);
+    last_tet_ = m_.last_created()[0];
+    if (o_.reconnect) {
+      if (o_.delaunay) ps.flips += delaunay_flips(r.point);
+      if (o_.min_max) ps.flips += reconnect();
+    }
+    return true;
+  }
+
+  /// True when tets `old` may be replaced by the positive tets `fresh` (the
+  /// replaced faces are not frozen: checked by the caller) within one region.
+  bool all_positive(std::span<const Tet> fresh) const {
+    for (const Tet& k : fresh)
+      if (exact::orient3d(m_.point(k[0]), m_.point(k[1]), m_.point(k[2]), m_.point(k[3])) <= 0)
+        return false;
+    return true;
+  }
+
+  /// 3-2 flip of edge le of tet t when exactly three tets surround it, none of
+  /// the faces around it is frozen and all lie in one region.
+  bool flip32_delaunay(Index t, int le) {
+    if (!m_.edge_ring(t, le, ring_) || !ring_.closed || ring_.size != 3) return false;
+    for (int i = 0; i < 3; ++i) {
+      const Index u = ring_.tets[i];
+      if (m_.frozen(u, topo::local_vertex(m_.tet(u), ring_.ring[i]))) return false;
+      if (m_.region(u) != m_.region(ring_.tets[0])) return false;
+    }
+    const auto& r = ring_.ring;
+    const std::array<Tet, 2> fresh{Tet{r[0], r[1], r[2], ring_.b}, Tet{r[1], r[0], r[2], ring_.a}};
+    if (!all_positive(fresh)) return false;
+    const std::array<Index, 2> parent{0, 0};
+    m_.replace_cavity(std::span<const Index>(ring_.tets.data(), 3), fresh, parent);
+    return true;
+  }
+
+  /// Lawson's flips after inserting point p: every face opposite p whose
+  /// neighbour's apex lies inside the tet's circumsphere (exact insphere) is
+  /// flipped away, 2-3 when the two tets form a convex pair, else 3-2 across
+  /// the edge that blocks it when three tets surround that edge. Frozen faces
+  /// and region borders are never flipped (a constrained Delaunay repair).
+  std::size_t delaunay_flips(Index p) {
+    queue_.assign(m_.last_created().begin(), m_.last_created().end());
+    std::size_t flips = 0;
+    const double reach = o_.delaunay_reach * h_[p];
+    const double reach2 = reach * reach;
+    for (std::size_t head = 0; head < queue_.size() && flips < o_.max_flips_per_point; ++head) {
+      const Index t = queue_[head];
+      if (!m_.alive(t)) continue;
+      const Tet kt = m_.tet(t);
+      const int f = topo::local_vertex(kt, p);
+      if (f < 0) continue;
+      const Index n = m_.neighbour(t, f);
+      if (n == kNoIndex || m_.frozen(t, f)) continue;
+      const Index u = face_tet(n);
+      if (m_.region(u) != m_.region(t)) continue;
+      const Index e = m_.tet(u)[face_local(n)];
+      const Vec3 pe = m_.point(e) - m_.point(p);
+      if (dot(pe, pe) > reach2) continue;  // would join p to a far point: leave it
+      if (exact::insphere(m_.point(kt[0]), m_.point(kt[1]), m_.point(kt[2]), m_.point(kt[3]),
+                          m_.point(e)) <= 0)
+        continue;
+      const Index a = kt[topo::kFaceVertex[f][0]], b = kt[topo::kFaceVertex[f][1]],
+                  c = kt[topo::kFaceVertex[f][2]];
+      const std::array<Tet, 3> fresh{Tet{a, b, p, e}, Tet{b, c, p, e}, Tet{c, a, p, e}};
+      bool done = false;
+      if (all_positive(fresh)) {
+        const std::array<Index, 2> old{t, u};
+        const std::array<Index, 3> parent{0, 0, 0};
+        m_.replace_cavity(old, fresh, parent);
+        done = true;
+      } else {
+        for (int j = 0; j < 3 && !done; ++j) {
+          const Index x = fresh[j][0], y = fresh[j][1];
+          if (exact::orient3d(m_.point(x), m_.point(y), m_.point(p), m_.point(e)) >= 0) continue;
+          done = flip32_delaunay(t, topo::kEdgeIndex[topo::local_vertex(kt, x)][topo::local_vertex(kt, y)]);
+        }
+      }
+      if (!done) continue;
+      ++flips;
+      const auto created = m_.last_created();
+      queue_.insert(queue_.end(), created.begin(), created.end());
+    }
+    return flips;
+  }
+
+  /// Flips around the tets the last insertion created; returns the flips done.
+  std::size_t reconnect() {
+    if (!o_.delaunay) {
+      queue_.assign(m_.last_created().begin(), m_.last_created().end());
+    } else {  // the tets the Delaunay step left alive, in queue order
+      std::size_t kept = 0;
+      for (const Index t : queue_)
+        if (m_.alive(t)) queue_[kept++] = t;
+      queue_.resize(kept);
+    }
+    std::size_t flips = 0;
+    for (std::size_t head = 0; head < queue_.size() && flips < o_.max_flips_per_point; ++head) {
+      const Index t = queue_[head];
+      if (!m_.alive(t)) continue;
+      bool done = false;
+      for (int f = 0; f < 4 && !done; ++f) done = flip23(m_, t, f) == FlipOutcome::kDone;
+      for (int e = 0; e < 6 && !done; ++e) done = remove_edge(m_, t, e) == FlipOutcome::kDone;
+      if (!done) continue;
+      ++flips;
+      const auto created = m_.last_created();
+      queue_.insert(queue_.end(), created.begin(), created.end());
+    }
+    if (!m_.last_created().empty()) last_tet_ = m_.last_created()[0];
+    return flips;
+  }
+
+  TetMesh& m_;
+  const SizingField& sizing_;
+  const RefineOptions& o_;
+  std::vector<double> h_;  ///< h at each point, evaluated when it entered the mesh
+  std::vector<Candidate> candidates_;
+  std::vector<std::uint32_t> stamp_;
+  std::uint32_t epoch_ = 0;
+  std::vector<Index> stack_;
+  std::vector<Index> queue_;
+  EdgeRing ring_;
+  Index last_tet_ = 0;
+};
+
+bool positive_finite(double x) { return std::isfinite(x) && x > 0.0; }
+
+}  // namespace
+
+Status validate(const RefineOptions& o) {
+  if (!positive_finite(o.reject_distance))
+    return invalid_input(fmt::format("reject_distance must be finite and > 0, got {}", o.reject_distance));
+  if (!(std::isfinite(o.boundary_reject_distance) && o.boundary_reject_distance >= 0.0))
+    return invalid_input(fmt::format("boundary_reject_distance must be finite and >= 0, got {}",
+                                     o.boundary_reject_distance));
+  if (!positive_finite(o.split_ratio))
+    return invalid_input(fmt::format("split_ratio must be finite and > 0, got {}", o.split_ratio));
+  if (!positive_finite(o.advance_ratio))
+    return invalid_input(fmt::format("advance_ratio must be finite and > 0, got {}", o.advance_ratio));
+  if (o.max_passes < 0) return invalid_input(fmt::format("max_passes must be >= 0, got {}", o.max_passes));
+  if (o.max_walk_steps == 0 || o.max_search_tets == 0)
+    return invalid_input("max_walk_steps and max_search_tets must be > 0");
+  return {};
+}
+
+Result<RefineStats> refine(TetMesh& mesh, const SizingField& sizing, const RefineOptions& options,
+                           const RefineProgress& progress) {
+  PDR_TRY(validate(options));
+  Refiner refiner(mesh, sizing, options);
+  RefineStats stats = refiner.run(progress);
+#ifndef NDEBUG
+  PDR_TRY(mesh.check());
+#endif
+  return stats;
+}
+
+}  // namespace pdrmesh

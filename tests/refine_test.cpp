@@ -1,0 +1,276 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// Tests of the grid generation passes (refine.hpp) and the serial pipeline.
+#include "pdrmesh/refine.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstring>
+#include <map>
+#include <set>
+#include <vector>
+
+#include "pdrmesh/pipeline.hpp"
+#include "pdrmesh/surface_io.hpp"
+#include "pdrmesh/validate.hpp"
+#include "test_fixtures.hpp"
+#include "tet_fixtures.hpp"
+
+namespace pdrmesh {
+namespace {
+
+SizingField uniform_field(const SurfaceMesh& surface, const VolumeMesh& background, double h) {
+  SizingOptions o;
+  o.size = h;
+  auto r = SizingField::build(surface, background, o);
+  EXPECT_TRUE(r.ok()) << r.status().to_string();
+  return std::move(r).value();
+}
+
+/// The surface made of a mesh's hull faces (all its points kept).
+SurfaceMesh hull_surface(const VolumeMesh& m) {
+  SurfaceMesh s;
+  s.points = m.points;
+  s.triangles = fixtures::hull_faces(m);
+  s.surface_ids.assign(s.triangles.size(), 1);
+  s.name = "hull";
+  return s;
+}
+
+/// Sorted keys of the hull faces.
+std::vector<Tri> hull_keys(const VolumeMesh& m) {
+  std::vector<Tri> k;
+  for (const Tri& t : fixtures::hull_faces(m)) k.push_back(topo::sorted_key(t));
+  std::sort(k.begin(), k.end());
+  return k;
+}
+
+/// Share of the edges with no endpoint in `fixed` whose length lies in [0.6, 1.5] h.
+double interior_edge_share(const VolumeMesh& m, const std::vector<bool>& fixed, double h,
+                           std::size_t* count) {
+  std::set<std::pair<Index, Index>> edges;
+  for (const Tet& k : m.tets)
+    for (int e = 0; e < 6; ++e) {
+      Index a = k[topo::kEdgeVertex[e][0]], b = k[topo::kEdgeVertex[e][1]];
+      if (fixed[a] || fixed[b]) continue;
+      edges.insert({std::min(a, b), std::max(a, b)});
+    }
+  std::size_t good = 0;
+  for (const auto& [a, b] : edges) {
+    const double l = norm(m.points[a] - m.points[b]);
+    if (l >= 0.6 * h && l <= 1.5 * h) ++good;
+  }
+  *count = edges.size();
+  return edges.empty() ? 0.0 : double(good) / double(edges.size());
+}
+
+std::vector<bool> boundary_points(const VolumeMesh& m) {
+  std::vector<bool> b(m.points.size(), false);
+  for (const Tri& t : fixtures::hull_faces(m))
+    for (Index v : t) b[v] = true;
+  return b;
+}
+
+TetMesh refined_cube(double h, RefineStats* stats = nullptr) {
+  const SurfaceMesh surface = fixtures::unit_cube_surface();
+  const VolumeMesh initial = fixtures::unit_cube_mesh();
+  const SizingField field = uniform_field(surface, initial, h);
+  TetMesh mesh = fixtures::build(initial);
+  auto r = refine(mesh, field);
+  EXPECT_TRUE(r.ok()) << r.status().to_string();
+  if (stats != nullptr && r.ok()) *stats = *r;
+  return mesh;
+}
+
+TEST(Refine, CubeToUniformSize) {
+  const double h = 0.2;
+  RefineStats stats;
+  TetMesh mesh = refined_cube(h, &stats);
+  ASSERT_TRUE(mesh.check().ok()) << mesh.check().to_string();
+  EXPECT_GT(stats.points_added, 20u);
+  EXPECT_FALSE(stats.passes.empty());
+  const VolumeMesh out = mesh.to_volume_mesh();
+  const SurfaceMesh surface = fixtures::unit_cube_surface();
+  const ValidationReport report = validate_mesh(out, &surface);
+  EXPECT_TRUE(report.ok()) << format_validation(report);
+  // The frozen boundary is untouched: same hull, the 8 corners at their places,
+  // and every new point strictly inside the cube.
+  EXPECT_EQ(hull_keys(out), hull_keys(fixtures::unit_cube_mesh()));
+  for (Index v = 0; v < 8; ++v) EXPECT_EQ(out.points[v], surface.points[v]);
+  for (std::size_t v = 8; v < out.points.size(); ++v)
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_GT(out.points[v][k], 0.0);
+      EXPECT_LT(out.points[v][k], 1.0);
+    }
+  std::size_t edges = 0;
+  const double share = interior_edge_share(out, boundary_points(out), h, &edges);
+  EXPECT_GT(edges, 20u);
+  EXPECT_GE(share, 0.9) << edges << " interior edges";
+}
+
+TEST(Refine, IsDeterministic) {
+  const VolumeMesh a = refined_cube(0.25).to_volume_mesh();
+  const VolumeMesh b = refined_cube(0.25).to_volume_mesh();
+  ASSERT_EQ(a.points.size(), b.points.size());
+  ASSERT_EQ(a.tets, b.tets);
+  EXPECT_EQ(std::memcmp(a.points.data(), b.points.data(), a.points.size() * sizeof(Vec3)), 0);
+}
+
+/// Two unit cubes side by side along x, each cut like the Kuhn cube (their
+/// common face x = 1 gets the same diagonal from both).
+VolumeMesh two_boxes() {
+  const VolumeMesh cube = fixtures::unit_cube_mesh();
+  VolumeMesh m;
+  std::map<Vec3, Index> index;
+  const auto add = [&](Vec3 p) {
+    auto [it, fresh] = index.emplace(p, static_cast<Index>(m.points.size()));
+    if (fresh) m.points.push_back(p);
+    return it->second;
+  };
+  for (double shift : {0.0, 1.0})
+    for (const Tet& k : cube.tets) {
+      Tet t;
+      for (int i = 0; i < 4; ++i) t[i] = add(cube.points[k[i]] + Vec3{shift, 0.0, 0.0});
+      m.tets.push_back(t);
+    }
+  return fixtures::with_hull_boundary(m);
+}
+
+TEST(Refine, FrozenInteriorPlaneStaysIntact) {
+  const VolumeMesh initial = two_boxes();
+  const SurfaceMesh surface = hull_surface(initial);
+  TetMesh mesh = fixtures::build(initial);
+  const auto on_plane = [](const VolumeMesh& m, const Tri& t) {
+    return m.points[t[0]][0] == 1.0 && m.points[t[1]][0] == 1.0 && m.points[t[2]][0] == 1.0;
+  };
+  std::set<Tri> plane_before;
+  for (Index t = 0; t < mesh.num_slots(); ++t)
+    for (int f = 0; f < 4; ++f) {
+      const Tri face = topo::face_of(mesh.tet(t), f);
+      if (mesh.neighbour(t, f) != kNoIndex && on_plane(initial, face)) {
+        mesh.set_frozen(t, f, true);
+        plane_before.insert(topo::sorted_key(face));
+      }
+    }
+  ASSERT_EQ(plane_before.size(), 2u);
+  const SizingField field = uniform_field(surface, initial, 0.25);
+  auto r = refine(mesh, field);
+  ASSERT_TRUE(r.ok()) << r.status().to_string();
+  ASSERT_TRUE(mesh.check().ok()) << mesh.check().to_string();
+  EXPECT_GT(r->points_added, 20u);
+  const VolumeMesh out = mesh.to_volume_mesh();
+  const ValidationReport report = validate_mesh(out, &surface);
+  EXPECT_TRUE(report.ok()) << format_validation(report);
+  std::set<Tri> plane_after;
+  for (const Tet& k : out.tets)
+    for (int f = 0; f < 4; ++f)
+      if (on_plane(out, topo::face_of(k, f))) plane_after.insert(topo::sorted_key(topo::face_of(k, f)));
+  EXPECT_EQ(plane_after, plane_before);
+  for (std::size_t v = initial.points.size(); v < out.points.size(); ++v)
+    EXPECT_NE(out.points[v][0], 1.0) << "point " << v;
+  // Points were added on both sides.
+  std::size_t left = 0, right = 0;
+  for (std::size_t v = initial.points.size(); v < out.points.size(); ++v)
+    (out.points[v][0] < 1.0 ? left : right) += 1;
+  EXPECT_GT(left, 5u);
+  EXPECT_GT(right, 5u);
+}
+
+/// The tets of `whole` whose barycenter has x < cut, points renumbered, every
+/// hull face (the cut ones included) a boundary face, hence frozen.
+VolumeMesh cut_below(const VolumeMesh& whole, double cut) {
+  VolumeMesh sub;
+  std::vector<Index> to_sub(whole.points.size(), kNoIndex);
+  for (const Tet& k : whole.tets) {
+    double x = 0;
+    for (Index v : k) x += whole.points[v][0] / 4.0;
+    if (!(x < cut)) continue;
+    Tet t;
+    for (int i = 0; i < 4; ++i) {
+      if (to_sub[k[i]] == kNoIndex) {
+        to_sub[k[i]] = static_cast<Index>(sub.points.size());
+        sub.points.push_back(whole.points[k[i]]);
+      }
+      t[i] = to_sub[k[i]];
+    }
+    sub.tets.push_back(t);
+  }
+  return fixtures::with_hull_boundary(sub);
+}
+
+TEST(Refine, SubMeshKeepsItsCutFaces) {
+  const VolumeMesh whole = refined_cube(0.3).to_volume_mesh();
+  // The tets whose barycenter has x < cut, with their points renumbered; the
+  // first cut in the list whose piece has a manifold boundary.
+  VolumeMesh sub;
+  for (double cut : {0.5, 0.45, 0.55, 0.4, 0.6}) {
+    sub = cut_below(whole, cut);
+    if (validate_mesh(sub).ok()) break;
+  }
+  ASSERT_TRUE(validate_mesh(sub).ok());
+  ASSERT_GT(sub.tets.size(), 10u);
+  ASSERT_LT(sub.tets.size(), whole.tets.size());
+  const SurfaceMesh surface = hull_surface(sub);
+  TetMesh mesh = fixtures::build(sub);
+  const SizingField field = uniform_field(surface, sub, 0.15);
+  auto r = refine(mesh, field);
+  ASSERT_TRUE(r.ok()) << r.status().to_string();
+  ASSERT_TRUE(mesh.check().ok()) << mesh.check().to_string();
+  EXPECT_GT(r->points_added, 5u);
+  const VolumeMesh out = mesh.to_volume_mesh();
+  const ValidationReport report = validate_mesh(out, &surface);
+  EXPECT_TRUE(report.ok()) << format_validation(report);
+  EXPECT_EQ(hull_keys(out), hull_keys(sub));
+  for (std::size_t v = 0; v < sub.points.size(); ++v) EXPECT_EQ(out.points[v], sub.points[v]);
+}
+
+TEST(Refine, RejectsBadOptions) {
+  TetMesh mesh = fixtures::build(fixtures::unit_cube_mesh());
+  const SizingField field =
+      uniform_field(fixtures::unit_cube_surface(), fixtures::unit_cube_mesh(), 0.5);
+  RefineOptions o;
+  o.reject_distance = -1;
+  auto r = refine(mesh, field, o);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.status().code(), StatusCode::kInvalidInput);
+  EXPECT_NE(r.status().message().find("reject_distance"), std::string::npos);
+  EXPECT_EQ(mesh.num_points(), 8u);
+}
+
+TEST(Refine, ReportsEveryPassToProgress) {
+  TetMesh mesh = fixtures::build(fixtures::unit_cube_mesh());
+  const SizingField field =
+      uniform_field(fixtures::unit_cube_surface(), fixtures::unit_cube_mesh(), 0.3);
+  std::vector<RefinePassStats> seen;
+  auto r = refine(mesh, field, {}, [&](const RefinePassStats& p) { seen.push_back(p); });
+  ASSERT_TRUE(r.ok());
+  ASSERT_EQ(seen.size(), r->passes.size());
+  std::size_t added = 0;
+  for (std::size_t i = 0; i < seen.size(); ++i) {
+    EXPECT_EQ(seen[i].pass, static_cast<int>(i) + 1);
+    EXPECT_LE(seen[i].inserted, seen[i].accepted);
+    EXPECT_LE(seen[i].accepted, seen[i].candidates);
+    added += seen[i].inserted;
+  }
+  EXPECT_EQ(added, r->points_added);
+  EXPECT_EQ(mesh.num_points(), 8u + added);
+  EXPECT_EQ(seen.back().tets, mesh.num_tets());
+}
+
+void expect_corpus_meshes(const char* name) {
+  auto surface = read_surface(std::string(PDRMESH_CORPUS_DIR) + "/" + name + ".stl");
+  ASSERT_TRUE(surface.ok()) << surface.status().to_string();
+  SerialOptions o;
+  o.sizing.size = surface->bounds().diagonal() / 12.0;  // coarse: keeps the test fast
+  auto r = mesh_serial(*surface, o);
+  ASSERT_TRUE(r.ok()) << r.status().to_string();
+  EXPECT_GT(r->refine.points_added, 0u);
+  const ValidationReport report = validate_mesh(r->mesh, &*surface);
+  EXPECT_TRUE(report.ok()) << format_validation(report);
+}
+
+TEST(Pipeline, Sphere966Validates) { expect_corpus_meshes("sphere966"); }
+TEST(Pipeline, ElephantValidates) { expect_corpus_meshes("elephant"); }
+
+}  // namespace
+}  // namespace pdrmesh
