@@ -20,7 +20,7 @@ for f in "$corpus"/*.stl; do
   tris=$($pdrmesh check --json "$f" | sed -n 's/.*"triangles":\([0-9]*\).*/\1/p' | head -1)
   /usr/bin/time -f '%e %M' -o "$tmp/check" "$pdrmesh" check "$f" >/dev/null || true
   read -r cs ckb <"$tmp/check"
-  /usr/bin/time -f "%e %M" -o "$tmp/mesh" "$pdrmesh" mesh -q "$f" -o "$tmp/out.meshb" || true
+  /usr/bin/time -f "%e %M" -o "$tmp/mesh" "$pdrmesh" mesh -q --no-refine "$f" -o "$tmp/out.meshb" || true
   read -r ms mkb < <(tail -1 "$tmp/mesh")
   tets=$($pdrmesh quality --json "$tmp/out.meshb" 2>/dev/null | sed -n 's/.*"tets":\([0-9]*\).*/\1/p')
   awk -v n="$name" -v t="${tris:-?}" -v cs="$cs" -v ckb="$ckb" -v tets="${tets:-failed}" -v ms="$ms" -v mkb="$mkb" \

@@ -13,7 +13,9 @@
 #include "pdrmesh/leaf_kernels.hpp"
 #include "pdrmesh/optimize.hpp"
 #include "pdrmesh/pdr.hpp"
+#include "pdrmesh/pipeline.hpp"
 #include "pdrmesh/quality.hpp"
+#include "pdrmesh/refine.hpp"
 #include "pdrmesh/sizing.hpp"
 #include "pdrmesh/surface_check.hpp"
 #include "pdrmesh/surface_io.hpp"
@@ -98,32 +100,6 @@ int run_check(const std::string& path, bool json, bool no_self_intersections) {
   return report.meshable() ? kExitOk : kExitBadInput;
 }
 
-struct MeshArgs {
-  std::string surface;
-  std::string output;
-  double max_volume = 0;
-  double time_limit_s = 600;
-  bool quiet = false;
-  bool no_validate = false;
-};
-
-int run_mesh(const MeshArgs& a) {
-  const Progress progress(a.quiet);
-  if (auto f = volume_format_from_path(a.output); !f.ok()) return fail(f.status());
-  SurfaceMesh surface;
-  if (int code = load_checked_surface(a.surface, progress, surface); code != kExitOk) return code;
-
-  TetgenOptions options;
-  if (a.max_volume > 0) options.max_volume = a.max_volume;
-  options.time_limit_s = a.time_limit_s;
-  auto mesh = tetrahedralize(surface, options);
-  if (!mesh.ok()) return fail(mesh.status());
-  progress.say("initial mesh (TetGen -{}): {} tets, {} points", tetgen_switches(options), mesh->tets.size(),
-               mesh->points.size());
-
-  return finish(*mesh, surface, a.output, !a.no_validate, progress, a.quiet);
-}
-
 /// Size options shared by the commands that refine (the point distribution function).
 struct SizeArgs {
   double size = 0, hmin = 0, hmax = 0, growth = 1.2;
@@ -146,12 +122,57 @@ struct SizeArgs {
   }
 };
 
+struct MeshArgs {
+  std::string surface;
+  std::string output;
+  double max_volume = 0;
+  double time_limit_s = 600;
+  bool quiet = false;
+  bool no_validate = false;
+  bool no_refine = false;
+  bool no_optimize = false;
+  SizeArgs size;
+};
+
+int run_mesh(const MeshArgs& a) {
+  const Progress progress(a.quiet);
+  if (auto f = volume_format_from_path(a.output); !f.ok()) return fail(f.status());
+  SurfaceMesh surface;
+  if (int code = load_checked_surface(a.surface, progress, surface); code != kExitOk) return code;
+
+  if (a.no_refine) {
+    TetgenOptions options;
+    if (a.max_volume > 0) options.max_volume = a.max_volume;
+    options.time_limit_s = a.time_limit_s;
+    auto mesh = tetrahedralize(surface, options);
+    if (!mesh.ok()) return fail(mesh.status());
+    progress.say("initial mesh (TetGen -{}): {} tets, {} points", tetgen_switches(options), mesh->tets.size(),
+                 mesh->points.size());
+    return finish(*mesh, surface, a.output, !a.no_validate, progress, a.quiet);
+  }
+
+  SerialOptions options;
+  options.sizing = a.size.options();
+  options.tetgen.time_limit_s = a.time_limit_s;
+  if (a.no_optimize) options.optimize.reset();
+  auto result = mesh_serial(surface, options, [&progress](const RefinePassStats& p) {
+    progress.say("pass {}: {} candidates, {} inserted, {} flips, {} tets", p.pass, p.candidates, p.inserted,
+                 p.flips, p.tets);
+  });
+  if (!result.ok()) return fail(result.status());
+  progress.say("refined: {} tets, {} points (initial mesh {:.2f} s, sizing {:.2f} s, refinement {:.2f} s, "
+               "optimization {:.2f} s)",
+               result->mesh.tets.size(), result->mesh.points.size(), result->seconds_initial,
+               result->seconds_sizing, result->seconds_refine, result->seconds_optimize);
+  return finish(result->mesh, surface, a.output, !a.no_validate, progress, a.quiet);
+}
+
 struct RunArgs {
   std::string surface;
   std::string output;
   std::size_t workers = 1;
   int depth = -1;
-  std::string kernel = "tetgen";
+  std::string kernel = "native";
   bool profile = false;
   bool no_interface_round = false;
   bool no_optimize = false;
@@ -200,7 +221,8 @@ int run_run(const RunArgs& a) {
   if (a.kernel == "tetgen") {
     kernel = std::make_unique<TetgenLeafKernel>();
   } else {
-    return fail(unsupported(fmt::format("--kernel {}: this build has the tetgen kernel only", a.kernel)));
+    kernel = std::make_unique<NativeLeafKernel>(
+        [](TetMesh& leaf, const SizingField& h) { return refine(leaf, h).status(); });
   }
   PdrOptions options;
   options.depth = a.depth;
@@ -273,13 +295,17 @@ void add_local_commands(CLI::App& app, int& exit_code) {
     cmd->callback([&exit_code, path, json, fast] { exit_code = run_check(*path, *json, *fast); });
   }
   {
-    auto* cmd = app.add_subcommand("mesh", "Mesh the volume inside a surface (serial path): check, "
-                                           "boundary-conforming initial mesh, write, quality summary.");
+    auto* cmd = app.add_subcommand("mesh", "Mesh the volume inside a surface on one core: check, "
+                                           "boundary-conforming initial mesh, advancing-front refinement, "
+                                           "final optimization, validation, quality summary.");
     auto a = std::make_shared<MeshArgs>();
     cmd->add_option("SURFACE", a->surface, "surface file (.stl .obj .off .ply .mesh .surf)")->required();
     cmd->add_option("-o,--output", a->output, "output volume mesh " + volume_formats)->required();
-    cmd->add_option("--max-volume", a->max_volume, "maximum tetrahedron volume of the initial mesh")
+    cmd->add_option("--max-volume", a->max_volume, "with --no-refine: maximum tetrahedron volume (TetGen -a)")
         ->check(CLI::PositiveNumber);
+    cmd->add_flag("--no-refine", a->no_refine, "write the boundary-conforming initial mesh (TetGen) unrefined");
+    cmd->add_flag("--no-optimize", a->no_optimize, "skip the final optimization");
+    a->size.add_to(cmd);
     cmd->add_option("--time-limit", a->time_limit_s, "seconds TetGen may run before it is stopped")
         ->check(CLI::PositiveNumber)
         ->capture_default_str();

@@ -17,6 +17,7 @@ Result<SerialResult> mesh_serial(const SurfaceMesh& surface, const SerialOptions
   };
   PDR_TRY(validate(options.sizing));
   PDR_TRY(validate(options.refine));
+  if (options.optimize) PDR_TRY(validate(*options.optimize));
   SerialResult out;
   auto t = Clock::now();
   PDR_ASSIGN_OR_RETURN(VolumeMesh initial, tetrahedralize(surface, options.tetgen));
@@ -28,8 +29,13 @@ Result<SerialResult> mesh_serial(const SurfaceMesh& surface, const SerialOptions
   PDR_ASSIGN_OR_RETURN(TetMesh mesh, TetMesh::from_volume_mesh(initial));
   initial = VolumeMesh{};
   PDR_ASSIGN_OR_RETURN(out.refine, refine(mesh, sizing, options.refine, progress));
-  out.mesh = mesh.to_volume_mesh();
   out.seconds_refine = since(t);
+  if (options.optimize) {
+    t = Clock::now();
+    PDR_ASSIGN_OR_RETURN(out.optimize, pdrmesh::optimize(mesh, &sizing, *options.optimize));
+    out.seconds_optimize = since(t);
+  }
+  out.mesh = mesh.to_volume_mesh();
   return out;
 }
 

@@ -4,16 +4,17 @@
 #   pdrmesh mesh SURFACE -o OUT      (OUT in the format given)
 #   pdrmesh validate OUT --surface SURFACE
 #   pdrmesh quality OUT --json       (tets > 0)
-# Usage: corpus_surface.sh PDRMESH SURFACE FORMAT_SUFFIX
+# Usage: corpus_surface.sh PDRMESH SURFACE FORMAT_SUFFIX [MESH_OPTIONS...]
 # Exits 77 (skipped) when the corpus is not beside the project.
 set -euo pipefail
 pdrmesh=$1 surface=$2 suffix=$3
+shift 3
 [[ -f $surface ]] || { echo "corpus surface $surface not found: skipped"; exit 77; }
 tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
 out="$tmp/out$suffix"
 
 "$pdrmesh" check "$surface"
-"$pdrmesh" mesh -q "$surface" -o "$out"
+"$pdrmesh" mesh -q "$@" "$surface" -o "$out"
 "$pdrmesh" validate "$out" --surface "$surface"
 json=$("$pdrmesh" quality --json "$out")
 tets=$(sed -n 's/.*"tets":\([0-9]*\).*/\1/p' <<<"$json")
