@@ -184,7 +184,8 @@ void add_service_commands(CLI::App& app, int& exit_code) {
     auto a = std::make_shared<SubmitArgs>();
     add_common(cmd, c);
     cmd->add_option("SURFACE", a->surface, "surface file (.stl .obj .off .ply .mesh .surf)")->required();
-    cmd->add_option("--max-volume", a->max_volume, "maximum tetrahedron volume")->check(CLI::PositiveNumber);
+    cmd->add_option("--max-volume", a->max_volume, "write the initial mesh alone, with this maximum tet volume")
+        ->check(CLI::PositiveNumber);
     cmd->add_option("--time-limit", a->time_limit_s, "seconds the job may mesh")->check(CLI::PositiveNumber);
     cmd->add_flag("--wait", a->wait, "watch the job (progress on stderr) until it ends");
     cmd->add_option("-o,--output-file", a->out, "download the result here when done (implies --wait)");

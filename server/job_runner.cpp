@@ -12,6 +12,7 @@
 #include <iterator>
 #include <nlohmann/json.hpp>
 
+#include "pdrmesh/pipeline.hpp"
 #include "pdrmesh/surface_check.hpp"
 #include "pdrmesh/surface_io.hpp"
 #include "pdrmesh/tetgen_adapter.hpp"
@@ -84,11 +85,30 @@ void ChangeSignal::wait(std::uint64_t seen, std::chrono::milliseconds timeout) c
 // ---------------------------------------------------------------- SerialEngine
 
 Result<VolumeMesh> SerialEngine::mesh(const SurfaceMesh& surface, const JobOptions& options, JobProgress& progress) {
-  if (!progress.report("tetrahedralizing", 0.3)) return internal_error("stopped");
-  TetgenOptions t;
-  t.max_volume = options.max_volume;
-  t.time_limit_s = options.time_limit_s;
-  PDR_ASSIGN_OR_RETURN(VolumeMesh mesh, tetrahedralize(surface, t));
+  VolumeMesh mesh;
+  if (options.max_volume) {
+    // The boundary-conforming initial mesh alone, with TetGen's volume bound.
+    if (!progress.report("tetrahedralizing", 0.3)) return internal_error("stopped");
+    TetgenOptions t;
+    t.max_volume = options.max_volume;
+    t.time_limit_s = options.time_limit_s;
+    PDR_ASSIGN_OR_RETURN(mesh, tetrahedralize(surface, t));
+  } else {
+    // The serial pipeline: initial mesh, refinement, final optimization.
+    if (!progress.report("refining", 0.2)) return internal_error("stopped");
+    SerialOptions serial;
+    serial.tetgen.time_limit_s = options.time_limit_s;
+    bool stopped = false;
+    auto result = mesh_serial(surface, serial, [&](const RefinePassStats& pass) {
+      progress.mesh_size(pass.tets, 0);
+      // The refiner has no way to stop between passes yet: a cancelled job
+      // finishes its refinement and is then dropped.
+      stopped = stopped || !progress.report(fmt::format("refining (pass {})", pass.pass), 0.5);
+    });
+    if (!result.ok()) return result.status();
+    if (stopped) return internal_error("stopped");
+    mesh = std::move(result).value().mesh;
+  }
   progress.mesh_size(mesh.tets.size(), mesh.points.size());
   if (!progress.report("validating", 0.8)) return internal_error("stopped");
   const ValidationReport v = validate_mesh(mesh, &surface);
