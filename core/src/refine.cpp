@@ -45,7 +45,10 @@ double face_distance_bound(const Vec3& a, const Vec3& b, const Vec3& c, const Ve
 class Refiner {
  public:
   Refiner(TetMesh& mesh, const SizingField& sizing, const RefineOptions& options)
-      : m_(mesh), sizing_(sizing), o_(options) {}
+      : m_(mesh), sizing_(sizing), o_(options) {
+    const double angle = o_.min_max_angle;
+    bad_cos_ = angle > 0.0 ? std::cos(angle * 3.14159265358979323846 / 180.0) : -2.0;
+  }
 
   RefineStats run(const RefineProgress& progress) {
     const auto t0 = Clock::now();
@@ -303,6 +306,26 @@ class Refiner {
     return flips;
   }
 
+  /// tet_quality of the alive tet t, through the mesh's cache.
+  double quality(Index t) {
+    double q = m_.cached_quality(t);
+    if (std::isnan(q)) {
+      q = tet_quality(m_, m_.tet(t));
+      m_.set_cached_quality(t, q);
+    }
+    return q;
+  }
+
+  /// True when t or a face neighbour of t has a dihedral angle above min_max_angle.
+  bool near_bad(Index t) {
+    if (quality(t) <= bad_cos_) return true;
+    for (int f = 0; f < 4; ++f) {
+      const Index n = m_.neighbour(t, f);
+      if (n != kNoIndex && quality(face_tet(n)) <= bad_cos_) return true;
+    }
+    return false;
+  }
+
   /// Flips around the tets the last insertion created; returns the flips done.
   std::size_t reconnect() {
     if (!o_.delaunay) {
@@ -317,6 +340,7 @@ class Refiner {
     for (std::size_t head = 0; head < queue_.size() && flips < o_.max_flips_per_point; ++head) {
       const Index t = queue_[head];
       if (!m_.alive(t)) continue;
+      if (bad_cos_ >= -1.0 && !near_bad(t)) continue;
       bool done = false;
       for (int f = 0; f < 4 && !done; ++f) done = flip23(m_, t, f) == FlipOutcome::kDone;
       for (int e = 0; e < 6 && !done; ++e) done = remove_edge(m_, t, e) == FlipOutcome::kDone;
@@ -340,6 +364,7 @@ class Refiner {
   std::vector<Index> queue_;
   EdgeRing ring_;
   Index last_tet_ = 0;
+  double bad_cos_ = -2.0;  ///< cosine of min_max_angle; -2 when every tet is tried
 };
 
 bool positive_finite(double x) { return std::isfinite(x) && x > 0.0; }
@@ -356,6 +381,8 @@ Status validate(const RefineOptions& o) {
     return invalid_input(fmt::format("split_ratio must be finite and > 0, got {}", o.split_ratio));
   if (!positive_finite(o.advance_ratio))
     return invalid_input(fmt::format("advance_ratio must be finite and > 0, got {}", o.advance_ratio));
+  if (!(o.min_max_angle >= 0.0 && o.min_max_angle <= 180.0))
+    return invalid_input(fmt::format("min_max_angle must be in [0, 180] degrees, got {}", o.min_max_angle));
   if (o.max_passes < 0) return invalid_input(fmt::format("max_passes must be >= 0, got {}", o.max_passes));
   if (o.max_walk_steps == 0 || o.max_search_tets == 0)
     return invalid_input("max_walk_steps and max_search_tets must be > 0");

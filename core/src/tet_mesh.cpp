@@ -256,14 +256,19 @@ void TetMesh::replace_cavity(std::span<const Index> old_tets, std::span<const Te
       faces_.push_back({topo::sorted_key(topo::face_of(new_tets[j], f)), pack_face(t, f), false});
   }
 
+  // Element-wise key comparisons: std::array's operators go through memcmp,
+  // which dominated this sort (same order as the lexicographic array compare).
   std::sort(faces_.begin(), faces_.end(), [](const FaceSlot& x, const FaceSlot& y) {
-    if (x.key != y.key) return x.key < y.key;
+    if (x.key[0] != y.key[0]) return x.key[0] < y.key[0];
+    if (x.key[1] != y.key[1]) return x.key[1] < y.key[1];
+    if (x.key[2] != y.key[2]) return x.key[2] < y.key[2];
     if (x.outer != y.outer) return x.outer;
     return x.who < y.who;
   });
+  const auto same_key = [](const Tri& x, const Tri& y) { return x[0] == y[0] && x[1] == y[1] && x[2] == y[2]; };
   for (std::size_t i = 0; i < faces_.size();) {
     const FaceSlot& x = faces_[i];
-    if (i + 1 == faces_.size() || faces_[i + 1].key != x.key) {
+    if (i + 1 == faces_.size() || !same_key(faces_[i + 1].key, x.key)) {
       // Alone: a hull face of the cavity that the operation subdivides (the old
       // one unfrozen, on the hull), or one of its pieces, which stays on the hull.
       assert(x.outer ? outer_[x.who].neighbour == kNoIndex && !outer_[x.who].frozen : true);
@@ -271,7 +276,7 @@ void TetMesh::replace_cavity(std::span<const Index> old_tets, std::span<const Te
       continue;
     }
     const FaceSlot& y = faces_[i + 1];
-    assert(!y.outer && (i + 2 == faces_.size() || faces_[i + 2].key != x.key));
+    assert(!y.outer && (i + 2 == faces_.size() || !same_key(faces_[i + 2].key, x.key)));
     if (x.outer) {
       const OuterFace& o = outer_[x.who];
       const Index t = face_tet(y.who);
