@@ -1,0 +1,76 @@
+#!/usr/bin/env bash
+# pdrmesh beside two peers from Debian at matched sizes, per corpus surface:
+#   pdrmesh mesh (default spacing)                    -> T tets, mesh volume V
+#   TetGen 1.5:  tetgen -pYq1.414 -a<A>     (A: twice the mean tet volume V/T, then rescaled once)
+#   Gmsh 4.8 HXT: gmsh -3 -nt 1 -setnumber Mesh.Algorithm3D 10 -setnumber Mesh.Optimize 1
+#                 -setnumber Mesh.MeshSizeMax H, H = edge of the regular tet of volume V/T,
+#                 then rescaled once by the cube root of the tet-count ratio,
+#                 on a .geo that merges the STL and declares the volume
+# Columns: tets, wall seconds, tets per second, peak memory, min/max dihedral, share of tets with an
+# angle under 10 degrees, and pdrmesh's ratios to each peer (tets per second, minimum angle).
+#   bench/peers.sh [SURFACE...]     (default: the small corpus surfaces; needs install-deps.sh --bench)
+set -uo pipefail
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+corpus=${CORPUS:-$root/../shared/corpus}
+pdrmesh=${PDRMESH:-$root/build/client/pdrmesh}
+names=("$@"); ((${#names[@]})) || names=(sphere966 bunny_npm hinge elephant couplingdown knot2 fandisk primitives13)
+for tool in tetgen gmsh /usr/bin/time; do
+  command -v "$tool" >/dev/null || { echo "needs $tool: scripts/install-deps.sh --bench" >&2; exit 1; }
+done
+tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
+
+field() { sed -n "s/.*\"$1\":\([-0-9.e+]*\).*/\1/p" "$2"; }
+# run NAME TIMEOUT command...: wall seconds and peak KiB into $tmp/NAME.time
+run() {
+  local name=$1 limit=$2; shift 2
+  /usr/bin/time -f '%e %M' -o "$tmp/$name.time" timeout "$limit" "$@" >"$tmp/$name.log" 2>&1
+}
+row() {  # row SURFACE TOOL MESHFILE
+  local q="$tmp/$2.q"
+  if [[ ! -s $3 ]] || ! "$pdrmesh" quality --json "$3" >"$q" 2>/dev/null || [[ $(field tets "$q") == 0 ]]; then
+    printf '%-13s %-8s %10s\n' "$1" "$2" "failed: no tets ($(tail -1 "$tmp/$2.log" | cut -c1-60))"
+    return 1
+  fi
+  read -r secs kib <"$tmp/$2.time"
+  awk -v s="$1" -v t="$2" -v n="$(field tets "$q")" -v sec="$secs" -v kib="$kib" -v lo="$(field min_dihedral "$q")" \
+      -v hi="$(field max_dihedral "$q")" -v u="$(field share_below_10 "$q")" \
+      'BEGIN { printf "%-13s %-8s %10d %8.2f %9.0f %8.1f %7.2f %7.2f %8.3f%%\n", s, t, n, sec, n / sec, kib / 1024, lo, hi, 100 * u }'
+  echo "$(field tets "$q") $secs $(field min_dihedral "$q")" >"$tmp/$2.sum"
+}
+
+echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'); $(date -u +%F)"
+echo "versions: $("$pdrmesh" --version), TetGen 1.5 (Debian tetgen), Gmsh $(gmsh --version 2>&1 | head -1)"
+printf '%-13s %-8s %10s %8s %9s %8s %7s %7s %9s\n' surface tool tets seconds tets/s peak_MB min max under10
+for n in "${names[@]}"; do
+  stl=$corpus/$n.stl
+  run pdrmesh 1800 "$pdrmesh" mesh -q "$stl" -o "$tmp/p.meshb"
+  row "$n" pdrmesh "$tmp/p.meshb" || continue
+  tets=$(field tets "$tmp/pdrmesh.q"); vol=$(field volume "$tmp/pdrmesh.q")
+  a=$(awk -v v="$vol" -v t="$tets" 'BEGIN { printf "%.6g", 2 * v / t }')
+  h=$(awk -v v="$vol" -v t="$tets" 'BEGIN { printf "%.6g", (6 * sqrt(2) * v / t) ^ (1 / 3) }')
+  cp "$stl" "$tmp/s.stl"
+  printf 'Merge "s.stl";\nSurface Loop(1) = {1};\nVolume(1) = {1};\n' >"$tmp/s.geo"
+  # Each peer runs twice: the second time with its size scaled by the tet count the first run
+  # gave, so that its tet count matches pdrmesh's (within a few per cent).
+  for pass in 1 2; do
+    rm -f "$tmp"/s.1.* "$tmp/g.msh"
+    run tetgen 1800 tetgen -pYq1.414a"$a"gQ "$tmp/s.stl"
+    (cd "$tmp" && run gmsh-hxt 1800 gmsh -3 -nt 1 -setnumber Mesh.Algorithm3D 10 -setnumber Mesh.Optimize 1 \
+       -setnumber Mesh.MeshSizeMax "$h" s.geo -o g.msh -format msh41)
+    [[ $pass == 2 ]] && break
+    tt=$("$pdrmesh" quality --json "$tmp/s.1.mesh" 2>/dev/null | sed -n 's/.*"tets":\([0-9]*\).*/\1/p')
+    gt=$("$pdrmesh" quality --json "$tmp/g.msh" 2>/dev/null | sed -n 's/.*"tets":\([0-9]*\).*/\1/p')
+    [[ -n $tt ]] && a=$(awk -v a="$a" -v got="$tt" -v want="$tets" 'BEGIN { printf "%.6g", a * got / want }')
+    [[ -n $gt ]] && h=$(awk -v h="$h" -v got="$gt" -v want="$tets" 'BEGIN { printf "%.6g", h * (got / want) ^ (1 / 3) }')
+  done
+  row "$n" tetgen "$tmp/s.1.mesh"
+  row "$n" gmsh-hxt "$tmp/g.msh"
+  for peer in tetgen gmsh-hxt; do
+    [[ -s $tmp/$peer.sum ]] || continue
+    read -r pt ps pmin <"$tmp/$peer.sum"; read -r mt ms mmin <"$tmp/pdrmesh.sum"
+    awk -v s="$n" -v p="$peer" -v pt="$pt" -v ps="$ps" -v pm="$pmin" -v mt="$mt" -v ms="$ms" -v mm="$mmin" \
+      'BEGIN { printf "%-13s %-8s pdrmesh/peer: tets %.2f, tets/s %.2f, min angle %.2f\n", s, p, mt / pt, (mt / ms) / (pt / ps), mm / pm }'
+    rm -f "$tmp/$peer.sum"
+  done
+done
+echo "pdrmesh: check + TetGen initial mesh + refinement + optimization + validation + write .meshb (one core)"
