@@ -199,7 +199,7 @@ Status validate_leaf_output(const LeafTaskInput& in, const LeafTaskOutput& out) 
   for (std::size_t k = 0; k < used.size(); ++k)
     if (used[k] == 0) return fail(fmt::format("new point {} is used by no tet", k));
   for (const Vec3& p : out.new_points)
-    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+    if (!is_finite(p))
       return fail(fmt::format("a new point is not finite ({}, {}, {})", p[0], p[1], p[2]));
   std::sort(faces.begin(), faces.end());
   std::vector<Tri> hull;

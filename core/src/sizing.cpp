@@ -31,7 +31,6 @@ constexpr std::uint32_t kModeField = 0;
 constexpr std::uint32_t kModeUniform = 1;
 
 std::string point_str(const Vec3& p) { return fmt::format("({}, {}, {})", p[0], p[1], p[2]); }
-bool finite(const Vec3& p) { return std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]); }
 double dist2(const Vec3& a, const Vec3& b) { return dot(a - b, a - b); }
 
 // ---------------------------------------------------------------- box trees
@@ -223,7 +222,7 @@ Result<SizingField> SizingField::build(const SurfaceMesh& surface, const VolumeM
   std::vector<Index> used;
   for (Index p = 0; p < surface.points.size(); ++p) {
     if (count[p] == 0) continue;
-    if (!finite(surface.points[p])) {
+    if (!is_finite(surface.points[p])) {
       return invalid_input(fmt::format("{}: point {} has a non-finite coordinate {}", name, p,
                                        point_str(surface.points[p])));
     }
@@ -232,7 +231,7 @@ Result<SizingField> SizingField::build(const SurfaceMesh& surface, const VolumeM
 
   // Background checks, then match boundary points to background points by coordinates.
   for (std::size_t p = 0; p < background.points.size(); ++p) {
-    if (!finite(background.points[p])) {
+    if (!is_finite(background.points[p])) {
       return invalid_input(fmt::format("background mesh: point {} has a non-finite coordinate {}", p,
                                        point_str(background.points[p])));
     }
@@ -470,7 +469,7 @@ Index SizingField::nearest_tet(const Vec3& x, Vec3& closest) const {
 
 double SizingField::at(const Vec3& x) const {
   if (uniform_) return uniform_value_;
-  if (!finite(x)) return kNaN;
+  if (!is_finite(x)) return kNaN;
   const Index t = locate(x);
   if (t != kNoIndex) return combine(interpolate_in(t, x), x);
   Vec3 y{};
@@ -547,7 +546,7 @@ Result<SizingField> SizingField::decode(std::string_view bytes) {
   f.points_.resize(n);
   for (Vec3& p : f.points_) {
     for (double& v : p) (void)r.f64(v);  // sizes checked by count()
-    if (!finite(p)) return decode_error(fmt::format("point {} is not finite", point_str(p)));
+    if (!is_finite(p)) return decode_error(fmt::format("point {} is not finite", point_str(p)));
   }
   f.values_.resize(n);
   for (std::size_t i = 0; i < n; ++i) {

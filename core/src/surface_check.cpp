@@ -380,7 +380,7 @@ class Checker {
     std::vector<char> finite(pts.size());
     for (std::size_t i = 0; i < pts.size(); ++i) {
       const Vec3& p = pts[i];
-      finite[i] = std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]);
+      finite[i] = is_finite(p);
       if (!finite[i]) {
         sink_.add(DefectKind::kNonFiniteCoordinate, [&] {
           return Defect{{},

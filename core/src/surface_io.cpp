@@ -78,7 +78,7 @@ Status validate_for_write(const SurfaceMesh& s) {
   }
   for (std::size_t i = 0; i < s.points.size(); ++i) {
     const Vec3& p = s.points[i];
-    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) {
+    if (!is_finite(p)) {
       return invalid_input(fmt::format("{}: point {} has a non-finite coordinate ({}, {}, {})",
                                        s.name, i, p[0], p[1], p[2]));
     }

@@ -136,7 +136,7 @@ class SurfaceBuilder {
 
   template <class Where>
   Status add_point(const Vec3& p, const Where& where) {
-    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+    if (!is_finite(p))
       return nonfinite_point(p, mesh_.points.size() + 1, where());
     mesh_.points.push_back(p);
     return {};

@@ -41,7 +41,7 @@ Result<SurfaceMesh> parse_binary(std::string_view bytes, std::string_view name) 
     for (int v = 0; v < 3; ++v) {
       const char* at = rec + 12 + 12 * v;
       const Vec3 p{load_f32_le(at), load_f32_le(at + 4), load_f32_le(at + 8)};
-      if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) {
+      if (!is_finite(p)) {
         return nonfinite_vertex(p, f + 1, v + 1,
                                 fmt::format("{}: byte {}", name, at - bytes.data()));
       }
@@ -79,7 +79,7 @@ Result<SurfaceMesh> parse_ascii(std::string_view bytes, std::string_view name) {
         PDR_TRY(c.expect("vertex"));
         Vec3 p{};
         for (double& x : p) PDR_TRY(c.read_double(x, "a coordinate", true));
-        if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+        if (!is_finite(p))
           return nonfinite_vertex(p, out.face_count() + 1, v + 1, where_at(c)());
         t[static_cast<std::size_t>(v)] = welder.add(p, out.points());
       }

@@ -364,7 +364,7 @@ Result<RawMesh> parse_answer(const std::vector<char>& bytes, const TetgenOptions
   std::memcpy(m.points.data(), payload, h.n_points * sizeof(Vec3));
   for (std::size_t i = 0; i < m.points.size(); ++i) {
     const Vec3& p = m.points[i];
-    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+    if (!is_finite(p))
       return internal_error(fmt::format("TetGen output point {} is not finite ({}, {}, {})", i, p[0], p[1], p[2]));
   }
   std::vector<std::int32_t> corners(h.n_tets * 4);
@@ -562,7 +562,7 @@ Status check_input(const SurfaceMesh& s, const TetgenOptions& o) {
     return invalid_input(fmt::format("{} surface ids for {} triangles", s.surface_ids.size(), s.triangles.size()));
   for (std::size_t i = 0; i < s.points.size(); ++i) {
     const Vec3& p = s.points[i];
-    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+    if (!is_finite(p))
       return invalid_input(fmt::format("point {} is not finite ({}, {}, {})", i, p[0], p[1], p[2]));
   }
   for (std::size_t i = 0; i < s.triangles.size(); ++i) {

@@ -100,7 +100,7 @@ ValidationReport validate_mesh(const VolumeMesh& mesh, const SurfaceMesh* surfac
     }
   }
   for (std::size_t i = 0; i < np; ++i) {
-    if (!std::isfinite(P[i][0]) || !std::isfinite(P[i][1]) || !std::isfinite(P[i][2])) {
+    if (!is_finite(P[i])) {
       rec.add("coordinates", "point {} is not finite {}", i, point_str(P[i]));
       indices_ok = false;
     }

@@ -72,7 +72,7 @@ Status check_writable(const VolumeMesh& mesh) {
                                      mesh.tet_regions.size()));
   for (std::size_t i = 0; i < n; ++i) {
     const Vec3& p = mesh.points[i];
-    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+    if (!is_finite(p))
       return invalid_input(fmt::format("point {} ({}, {}, {}) is not finite", i, p[0], p[1], p[2]));
   }
   for (std::size_t t = 0; t < mesh.tets.size(); ++t) {

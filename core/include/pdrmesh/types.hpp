@@ -28,6 +28,8 @@ inline Vec3 cross(const Vec3& a, const Vec3& b) {
   return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
 }
 inline double norm(const Vec3& a) { return std::sqrt(dot(a, a)); }
+/// All three coordinates are finite (no NaN, no infinity).
+inline bool is_finite(const Vec3& p) { return std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]); }
 
 /// Signed volume of tetrahedron (a, b, c, d), measured in doubles: positive when
 /// d lies on the side of triangle abc that its right-hand normal points to.
