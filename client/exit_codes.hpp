@@ -27,7 +27,8 @@ inline int exit_code_for(const Status& s) {
     case StatusCode::kIoError: return kExitIo;
     case StatusCode::kUnsupported: return kExitUsage;
     case StatusCode::kResourceExhausted:
-    case StatusCode::kDeadlineExceeded: return kExitTempFail;
+    case StatusCode::kDeadlineExceeded:
+    case StatusCode::kCancelled: return kExitTempFail;
     case StatusCode::kInternal: return kExitInternal;
   }
   return kExitInternal;

@@ -180,16 +180,6 @@ struct RunArgs {
   SizeArgs size;
 };
 
-/// The final optimization over a merged mesh: boundary frozen, sizing-aware.
-Status optimize_volume(VolumeMesh& mesh, const SizingField& sizing) {
-  auto tets = TetMesh::from_volume_mesh(mesh);
-  if (!tets.ok()) return tets.status();
-  auto stats = optimize(*tets, &sizing);
-  if (!stats.ok()) return stats.status();
-  mesh = tets->to_volume_mesh();
-  return {};
-}
-
 void print_profile(const PdrProfile& p) {
   const double total = p.total > 0 ? p.total : 1;
   fmt::print(stderr, "profile: depth {}, {} leaves (+{} in the interface round), {} initial tets, {} final tets, "
@@ -211,34 +201,24 @@ int run_run(const RunArgs& a) {
   SurfaceMesh surface;
   if (int code = load_checked_surface(a.surface, progress, surface); code != kExitOk) return code;
 
-  auto background = tetrahedralize(surface);
-  if (!background.ok()) return fail(background.status());
-  auto sizing = SizingField::build(surface, *background, a.size.options());
-  if (!sizing.ok()) return fail(sizing.status());
-  progress.say("point distribution function built from {} boundary points", sizing->boundary_points());
-
-  std::unique_ptr<LeafKernel> kernel;
-  if (a.kernel == "tetgen") {
-    kernel = std::make_unique<TetgenLeafKernel>();
-  } else {
-    kernel = std::make_unique<NativeLeafKernel>(
-        [](TetMesh& leaf, const SizingField& h) { return refine(leaf, h).status(); });
-  }
-  PdrOptions options;
-  options.depth = a.depth;
-  options.workers = a.workers;
-  options.interface_round = !a.no_interface_round;
-  if (!a.no_optimize) {
-    options.optimize = [&sizing](VolumeMesh& m) { return optimize_volume(m, *sizing); };
-  }
-  PdrProfile profile;
-  auto mesh = run_pdr(surface, *sizing, *kernel, options, &profile);
-  if (!mesh.ok()) return fail(mesh.status());
-  progress.say("parallel refinement ({} kernel, {} worker(s), depth {}): {} tets, {} points", kernel->name(),
-               a.workers, profile.depth, mesh->tets.size(), mesh->points.size());
+  auto kernel = make_leaf_kernel(a.kernel);
+  if (!kernel.ok()) return fail(kernel.status());
+  ParallelOptions options;
+  options.sizing = a.size.options();
+  options.pdr.depth = a.depth;
+  options.pdr.workers = a.workers;
+  options.pdr.interface_round = !a.no_interface_round;
+  if (a.no_optimize) options.optimize.reset();
+  auto result = mesh_parallel(surface, options, kernel->get());
+  if (!result.ok()) return fail(result.status());
+  const VolumeMesh& mesh = result->mesh;
+  const PdrProfile& profile = result->profile;
+  progress.say("point distribution function built from {} boundary points", result->boundary_points);
+  progress.say("parallel refinement ({} kernel, {} worker(s), depth {}): {} tets, {} points", (*kernel)->name(),
+               a.workers, profile.depth, mesh.tets.size(), mesh.points.size());
 
   if (a.profile) print_profile(profile);
-  return finish(*mesh, surface, a.output, true, progress, a.quiet);
+  return finish(mesh, surface, a.output, true, progress, a.quiet);
 }
 
 int run_quality(const std::string& path, bool json, const std::string& svg) {

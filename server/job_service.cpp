@@ -41,6 +41,7 @@ grpc::Status to_grpc_status(const Status& status) {
     case StatusCode::kNotFound: code = grpc::StatusCode::NOT_FOUND; break;
     case StatusCode::kResourceExhausted: code = grpc::StatusCode::RESOURCE_EXHAUSTED; break;
     case StatusCode::kDeadlineExceeded: code = grpc::StatusCode::DEADLINE_EXCEEDED; break;
+    case StatusCode::kCancelled: code = grpc::StatusCode::CANCELLED; break;
     case StatusCode::kIoError:
     case StatusCode::kInternal: code = grpc::StatusCode::INTERNAL; break;
   }

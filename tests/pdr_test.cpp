@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "pdr_fixtures.hpp"
 #include "pdrmesh/leaf_kernels.hpp"
@@ -222,6 +223,47 @@ TEST(Pdr, DefaultDepthFollowsTheSizing) {
   ASSERT_TRUE(m.ok()) << m.status().to_string();
   EXPECT_EQ(prof.depth, 1);
   EXPECT_EQ(prof.depth, default_depth(static_cast<std::size_t>(1.0 / regular_tet_volume(0.2)), 1000));
+}
+
+TEST(Pdr, ProgressCountsEveryMergedLeaf) {
+  const SurfaceMesh cube = fixtures::unit_cube_surface();
+  const SizingField h = uniform_sizing(0.1);
+  const NativeLeafKernel kernel(barycenter_hook(5));
+  PdrOptions o = depth2(2);
+  std::vector<std::string> phases;
+  std::size_t merged_refinement = 0, last_tets = 0;
+  o.progress = [&](const PdrProgress& p) {
+    if (phases.empty() || phases.back() != p.phase) phases.emplace_back(p.phase);
+    if (p.phase == "refinement" && p.leaves_done > 0) {
+      EXPECT_EQ(p.leaves_done, merged_refinement + 1);  // one call per merged leaf, in order
+      merged_refinement = p.leaves_done;
+    }
+    last_tets = p.tets;
+    return true;
+  };
+  PdrProfile prof;
+  Result<VolumeMesh> m = run_pdr(cube, h, kernel, o, &prof);
+  ASSERT_TRUE(m.ok()) << m.status().to_string();
+  expect_valid(*m, cube);
+  EXPECT_EQ(phases, (std::vector<std::string>{"initial mesh", "refinement", "interface round"}));
+  EXPECT_EQ(merged_refinement, prof.leaf_count);
+  EXPECT_EQ(last_tets, m->tets.size());  // the last merge's count is the final one (no optimization)
+}
+
+TEST(Pdr, ProgressCanStopTheRun) {
+  const NativeLeafKernel kernel(barycenter_hook(5));
+  PdrOptions o = depth2(2);
+  std::size_t calls_after_stop = 0;
+  bool stopped = false;
+  o.progress = [&](const PdrProgress& p) {
+    if (stopped) ++calls_after_stop;
+    stopped = stopped || (p.phase == "refinement" && p.leaves_done == 3);
+    return !stopped;
+  };
+  Result<VolumeMesh> m = run_pdr(fixtures::unit_cube_surface(), uniform_sizing(0.1), kernel, o, nullptr);
+  ASSERT_FALSE(m.ok());
+  EXPECT_EQ(m.status().code(), StatusCode::kCancelled) << m.status().to_string();
+  EXPECT_EQ(calls_after_stop, 0u);
 }
 
 }  // namespace

@@ -6,12 +6,22 @@
 
 #include <cmath>
 
+#include "pdrmesh/refine.hpp"
 #include "pdrmesh/surface.hpp"
 #include "pdrmesh/tetgen_adapter.hpp"
 
 namespace pdrmesh {
 
 double regular_tet_volume(double h) { return h * h * h / (6.0 * std::sqrt(2.0)); }
+
+Result<std::unique_ptr<LeafKernel>> make_leaf_kernel(std::string_view name) {
+  if (name == "native") {
+    return std::unique_ptr<LeafKernel>(std::make_unique<NativeLeafKernel>(
+        [](TetMesh& leaf, const SizingField& h) { return refine(leaf, h).status(); }));
+  }
+  if (name == "tetgen") return std::unique_ptr<LeafKernel>(std::make_unique<TetgenLeafKernel>());
+  return invalid_input(fmt::format("unknown leaf kernel '{}' (native or tetgen)", name));
+}
 
 Result<LeafTaskOutput> NativeLeafKernel::run(const LeafTaskInput& in, const SizingField& sizing) const {
   Result<TetMesh> mesh = leaf_tet_mesh(in);

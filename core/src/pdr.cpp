@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -372,8 +373,9 @@ struct TaskResult {
 
 /// One refinement round over decomposition d of `cur` (its tets in d's order
 /// are replaced, its points appended to).
-Status run_round(VolumeMesh& cur, Decomposition d, const FaceIdTable& boundary, const SizingField& sizing,
-                 const LeafKernel& kernel, const PdrOptions& options, bool fixups, RoundResult& rr) {
+Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const FaceIdTable& boundary,
+                 const SizingField& sizing, const LeafKernel& kernel, const PdrOptions& options, bool fixups,
+                 RoundResult& rr) {
   if (fixups) rr.fixups = apply_fixups(cur, d, options.max_fixup_sweeps);
   rr.leaves = d.size();
   std::vector<std::vector<Tet>> leaf_tets(d.size());
@@ -385,7 +387,14 @@ Status run_round(VolumeMesh& cur, Decomposition d, const FaceIdTable& boundary, 
   std::shared_mutex mu;  // tasks read points while (kDynamic) merges append
   Status error;
 
+  std::atomic<bool> stop{false};
+  std::size_t merged = 0;
+  std::size_t tet_count = cur.tets.size();
+  if (options.progress && !options.progress({phase, 0, d.size(), tet_count})) {
+    return cancelled(fmt::format("stopped before the {}", phase));
+  }
   std::function<TaskResult(Index)> task = [&](Index l) -> TaskResult {
+    if (stop.load()) return {LeafTaskInput{}, cancelled("stopped")};
     LeafTaskInput in;
     {
       std::shared_lock lock(mu);
@@ -404,15 +413,18 @@ Status run_round(VolumeMesh& cur, Decomposition d, const FaceIdTable& boundary, 
     const auto t0 = Clock::now();
     if (!r.output.ok()) {
       error = r.output.status();
+      stop = true;
       return;
     }
     Result<LeafTaskOutput> out = LeafTaskOutput::decode(*r.output);
     if (!out.ok()) {
       error = Status(out.status().code(), fmt::format("leaf {}: {}", l, out.status().message()));
+      stop = true;
       return;
     }
     if (Status s = validate_leaf_output(r.input, *out); !s.ok()) {
       error = s;
+      stop = true;
       return;
     }
     const auto ni = static_cast<Index>(r.input.points.size());
@@ -420,6 +432,7 @@ Status run_round(VolumeMesh& cur, Decomposition d, const FaceIdTable& boundary, 
     const auto base = static_cast<Index>(points.size());
     points.insert(points.end(), out->new_points.begin(), out->new_points.end());
     std::vector<Tet>& tets = leaf_tets[l];
+    tet_count = tet_count - tets.size() + out->tets.size();
     tets.clear();
     for (const Tet& t : out->tets) {
       Tet g;
@@ -427,6 +440,11 @@ Status run_round(VolumeMesh& cur, Decomposition d, const FaceIdTable& boundary, 
       tets.push_back(g);
     }
     rr.merge_s += seconds_since(t0);
+    ++merged;
+    if (options.progress && !options.progress({phase, merged, d.size(), tet_count})) {
+      error = cancelled(fmt::format("stopped after {} of {} leaves ({})", merged, d.size(), phase));
+      stop = true;
+    }
   };
   rr.schedule = run_leaves<TaskResult>(d, std::max<std::size_t>(options.workers, 1), task, merge, options.policy);
   PDR_TRY(error);
@@ -488,6 +506,10 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
   }
   prof.depth = depth;
 
+  const auto report = [&](std::string_view phase, std::size_t tets) {
+    return !options.progress || options.progress({phase, 0, 0, tets});
+  };
+  if (!report("initial mesh", 0)) return cancelled("stopped before the initial mesh");
   auto t0 = Clock::now();
   TetgenOptions tg;
   const double leaf_side = side / static_cast<double>(1 << depth);
@@ -508,7 +530,7 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
   const Box box1 = d1.box;
   RoundResult r1;
   t0 = Clock::now();
-  PDR_TRY(run_round(cur, std::move(d1), boundary, sizing, kernel, options, fixups, r1));
+  PDR_TRY(run_round("refinement", cur, std::move(d1), boundary, sizing, kernel, options, fixups, r1));
   prof.leaves = seconds_since(t0) - r1.fixups.swap_s - r1.fixups.extraction_s;
   prof.leaf_count = r1.leaves;
   prof.max_leaf_tets = r1.max_leaf_tets;
@@ -526,7 +548,7 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
     const auto td = Clock::now();
     PDR_ASSIGN_OR_RETURN(Decomposition d2, decompose(cur, depth, box2));
     prof.decomposition += seconds_since(td);
-    PDR_TRY(run_round(cur, std::move(d2), boundary, sizing, kernel, options, fixups, r2));
+    PDR_TRY(run_round("interface round", cur, std::move(d2), boundary, sizing, kernel, options, fixups, r2));
     prof.interface_round = seconds_since(t0);
     prof.interface_leaf_count = r2.leaves;
     prof.max_concurrency = std::max(prof.max_concurrency, r2.schedule.max_concurrency);
@@ -542,6 +564,7 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
   remove_unused_points(cur);
   prof.interior_points = cur.points.size() - surface.points.size();
   if (options.optimize) {
+    if (!report("optimization", cur.tets.size())) return cancelled("stopped before the optimization");
     t0 = Clock::now();
     PDR_TRY(options.optimize(cur));
     prof.optimization = seconds_since(t0);

@@ -11,6 +11,7 @@
 #pragma once
 
 #include <functional>
+#include <memory>
 #include <string_view>
 
 #include "pdrmesh/leaf_task.hpp"
@@ -54,6 +55,12 @@ class TetgenLeafKernel final : public LeafKernel {
  private:
   TetgenLeafOptions options_;
 };
+
+/// The kernel a job names: "native" (NativeLeafKernel running refine() with
+/// default RefineOptions) or "tetgen" (TetgenLeafKernel with default options);
+/// invalid_input naming the choices otherwise. The same name gives the same
+/// kernel in every process, which is what makes remote leaf results identical.
+Result<std::unique_ptr<LeafKernel>> make_leaf_kernel(std::string_view name);
 
 /// Volume of the regular tetrahedron of edge h: h^3 / (6 sqrt 2).
 double regular_tet_volume(double h);

@@ -23,6 +23,7 @@
 #include <functional>
 #include <optional>
 #include <span>
+#include <string_view>
 #include <vector>
 
 #include "pdrmesh/decomposition.hpp"
@@ -34,6 +35,14 @@
 #include "pdrmesh/volume_mesh.hpp"
 
 namespace pdrmesh {
+
+/// Where run_pdr is, for a progress display and for stopping early.
+struct PdrProgress {
+  std::string_view phase;        ///< "initial mesh", "refinement", "interface round", "optimization"
+  std::size_t leaves_done = 0;   ///< leaf results merged in this phase
+  std::size_t leaves_total = 0;  ///< leaves of this phase (0 outside the rounds)
+  std::size_t tets = 0;          ///< tets of the mesh as merged so far
+};
 
 struct PdrOptions {
   /// Octree depth; -1: default_depth(E, final_tets_per_leaf) with E the
@@ -56,6 +65,10 @@ struct PdrOptions {
   double tetgen_time_limit_s = 600;  ///< for the initial mesh
   /// The final optimization over the merged mesh (optimize.hpp); empty: none.
   std::function<Status(VolumeMesh&)> optimize;
+  /// Called on the calling thread at each phase start and after each merged
+  /// leaf result (serialised; it must be quick). Returning false stops the run:
+  /// no further leaf task starts, and run_pdr returns a kCancelled status.
+  std::function<bool(const PdrProgress&)> progress;
 };
 
 struct PdrProfile {

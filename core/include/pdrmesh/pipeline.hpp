@@ -1,12 +1,17 @@
 // SPDX-License-Identifier: AGPL-3.0-or-later
-// The serial meshing pipeline: initial boundary-conforming TetGen mesh, point
-// distribution function, grid generation passes (refine.hpp). The final
-// optimisation (optimize.hpp) is a separate step.
+// The meshing pipelines. Serial: initial boundary-conforming TetGen mesh, point
+// distribution function, grid generation passes (refine.hpp), final
+// optimisation (optimize.hpp). Parallel: the same point distribution function,
+// then the PDR engine (pdr.hpp) with a leaf kernel, then the same final
+// optimisation over the merged mesh. `pdrmesh run` and the coordinator both
+// call mesh_parallel, so a job's result is byte-identical to a local run with
+// the same options.
 #pragma once
 
 #include <optional>
 
 #include "pdrmesh/optimize.hpp"
+#include "pdrmesh/pdr.hpp"
 #include "pdrmesh/refine.hpp"
 #include "pdrmesh/sizing.hpp"
 #include "pdrmesh/status.hpp"
@@ -37,5 +42,30 @@ struct SerialResult {
 /// input triangulation, frozen throughout.
 Result<SerialResult> mesh_serial(const SurfaceMesh& checked_surface, const SerialOptions& options,
                                  const RefineProgress& progress = {});
+
+struct ParallelOptions {
+  SizingOptions sizing;
+  /// Depth, workers, policy, interface round, progress. Its `optimize` hook is
+  /// ignored: mesh_parallel sets it from `optimize` below.
+  PdrOptions pdr;
+  /// The final optimization over the merged mesh; unset: none.
+  std::optional<OptimizeOptions> optimize = OptimizeOptions{};
+};
+
+struct ParallelResult {
+  VolumeMesh mesh;  ///< validates against the surface; tet_regions: the leaf that made each tet
+  PdrProfile profile;
+  std::size_t boundary_points = 0;  ///< points of the point distribution function
+  double seconds_sizing = 0;        ///< background mesh and point distribution function
+};
+
+/// Meshes the volume enclosed by a checked surface with the PDR engine:
+/// background TetGen mesh -> SizingField::build -> run_pdr(kernel) -> optimize.
+/// `kernel` null: make_leaf_kernel("native").
+Result<ParallelResult> mesh_parallel(const SurfaceMesh& checked_surface, const ParallelOptions& options,
+                                     const LeafKernel* kernel = nullptr);
+
+/// The final optimization of a merged mesh (boundary frozen, sizing-aware).
+Status optimize_volume(VolumeMesh& mesh, const SizingField& sizing, const OptimizeOptions& options = {});
 
 }  // namespace pdrmesh

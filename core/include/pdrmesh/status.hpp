@@ -23,6 +23,7 @@ enum class StatusCode {
   kUnsupported,        ///< a valid request we do not handle (unknown suffix, ...)
   kResourceExhausted,  ///< a limit was hit (memory, size)
   kDeadlineExceeded,   ///< a time limit was hit
+  kCancelled,          ///< the caller asked to stop (a progress hook said no)
   kInternal,           ///< a bug or an external tool that failed unexpectedly
 };
 
@@ -52,6 +53,7 @@ inline Status unsupported(std::string m) { return {StatusCode::kUnsupported, std
 inline Status internal_error(std::string m) { return {StatusCode::kInternal, std::move(m)}; }
 inline Status deadline_exceeded(std::string m) { return {StatusCode::kDeadlineExceeded, std::move(m)}; }
 inline Status resource_exhausted(std::string m) { return {StatusCode::kResourceExhausted, std::move(m)}; }
+inline Status cancelled(std::string m) { return {StatusCode::kCancelled, std::move(m)}; }
 
 /// A value or the error that prevented it.
 template <class T>

@@ -1,0 +1,52 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// LeafDispatch: where the coordinator's PDR engine sends a job's leaf tasks.
+// The engine (mesh_parallel, core/pipeline.hpp) calls LeafKernel::run once per
+// leaf from several threads at once; a dispatch hands it a kernel that runs the
+// leaf in this process (LocalLeafDispatch) or on a remote worker daemon
+// (RemoteLeafDispatch, worker_pool.hpp). Both give the same bytes for the same
+// leaf: a worker runs make_leaf_kernel(job.kernel) on the task it receives,
+// and the engine's merge order does not depend on where or when a leaf ran.
+#pragma once
+
+#include <cstddef>
+#include <functional>
+#include <memory>
+#include <string>
+
+#include "pdrmesh/leaf_task.hpp"
+#include "pdrmesh/status.hpp"
+
+namespace pdrmesh::server {
+
+/// The job a kernel works for.
+struct LeafJob {
+  std::string job_id;
+  std::string user;    ///< for fair sharing of workers between users
+  std::string kernel;  ///< make_leaf_kernel name: "native" or "tetgen"
+  /// False once the job must stop (cancelled, coordinator shutting down): a
+  /// kernel waiting for a worker gives up with a kCancelled status.
+  std::function<bool()> keep_going;
+};
+
+class LeafDispatch {
+ public:
+  virtual ~LeafDispatch() = default;
+  /// A kernel whose run() refines one leaf of `job`; it lives while the job
+  /// meshes and is called concurrently.
+  virtual Result<std::unique_ptr<LeafKernel>> kernel_for(const LeafJob& job) = 0;
+  /// Leaf tasks one job keeps in flight (PdrOptions::workers).
+  virtual std::size_t concurrency() const = 0;
+};
+
+/// Leaves run in the coordinator's process on `threads` threads.
+class LocalLeafDispatch final : public LeafDispatch {
+ public:
+  explicit LocalLeafDispatch(std::size_t threads) : threads_(threads < 1 ? 1 : threads) {}
+  Result<std::unique_ptr<LeafKernel>> kernel_for(const LeafJob& job) override;
+  std::size_t concurrency() const override { return threads_; }
+
+ private:
+  std::size_t threads_;
+};
+
+}  // namespace pdrmesh::server
