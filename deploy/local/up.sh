@@ -138,6 +138,17 @@ for ((i = 1; i <= workers; i++)); do
   address=$(wait_address "worker-$i" "listening on")
   say "worker-$i (pid $(<"$dir/run/worker-$i.pid")): on $address, $threads threads"
 done
+# A worker that cannot register (or a coordinator that trips over its workers) exits soon after
+# printing its address: look once more.
+sleep 0.5
+for f in "$dir"/run/*.pid; do
+  name=${f##*/}; name=${name%.pid}
+  if ! kill -0 "$(<"$f")" 2>/dev/null; then
+    say "$name exited after starting; the end of $dir/logs/$name.log:"
+    tail -n 20 "$dir/logs/$name.log" >&2 || true
+    exit 1
+  fi
+done
 
 exports=$(printf 'export PDRMESH_SERVER=%q\nexport PDRMESH_TOKEN=%q\nexport PDRMESH_LOCAL_DIR=%q\n' \
   "$server" "$token" "$dir")

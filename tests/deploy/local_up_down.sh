@@ -88,6 +88,7 @@ running() {  # running PID: alive and not a zombie (nothing may reap orphans her
   stat=${stat##*) }
   [[ ${stat%% *} != Z ]]
 }
+export -f running
 nothing_left() {
   local f
   for f in "$dir"/run/*.pid; do [[ ! -e $f ]] || { echo "left: $f"; return 1; }; done
@@ -106,6 +107,19 @@ echo "$report"
 check "down.sh kills a worker that ignores SIGTERM" \
   bash -c '[[ $1 -eq 0 && $0 == *"worker-1"*"killed with SIGKILL"* && $0 == *"removed"* ]]' "$report" "$rc"
 check "down.sh --rm removed the directory" test ! -e "$tmp/second"
+
+# A worker that exits right after printing its address (say, refused at registration): up.sh
+# fails naming it and stops the coordinator it had started.
+cat >"$tmp/bin/worker/pdrmesh-worker" <<'END_STUB'
+#!/bin/bash
+echo "listening on 127.0.0.1:7"
+echo "error: UNAUTHENTICATED: wrong cluster token" >&2
+exit 1
+END_STUB
+out=$("$up" 1 --data-dir "$tmp/fourth" 2>&1); rc=$?
+check "up.sh reports a worker that exits after starting" \
+  bash -c '[[ $1 -ne 0 && $0 == *"worker-1 exited after starting"* && $0 == *"wrong cluster token"* ]]' "$out" "$rc"
+check "up.sh stopped the coordinator it had started" bash -c '! running "$0"' "$(cat "$tmp/fourth/run/coordinator.pid")"
 
 # A coordinator that dies at start: up.sh fails, shows its log and leaves nothing running.
 cat >"$tmp/bin/server/pdrmesh-coordinator" <<'END_STUB'
