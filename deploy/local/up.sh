@@ -90,7 +90,12 @@ cleanup() {
   ((rc != 0)) || return 0
   local pid
   for pid in "${started[@]}"; do kill -TERM "$pid" 2>/dev/null || true; done
-  sleep 1
+  for _ in {1..30}; do  # up to 3 s, then SIGKILL
+    local left=0
+    for pid in "${started[@]}"; do if kill -0 "$pid" 2>/dev/null; then left=1; fi; done
+    ((left)) || break
+    sleep 0.1
+  done
   for pid in "${started[@]}"; do kill -KILL "$pid" 2>/dev/null || true; done
   ((${#started[@]} == 0)) || say "stopped what had started; logs are in $dir/logs"
 }
