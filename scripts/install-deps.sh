@@ -13,6 +13,7 @@ packages=(
   libtbb-dev libspdlog-dev libfmt-dev
   libcli11-dev nlohmann-json3-dev libsqlite3-dev
   libgtest-dev libgmock-dev
+  python3-yaml                                # tests/deploy: the manifest check
 )
 if [[ "${1:-}" == "--bench" ]]; then
   packages+=(tetgen gmsh time)
