@@ -44,9 +44,13 @@ void ProgressDisplay::update(const ProgressState& state) {
   const double since = std::chrono::duration<double>(now - last_draw_).count();
   const double t = state.elapsed_s >= 0 ? state.elapsed_s : elapsed();
   if (mode_ == Mode::kBar) {
-    if (!new_phase && since < 0.1) return;
-    // A finished phase keeps its line; the new one draws below it.
-    if (new_phase && bar_open_) std::fputc('\n', out_);
+    if (!new_phase && since < 0.1) {
+      last_state_ = state;
+      last_state_.elapsed_s = t;
+      return;
+    }
+    // A finished phase keeps its line, with its last state; the new one draws below it.
+    if (new_phase && bar_open_) fmt::print(out_, "\r{}\x1b[K\n", format_line(last_state_, last_state_.elapsed_s, true));
     fmt::print(out_, "\r{}\x1b[K", format_line(state, t, true));
     bar_open_ = true;
   } else {
@@ -56,6 +60,8 @@ void ProgressDisplay::update(const ProgressState& state) {
   std::fflush(out_);
   last_draw_ = now;
   last_phase_ = state.phase;
+  last_state_ = state;
+  last_state_.elapsed_s = t;
 }
 
 void ProgressDisplay::say(std::string_view message) {
@@ -69,7 +75,7 @@ void ProgressDisplay::say(std::string_view message) {
 
 void ProgressDisplay::finish() {
   if (!bar_open_) return;
-  std::fputc('\n', out_);
+  fmt::print(out_, "\r{}\x1b[K\n", format_line(last_state_, last_state_.elapsed_s, true));
   std::fflush(out_);
   bar_open_ = false;
 }

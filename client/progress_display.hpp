@@ -56,6 +56,7 @@ class ProgressDisplay {
   std::chrono::steady_clock::time_point start_;
   std::chrono::steady_clock::time_point last_draw_{};
   std::string last_phase_;
+  ProgressState last_state_;  ///< the latest update, drawn or not (elapsed_s set)
   bool bar_open_ = false;  ///< a bar is drawn on the current line
 };
 
