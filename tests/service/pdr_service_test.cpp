@@ -65,6 +65,48 @@ std::pair<grpc::Status, std::string> raw_unary(const std::shared_ptr<grpc::Chann
   return {*result, bytes};
 }
 
+/// One request on a bidirectional stream by method name, then half-close: the
+/// first response's bytes and the call's status.
+class OneRequestStream final : public grpc::ClientBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer> {
+ public:
+  std::pair<grpc::Status, std::string> call(const std::shared_ptr<grpc::Channel>& channel, const std::string& method,
+                                            const std::string& request_bytes) {
+    grpc::GenericStub stub(channel);
+    context_.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
+    grpc::Slice slice(request_bytes);
+    request_ = grpc::ByteBuffer(&slice, 1);
+    stub.PrepareBidiStreamingCall(&context_, method, grpc::StubOptions(), this);
+    StartWrite(&request_);
+    StartRead(&response_);
+    StartCall();
+    std::unique_lock lock(mu_);
+    cv_.wait(lock, [&] { return done_; });
+    return {status_, bytes_};
+  }
+  void OnWriteDone(bool /*ok*/) override { StartWritesDone(); }
+  void OnReadDone(bool ok) override {
+    std::vector<grpc::Slice> slices;
+    if (!ok || !response_.Dump(&slices).ok()) return;
+    std::lock_guard lock(mu_);
+    for (const auto& sl : slices) bytes_.append(reinterpret_cast<const char*>(sl.begin()), sl.size());
+  }
+  void OnDone(const grpc::Status& s) override {
+    std::lock_guard lock(mu_);
+    status_ = s;
+    done_ = true;
+    cv_.notify_all();
+  }
+
+ private:
+  grpc::ClientContext context_;
+  grpc::ByteBuffer request_, response_;
+  std::mutex mu_;
+  std::condition_variable cv_;
+  bool done_ = false;
+  grpc::Status status_;
+  std::string bytes_;
+};
+
 /// Mesh options of a quick sphere job: depth 1 (8 leaves), both rounds, optimization.
 v1::MeshOptions quick_options() {
   v1::MeshOptions o;
@@ -335,6 +377,17 @@ TEST_F(Service, HealthServiceAnswersServing) {
                                          "/grpc.health.v1.Health/Check", "", "");  // HealthCheckRequest{service: ""}
   ASSERT_TRUE(status.ok()) << status.error_message();
   EXPECT_EQ(bytes, std::string("\x08\x01", 2)) << "HealthCheckResponse{status: SERVING}";
+}
+
+TEST_F(Service, ReflectionListsTheServices) {
+  start(0);
+  // ServerReflectionRequest{list_services: ""}: field 7, length 0.
+  const auto [status, bytes] = OneRequestStream().call(
+      grpc::CreateChannel("127.0.0.1:" + std::to_string(coordinator_->port()), grpc::InsecureChannelCredentials()),
+      "/grpc.reflection.v1alpha.ServerReflection/ServerReflectionInfo", std::string("\x3a\x00", 2));
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_NE(bytes.find("pdrmesh.v1.JobService"), std::string::npos);
+  EXPECT_NE(bytes.find("grpc.health.v1.Health"), std::string::npos);
 }
 
 TEST(JobOptions, RoundTripsThroughJsonAndRefusesOutOfRangeValuesByName) {
