@@ -10,6 +10,8 @@
 #include <string>
 
 #include "exit_codes.hpp"
+#include "progress_display.hpp"
+#include "run_options.hpp"
 #include "pdrmesh/leaf_kernels.hpp"
 #include "pdrmesh/optimize.hpp"
 #include "pdrmesh/pdr.hpp"
@@ -27,21 +29,7 @@
 namespace pdrmesh::cli {
 namespace {
 
-/// Prints progress lines with the elapsed time on stderr, unless quiet.
-class Progress {
- public:
-  explicit Progress(bool quiet) : quiet_(quiet), start_(std::chrono::steady_clock::now()) {}
-  template <class... Args>
-  void say(fmt::format_string<Args...> f, Args&&... args) const {
-    if (quiet_) return;
-    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-    fmt::print(stderr, "[{:7.2f}s] {}\n", s, fmt::format(f, std::forward<Args>(args)...));
-  }
-
- private:
-  bool quiet_;
-  std::chrono::steady_clock::time_point start_;
-};
+using Progress = ProgressDisplay;
 
 int fail(const Status& s) {
   fmt::print(stderr, "pdrmesh: error: {}\n", s.to_string());
@@ -57,7 +45,7 @@ Status write_text(const std::string& path, const std::string& text) {
 }
 
 /// Reads and checks a surface; on failure prints why and returns the exit code.
-int load_checked_surface(const std::string& path, const Progress& progress, SurfaceMesh& out) {
+int load_checked_surface(const std::string& path, Progress& progress, SurfaceMesh& out) {
   auto surface = read_surface(path);
   if (!surface.ok()) return fail(surface.status());
   progress.say("read {}: {} points, {} triangles", path, surface->points.size(), surface->triangles.size());
@@ -71,7 +59,7 @@ int load_checked_surface(const std::string& path, const Progress& progress, Surf
 /// The end of every meshing command: validate against the surface (a failure
 /// is our bug, never the user's), write, and print the quality summary.
 int finish(const VolumeMesh& mesh, const SurfaceMesh& surface, const std::string& output, bool validate,
-           const Progress& progress, bool quiet) {
+           Progress& progress, bool quiet) {
   if (validate) {
     const ValidationReport v = validate_mesh(mesh, &surface);
     if (!v.ok()) {
@@ -100,28 +88,6 @@ int run_check(const std::string& path, bool json, bool no_self_intersections) {
   return report.meshable() ? kExitOk : kExitBadInput;
 }
 
-/// Size options shared by the commands that refine (the point distribution function).
-struct SizeArgs {
-  double size = 0, hmin = 0, hmax = 0, growth = 1.2;
-
-  void add_to(CLI::App* cmd) {
-    cmd->add_option("--size", size, "uniform target edge length (default: the surface's own spacing)")
-        ->check(CLI::PositiveNumber);
-    cmd->add_option("--hmin", hmin, "smallest target edge length")->check(CLI::PositiveNumber);
-    cmd->add_option("--hmax", hmax, "largest target edge length")->check(CLI::PositiveNumber);
-    cmd->add_option("--growth", growth, "how fast the spacing may grow away from the boundary (> 1)")
-        ->capture_default_str();
-  }
-  SizingOptions options() const {
-    SizingOptions o;
-    if (size > 0) o.size = size;
-    if (hmin > 0) o.hmin = hmin;
-    if (hmax > 0) o.hmax = hmax;
-    o.growth = growth;
-    return o;
-  }
-};
-
 struct MeshArgs {
   std::string surface;
   std::string output;
@@ -135,7 +101,7 @@ struct MeshArgs {
 };
 
 int run_mesh(const MeshArgs& a) {
-  const Progress progress(a.quiet);
+  Progress progress(a.quiet);
   if (auto f = volume_format_from_path(a.output); !f.ok()) return fail(f.status());
   SurfaceMesh surface;
   if (int code = load_checked_surface(a.surface, progress, surface); code != kExitOk) return code;
@@ -171,13 +137,9 @@ struct RunArgs {
   std::string surface;
   std::string output;
   std::size_t workers = 1;
-  int depth = -1;
-  std::string kernel = "native";
   bool profile = false;
-  bool no_interface_round = false;
-  bool no_optimize = false;
   bool quiet = false;
-  SizeArgs size;
+  RunOptionArgs mesh;
 };
 
 void print_profile(const PdrProfile& p) {
@@ -196,20 +158,22 @@ void print_profile(const PdrProfile& p) {
 }
 
 int run_run(const RunArgs& a) {
-  const Progress progress(a.quiet);
+  Progress progress(a.quiet);
   if (auto f = volume_format_from_path(a.output); !f.ok()) return fail(f.status());
   SurfaceMesh surface;
   if (int code = load_checked_surface(a.surface, progress, surface); code != kExitOk) return code;
 
-  auto kernel = make_leaf_kernel(a.kernel);
+  auto kernel = make_leaf_kernel(a.mesh.kernel);
   if (!kernel.ok()) return fail(kernel.status());
-  ParallelOptions options;
-  options.sizing = a.size.options();
-  options.pdr.depth = a.depth;
+  ParallelOptions options = a.mesh.parallel_options();
   options.pdr.workers = a.workers;
-  options.pdr.interface_round = !a.no_interface_round;
-  if (a.no_optimize) options.optimize.reset();
+  progress.update({"sizing"});
+  options.pdr.progress = [&progress](const PdrProgress& p) {
+    progress.update({std::string(p.phase), p.leaves_done, p.leaves_total, p.tets});
+    return true;
+  };
   auto result = mesh_parallel(surface, options, kernel->get());
+  progress.finish();
   if (!result.ok()) return fail(result.status());
   const VolumeMesh& mesh = result->mesh;
   const PdrProfile& profile = result->profile;
@@ -301,14 +265,9 @@ void add_local_commands(CLI::App& app, int& exit_code) {
     cmd->add_option("SURFACE", a->surface, "surface file (.stl .obj .off .ply .mesh .surf)")->required();
     cmd->add_option("-o,--output", a->output, "output volume mesh " + volume_formats)->required();
     cmd->add_option("--workers", a->workers, "leaf tasks run at once")->check(CLI::PositiveNumber)->capture_default_str();
-    cmd->add_option("--depth", a->depth, "octree depth (2^d leaves a side); default: chosen from the target size")
-        ->check(CLI::Range(0, 10));
-    cmd->add_option("--kernel", a->kernel, "leaf kernel")->check(CLI::IsMember({"native", "tetgen"}))->capture_default_str();
     cmd->add_flag("--profile", a->profile, "print the time of each phase and its share");
-    cmd->add_flag("--no-interface-round", a->no_interface_round, "skip the second, shifted round over the interfaces");
-    cmd->add_flag("--no-optimize", a->no_optimize, "skip the final optimization");
     cmd->add_flag("-q,--quiet", a->quiet, "no progress or summary on stderr");
-    a->size.add_to(cmd);
+    a->mesh.add_to(cmd);
     cmd->callback([&exit_code, a] { exit_code = run_run(*a); });
   }
   {

@@ -123,7 +123,15 @@ grpc::Status ServiceClient::cancel(std::string_view id, v1::Job& job) {
   return stub_->CancelJob(&context, request, &job);
 }
 
-grpc::Status ServiceClient::fetch(std::string_view id, const std::filesystem::path& out) {
+grpc::Status ServiceClient::remove(std::string_view id, v1::Job& job) {
+  grpc::ClientContext context;
+  prepare(context, config_.timeout_s);
+  v1::DeleteJobRequest request;
+  request.set_job_id(std::string(id));
+  return stub_->DeleteJob(&context, request, &job);
+}
+
+grpc::Status ServiceClient::fetch(std::string_view id, const std::filesystem::path& out, std::uint64_t* bytes) {
   const std::string format = volume_format_of(out);
   if (format.empty()) {
     return {grpc::StatusCode::INVALID_ARGUMENT,
@@ -168,6 +176,7 @@ grpc::Status ServiceClient::fetch(std::string_view id, const std::filesystem::pa
     if (ec) status = {grpc::StatusCode::DATA_LOSS, fmt::format("{}: {}", out.string(), ec.message())};
   }
   if (!status.ok()) std::filesystem::remove(tmp, ec);
+  if (status.ok() && bytes) *bytes = received;
   return status;
 }
 

@@ -7,6 +7,7 @@
 
 #include <grpcpp/grpcpp.h>
 
+#include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <memory>
@@ -42,9 +43,11 @@ class ServiceClient {
                      v1::Job& last);
   grpc::Status list(v1::ListJobsResponse& jobs);
   grpc::Status cancel(std::string_view id, v1::Job& job);
+  /// DeleteJob: the record and files go; `job` is the job as it was.
+  grpc::Status remove(std::string_view id, v1::Job& job);
   /// Writes the result in the format named by `out`'s suffix (via a temporary
   /// file renamed into place).
-  grpc::Status fetch(std::string_view id, const std::filesystem::path& out);
+  grpc::Status fetch(std::string_view id, const std::filesystem::path& out, std::uint64_t* bytes = nullptr);
 
  private:
   ServiceClient(ClientConfig config, std::shared_ptr<grpc::Channel> channel);

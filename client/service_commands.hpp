@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: AGPL-3.0-or-later
 // The subcommands that talk to a pdrmesh coordinator: submit, status, watch,
-// fetch, list, cancel. Server and token come from --server/--token or the
-// environment (PDRMESH_SERVER, PDRMESH_TOKEN).
+// fetch, list, cancel, delete. Server, token and TLS CA come from flags, the
+// environment (PDRMESH_SERVER, PDRMESH_TOKEN, ...) or the client config file,
+// in that order (service_commands.cpp says how).
 #pragma once
 
 #include <CLI/CLI.hpp>

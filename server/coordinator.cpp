@@ -3,14 +3,20 @@
 #include "coordinator.hpp"
 
 #include <fmt/format.h>
+#include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/grpcpp.h>
+#include <grpcpp/health_check_service_interface.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <chrono>
+#include <thread>
 #include <fstream>
 #include <iterator>
 
 #include "job_service.hpp"
+#include "leaf_dispatch.hpp"
+#include "pdr_engine.hpp"
 
 namespace pdrmesh::server {
 namespace {
@@ -53,7 +59,14 @@ Result<std::unique_ptr<Coordinator>> Coordinator::BuildAndStart(const Options& o
   config.runner_threads = options.runner_threads;
   config.default_time_limit_s = options.default_time_limit_s;
   config.max_time_limit_s = options.max_time_limit_s;
-  if (!engine) engine = std::make_unique<SerialEngine>();
+  config.result_ttl_s = options.result_ttl_hours * 3600.0;
+  config.sweep_interval_s = options.sweep_interval_s;
+  if (!engine) {
+    const std::size_t threads =
+        options.leaf_threads > 0 ? options.leaf_threads : std::max(1U, std::thread::hardware_concurrency());
+    engine = std::make_unique<PdrEngine>(std::make_shared<LocalLeafDispatch>(threads));
+    spdlog::info("leaves run in this process on {} thread(s)", threads);
+  }
   PDR_ASSIGN_OR_RETURN(c->manager_, JobManager::open(std::move(config), std::move(engine)));
 
   std::shared_ptr<grpc::ServerCredentials> creds = grpc::InsecureServerCredentials();
@@ -65,6 +78,8 @@ Result<std::unique_ptr<Coordinator>> Coordinator::BuildAndStart(const Options& o
     creds = grpc::SslServerCredentials(ssl);
   }
   c->service_ = std::make_unique<JobServiceImpl>(*c->manager_, c->tokens_, c->stopping_, options.max_watch_s);
+  grpc::EnableDefaultHealthCheckService(true);
+  grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
   builder.AddListeningPort(options.listen_address, creds, &c->port_);
   builder.RegisterService(c->service_.get());

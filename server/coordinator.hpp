@@ -37,6 +37,13 @@ struct Options {
   bool allow_insecure_remote = false;
   /// Server-side limit on one WatchJob stream, seconds.
   double max_watch_s = 24 * 3600;
+  /// Leaves refined at once in this process when there are no workers
+  /// (LocalLeafDispatch); 0: the hardware concurrency.
+  std::size_t leaf_threads = 0;
+  /// Finished jobs are deleted this many hours after they finished; 0: kept.
+  double result_ttl_hours = 0;
+  /// How often the expiry sweep runs, seconds.
+  double sweep_interval_s = 60;
 };
 
 /// True for 127.0.0.0/8, localhost, [::1] and unix: addresses.
@@ -45,7 +52,9 @@ bool is_loopback_address(std::string_view address);
 class Coordinator {
  public:
   /// Loads the tokens, opens the data directory (re-queuing interrupted jobs),
-  /// starts the runner and the gRPC server. `engine` null: the serial engine.
+  /// starts the runner and the gRPC server (JobService, the gRPC health service
+  /// and reflection). `engine` null: PdrEngine with leaves run in this process
+  /// on leaf_threads threads.
   static Result<std::unique_ptr<Coordinator>> BuildAndStart(const Options& options,
                                                             std::unique_ptr<MeshEngine> engine = nullptr);
   ~Coordinator();  ///< shuts down

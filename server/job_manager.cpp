@@ -6,6 +6,7 @@
 #include <spdlog/spdlog.h>
 
 #include <array>
+#include <chrono>
 #include <cstdio>
 #include <fstream>
 #include <random>
@@ -61,7 +62,15 @@ JobManager::JobManager(ManagerConfig config, std::unique_ptr<JobStore> store, st
 
 JobManager::~JobManager() { stop(); }
 
-void JobManager::stop() { runner_.stop(); }
+void JobManager::stop() {
+  {
+    std::lock_guard lock(sweep_mu_);
+    sweep_stop_ = true;
+  }
+  sweep_cv_.notify_all();
+  if (sweeper_.joinable()) sweeper_.join();
+  runner_.stop();
+}
 
 Result<std::unique_ptr<JobManager>> JobManager::open(ManagerConfig config, std::unique_ptr<MeshEngine> engine) {
   std::error_code ec;
@@ -73,6 +82,21 @@ Result<std::unique_ptr<JobManager>> JobManager::open(ManagerConfig config, std::
   for (const JobRecord& j : queued) m->runner_.enqueue(j);
   if (!queued.empty()) spdlog::info("re-queued {} job(s) from the previous run", queued.size());
   m->runner_.start();
+  if (m->config_.result_ttl_s > 0) {
+    JobManager* self = m.get();
+    m->sweeper_ = std::thread([self] {
+      std::unique_lock lock(self->sweep_mu_);
+      for (;;) {
+        lock.unlock();
+        if (auto n = self->sweep_expired(); !n.ok()) spdlog::warn("expiry sweep: {}", n.status().to_string());
+        lock.lock();
+        if (self->sweep_cv_.wait_for(lock, std::chrono::duration<double>(self->config_.sweep_interval_s),
+                                     [self] { return self->sweep_stop_; })) {
+          return;
+        }
+      }
+    });
+  }
   return m;
 }
 
@@ -94,6 +118,7 @@ Result<JobRecord> JobManager::submit(std::string_view user, std::string_view fil
   const std::string name = std::filesystem::path(file_name).filename().string();
   if (name.empty()) return invalid_input("the upload has no file name");
   PDR_ASSIGN_OR_RETURN(const SurfaceFormat format, surface_format_from_path(name));
+  PDR_TRY(options.validate());
   if (options.time_limit_s > config_.max_time_limit_s) {
     return invalid_input(fmt::format("time limit {} s exceeds the coordinator's max_time_limit_s={}",
                                      options.time_limit_s, config_.max_time_limit_s));
@@ -140,6 +165,41 @@ Result<std::vector<JobRecord>> JobManager::list(std::string_view user) { return 
 Result<JobRecord> JobManager::cancel(std::string_view user, std::string_view id) {
   PDR_ASSIGN_OR_RETURN(const JobRecord job, store_->get(id, user));
   return runner_.cancel(job);
+}
+
+Result<JobRecord> JobManager::remove(std::string_view user, std::string_view id, double wait_s) {
+  PDR_ASSIGN_OR_RETURN(JobRecord job, store_->get(id, user));
+  if (!is_final(job.state) && !runner_.cancel_for_removal(job)) {
+    // Running: its thread deletes it once the cancel takes effect.
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(wait_s);
+    for (;;) {
+      const std::uint64_t seen = changes_.version();
+      const auto now = store_->get(id, user);
+      if (!now.ok()) break;  // gone
+      if (std::chrono::steady_clock::now() > end) {
+        spdlog::warn("job {} ({}): still stopping after {} s; it is deleted when it stops", job.id, job.user, wait_s);
+        return job;
+      }
+      changes_.wait(seen, std::chrono::milliseconds(100));
+    }
+  } else {
+    remove_job_files(*store_, config_.data_dir, job.id);
+  }
+  changes_.notify();
+  spdlog::info("job {} ({}): deleted", job.id, job.user);
+  return job;
+}
+
+Result<std::size_t> JobManager::sweep_expired() {
+  if (config_.result_ttl_s <= 0) return std::size_t{0};
+  const auto ttl_ms = static_cast<std::int64_t>(config_.result_ttl_s * 1000.0);
+  PDR_ASSIGN_OR_RETURN(const auto ids, store_->finished_before(now_unix_ms() - ttl_ms));
+  for (const std::string& id : ids) {
+    remove_job_files(*store_, config_.data_dir, id);
+    spdlog::info("job {}: expired (finished more than {} h ago): deleted", id, config_.result_ttl_s / 3600);
+  }
+  if (!ids.empty()) changes_.notify();
+  return ids.size();
 }
 
 Result<std::filesystem::path> JobManager::result_file(std::string_view user, std::string_view id,

@@ -8,7 +8,9 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <condition_variable>
 #include <mutex>
+#include <thread>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -32,6 +34,10 @@ struct ManagerConfig {
   int runner_threads = 1;  ///< 0: jobs are queued but never run (tests, drain)
   double default_time_limit_s = 600;
   double max_time_limit_s = 3600;  ///< a job asking for more is refused
+  /// Finished jobs older than this (seconds since they finished) are deleted,
+  /// record and files, by a sweep every sweep_interval_s; 0: kept until deleted.
+  double result_ttl_s = 0;
+  double sweep_interval_s = 60;
 };
 
 class JobManager {
@@ -52,6 +58,13 @@ class JobManager {
   Result<JobRecord> get(std::string_view user, std::string_view id);
   Result<std::vector<JobRecord>> list(std::string_view user);
   Result<JobRecord> cancel(std::string_view user, std::string_view id);
+  /// Deletes the job's record and files and returns it as it was. A running
+  /// job is cancelled first; this waits (at most `wait_s`) for it to stop, and
+  /// its thread deletes it when it stops if that takes longer.
+  Result<JobRecord> remove(std::string_view user, std::string_view id, double wait_s = 30);
+  /// Deletes every job that finished more than result_ttl_s ago (nothing when
+  /// the TTL is 0); returns how many. The periodic sweep calls this.
+  Result<std::size_t> sweep_expired();
   /// The result file of a succeeded job in the format named by `format`
   /// ("vtu", "lb8.ugrid", ...; empty: meshb), converted once and kept.
   /// not_found unless the job succeeded.
@@ -59,7 +72,7 @@ class JobManager {
 
   ChangeSignal& changes() { return changes_; }
   const ManagerConfig& config() const { return config_; }
-  /// Stops the runner (see JobRunner::stop). Idempotent.
+  /// Stops the expiry sweep and the runner (see JobRunner::stop). Idempotent.
   void stop();
 
  private:
@@ -71,6 +84,10 @@ class JobManager {
   ChangeSignal changes_;
   JobRunner runner_;
   std::mutex admit_mu_;  ///< makes count-then-create atomic per coordinator
+  std::mutex sweep_mu_;
+  std::condition_variable sweep_cv_;
+  bool sweep_stop_ = false;
+  std::thread sweeper_;  ///< runs while result_ttl_s > 0
 };
 
 /// The canonical suffix (".vtu", ".lb8.ugrid", ...) of a volume format given

@@ -1,11 +1,13 @@
 // SPDX-License-Identifier: AGPL-3.0-or-later
-// JobRunner and the serial MeshEngine.
+// JobRunner, JobOptions, JobPaths, ChangeSignal.
 #include "job_runner.hpp"
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <cmath>
 #include <functional>
 #include <fstream>
@@ -23,10 +25,35 @@ namespace pdrmesh::server {
 
 // ---------------------------------------------------------------- JobOptions
 
+Status JobOptions::validate() const {
+  auto positive = [](double v, std::string_view name) -> Status {
+    if (std::isfinite(v) && v > 0) return {};
+    return invalid_input(fmt::format("job option {} must be a finite number > 0, got {}", name, v));
+  };
+  if (max_volume) PDR_TRY(positive(*max_volume, "max_volume"));
+  PDR_TRY(positive(time_limit_s, "time_limit_s"));
+  if (Status s = pdrmesh::validate(sizing); !s.ok()) return invalid_input("job option: " + s.message());
+  if (depth < -1 || depth > 10) {
+    return invalid_input(fmt::format("job option depth must be 0..10 (or unset), got {}", depth));
+  }
+  if (kernel != "native" && kernel != "tetgen") {
+    return invalid_input(fmt::format("job option kernel must be 'native' or 'tetgen', got '{}'", kernel));
+  }
+  return {};
+}
+
 std::string JobOptions::to_json() const {
   nlohmann::json j;
   if (max_volume) j["max_volume"] = *max_volume;
   j["time_limit_s"] = time_limit_s;
+  if (sizing.size) j["size"] = *sizing.size;
+  if (sizing.hmin) j["hmin"] = *sizing.hmin;
+  if (sizing.hmax) j["hmax"] = *sizing.hmax;
+  j["growth"] = sizing.growth;
+  j["depth"] = depth;
+  j["kernel"] = kernel;
+  j["interface_round"] = interface_round;
+  j["optimize"] = optimize;
   return j.dump();
 }
 
@@ -34,16 +61,34 @@ Result<JobOptions> JobOptions::from_json(std::string_view json) {
   const nlohmann::json j = nlohmann::json::parse(json, nullptr, /*allow_exceptions=*/false);
   if (!j.is_object()) return invalid_input(fmt::format("job options: not a JSON object: {}", json));
   JobOptions o;
-  if (auto it = j.find("max_volume"); it != j.end()) {
-    if (!it->is_number() || !(it->get<double>() > 0) || !std::isfinite(it->get<double>()))
-      return invalid_input("job options: max_volume must be a positive number");
-    o.max_volume = it->get<double>();
+  auto number = [&](const char* key, auto& out) -> Status {
+    const auto it = j.find(key);
+    if (it == j.end()) return {};
+    if (!it->is_number()) return invalid_input(fmt::format("job option {} must be a number", key));
+    out = it->get<double>();
+    return {};
+  };
+  PDR_TRY(number("max_volume", o.max_volume));
+  PDR_TRY(number("time_limit_s", o.time_limit_s));
+  PDR_TRY(number("size", o.sizing.size));
+  PDR_TRY(number("hmin", o.sizing.hmin));
+  PDR_TRY(number("hmax", o.sizing.hmax));
+  PDR_TRY(number("growth", o.sizing.growth));
+  if (auto it = j.find("depth"); it != j.end()) {
+    if (!it->is_number_integer()) return invalid_input("job option depth must be an integer");
+    o.depth = it->get<int>();
   }
-  if (auto it = j.find("time_limit_s"); it != j.end()) {
-    if (!it->is_number() || !(it->get<double>() > 0) || !std::isfinite(it->get<double>()))
-      return invalid_input("job options: time_limit_s must be a positive number");
-    o.time_limit_s = it->get<double>();
+  if (auto it = j.find("kernel"); it != j.end()) {
+    if (!it->is_string()) return invalid_input("job option kernel must be a string");
+    o.kernel = it->get<std::string>();
   }
+  for (auto [key, field] : {std::pair{"interface_round", &o.interface_round}, std::pair{"optimize", &o.optimize}}) {
+    if (auto it = j.find(key); it != j.end()) {
+      if (!it->is_boolean()) return invalid_input(fmt::format("job option {} must be true or false", key));
+      *field = it->get<bool>();
+    }
+  }
+  PDR_TRY(o.validate());
   return o;
 }
 
@@ -82,44 +127,18 @@ void ChangeSignal::wait(std::uint64_t seen, std::chrono::milliseconds timeout) c
   cv_.wait_for(lock, timeout, [&] { return version_ != seen; });
 }
 
-// ---------------------------------------------------------------- SerialEngine
-
-Result<VolumeMesh> SerialEngine::mesh(const SurfaceMesh& surface, const JobOptions& options, JobProgress& progress) {
-  VolumeMesh mesh;
-  if (options.max_volume) {
-    // The boundary-conforming initial mesh alone, with TetGen's volume bound.
-    if (!progress.report("tetrahedralizing", 0.3)) return internal_error("stopped");
-    TetgenOptions t;
-    t.max_volume = options.max_volume;
-    t.time_limit_s = options.time_limit_s;
-    PDR_ASSIGN_OR_RETURN(mesh, tetrahedralize(surface, t));
-  } else {
-    // The serial pipeline: initial mesh, refinement, final optimization.
-    if (!progress.report("refining", 0.2)) return internal_error("stopped");
-    SerialOptions serial;
-    serial.tetgen.time_limit_s = options.time_limit_s;
-    bool stopped = false;
-    auto result = mesh_serial(surface, serial, [&](const RefinePassStats& pass) {
-      progress.mesh_size(pass.tets, 0);
-      // The refiner has no way to stop between passes yet: a cancelled job
-      // finishes its refinement and is then dropped.
-      stopped = stopped || !progress.report(fmt::format("refining (pass {})", pass.pass), 0.5);
-    });
-    if (!result.ok()) return result.status();
-    if (stopped) return internal_error("stopped");
-    mesh = std::move(result).value().mesh;
-  }
-  progress.mesh_size(mesh.tets.size(), mesh.points.size());
-  if (!progress.report("validating", 0.8)) return internal_error("stopped");
-  const ValidationReport v = validate_mesh(mesh, &surface);
-  if (!v.ok()) {
-    return internal_error(fmt::format("the generated mesh failed validation (a bug; please report it): {}",
-                                      validation_status(v).message()));
-  }
-  return mesh;
-}
-
 // ---------------------------------------------------------------- JobRunner
+
+namespace {
+
+}  // namespace
+
+void remove_job_files(JobStore& store, const std::filesystem::path& data_dir, std::string_view id) {
+  if (Status s = store.remove(id); !s.ok()) spdlog::warn("job {}: {}", id, s.to_string());
+  std::error_code ec;
+  std::filesystem::remove_all(JobPaths::dir(data_dir, id), ec);
+  if (ec) spdlog::warn("job {}: cannot remove its files: {}", id, ec.message());
+}
 
 namespace {
 
@@ -139,15 +158,26 @@ class RunnerProgress final : public JobProgress {
       : job_(job), store_(store), changes_(changes), keep_going_(std::move(keep_going)) {}
   bool report(std::string_view phase, double progress) override {
     if (!keep_going_()) return false;
+    const auto now = std::chrono::steady_clock::now();
+    const bool new_phase = job_.phase != phase;
     job_.phase = std::string(phase);
-    job_.progress = progress;
-    if (Status s = store_.update(job_); !s.ok()) spdlog::warn("job {}: {}", job_.id, s.to_string());
-    changes_.notify();
+    job_.progress = std::max(job_.progress, progress);
+    // Every phase change is stored; within a phase (leaf by leaf) at most every 250 ms.
+    if (new_phase || now - last_store_ >= std::chrono::milliseconds(250)) {
+      last_store_ = now;
+      if (Status s = store_.update(job_); !s.ok()) spdlog::warn("job {}: {}", job_.id, s.to_string());
+      changes_.notify();
+    }
     return true;
   }
+  bool keep_going() override { return keep_going_(); }
   void mesh_size(std::uint64_t tets, std::uint64_t points) override {
     job_.tets = tets;
     job_.points = points;
+  }
+  void leaves(std::uint64_t done, std::uint64_t total) override {
+    job_.leaves_done = done;
+    job_.leaves_total = total;
   }
 
  private:
@@ -155,6 +185,7 @@ class RunnerProgress final : public JobProgress {
   JobStore& store_;
   ChangeSignal& changes_;
   std::function<bool()> keep_going_;
+  std::chrono::steady_clock::time_point last_store_{};
 };
 
 JobRunner::JobRunner(JobStore& store, std::filesystem::path data_dir, MeshEngine& engine, RunnerOptions options,
@@ -192,7 +223,7 @@ Result<JobRecord> JobRunner::cancel(const JobRecord& job) {
   {
     std::lock_guard lock(mu_);
     if (auto it = running_.find(job.id); it != running_.end()) {
-      it->second = true;  // the job's thread ends it at the next phase boundary
+      it->second.cancel = true;  // the job's thread ends it at its next progress report
       return job;
     }
     const auto it = std::find_if(queue_.begin(), queue_.end(), [&](const Entry& e) { return e.id == job.id; });
@@ -206,6 +237,18 @@ Result<JobRecord> JobRunner::cancel(const JobRecord& job) {
   PDR_TRY(store_.update(j));
   changes_.notify();
   return j;
+}
+
+bool JobRunner::cancel_for_removal(const JobRecord& job) {
+  std::lock_guard lock(mu_);
+  if (auto it = running_.find(job.id); it != running_.end()) {
+    it->second.cancel = true;
+    it->second.remove = true;
+    return false;
+  }
+  const auto it = std::find_if(queue_.begin(), queue_.end(), [&](const Entry& e) { return e.id == job.id; });
+  if (it != queue_.end()) queue_.erase(it);
+  return true;
 }
 
 void JobRunner::loop() {
@@ -223,7 +266,7 @@ void JobRunner::loop() {
       const auto it = pick();
       entry = *it;
       queue_.erase(it);
-      running_[entry.id] = false;
+      running_[entry.id] = Running{};
       ++running_per_user_[entry.user];
     }
     run_job(entry);
@@ -244,8 +287,8 @@ Status JobRunner::mesh_job(JobRecord& job, JobProgress& progress) {
   PDR_ASSIGN_OR_RETURN(const SurfaceMesh surface, parse_surface(bytes, format, job.input_name));
   if (!progress.report("checking", 0.1)) return internal_error("stopped");
   PDR_TRY(require_meshable(check_surface(surface), job.input_name));
-  PDR_ASSIGN_OR_RETURN(const VolumeMesh mesh, engine_.mesh(surface, options, progress));
-  if (!progress.report("writing", 0.9)) return internal_error("stopped");
+  PDR_ASSIGN_OR_RETURN(const VolumeMesh mesh, engine_.mesh(job, surface, options, progress));
+  if (!progress.report("writing", 0.95)) return internal_error("stopped");
   const auto final_path = JobPaths::result(data_dir_, job.id);
   auto tmp = final_path;
   tmp += ".tmp";
@@ -263,11 +306,15 @@ void JobRunner::run_job(const Entry& entry) {
     return;
   }
   JobRecord job = std::move(loaded).value();
-  bool cancelled = false;
-  bool stopped = false;
+  // Read from leaf threads too (LeafJob::keep_going): atomics.
+  std::atomic<bool> cancelled = false;
+  std::atomic<bool> stopped = false;
+  bool remove = false;
   auto keep_going = [&] {
     std::lock_guard lock(mu_);
-    cancelled = running_[entry.id];
+    const Running& r = running_[entry.id];
+    cancelled = r.cancel;
+    remove = r.remove;
     stopped = stopping_;
     return !cancelled && !stopped;
   };
@@ -277,6 +324,13 @@ void JobRunner::run_job(const Entry& entry) {
   spdlog::info("job {} ({}): running", job.id, job.user);
   const Status status = mesh_job(job, progress);
   keep_going();  // reads the latest cancel and stop requests
+  job.leaves_done = job.leaves_total = 0;
+  if (remove) {  // DeleteJob asked while it ran: the record and files go
+    remove_job_files(store_, data_dir_, job.id);
+    spdlog::info("job {} ({}): deleted", job.id, job.user);
+    changes_.notify();
+    return;
+  }
   if (status.ok()) {  // the result is stored: a cancel or stop that came later changes nothing
     job.state = JobState::kSucceeded;
     job.phase = "done";

@@ -1,9 +1,13 @@
 // SPDX-License-Identifier: AGPL-3.0-or-later
 // JobRunner: a pool of threads that runs queued jobs from the JobStore, one job
-// per thread, through a MeshEngine, updating the job's phase and progress as it
-// goes. MeshEngine is the seam where the parallel engine (octree leaves refined
-// by workers) replaces today's serial path (SerialEngine: TetGen in an isolated
-// child, then validation).
+// per thread, through a MeshEngine (PdrEngine, pdr_engine.hpp: the parallel
+// pipeline with its leaves sent through a LeafDispatch), updating the job's
+// phase and progress as it goes.
+//
+// Fairness between users: one FIFO queue in submission order; a free runner
+// thread takes the oldest queued job whose user runs fewer than
+// max_running_per_user jobs, so a user with many queued jobs cannot hold every
+// thread while another user waits.
 #pragma once
 
 #include <condition_variable>
@@ -19,18 +23,29 @@
 #include <vector>
 
 #include "job_store.hpp"
+#include "pdrmesh/sizing.hpp"
 #include "pdrmesh/status.hpp"
 #include "pdrmesh/surface.hpp"
 #include "pdrmesh/volume_mesh.hpp"
 
 namespace pdrmesh::server {
 
-/// What a client may ask of a job; stored as JSON in JobRecord::options_json.
+/// What a client may ask of a job (the options of `pdrmesh run`); stored as
+/// JSON in JobRecord::options_json.
 struct JobOptions {
+  /// Set: the initial mesh alone with this maximum tet volume (the rest is ignored).
   std::optional<double> max_volume;
   double time_limit_s = 600;
+  SizingOptions sizing;  ///< size, hmin, hmax, growth
+  int depth = -1;        ///< octree depth 0..10; -1: chosen from the target size
+  std::string kernel = "native";  ///< leaf kernel: native or tetgen
+  bool interface_round = true;
+  bool optimize = true;
+
+  /// invalid_input naming the first option out of range.
+  Status validate() const;
   std::string to_json() const;
-  /// invalid_input for malformed JSON or out-of-range values.
+  /// invalid_input for malformed JSON, a value of the wrong type or out of range.
   static Result<JobOptions> from_json(std::string_view json);
 };
 
@@ -43,6 +58,9 @@ struct JobPaths {
   static std::filesystem::path result(const std::filesystem::path& data_dir, std::string_view id,
                                       std::string_view suffix = ".meshb");
 };
+
+/// Removes a job's record (absent: nothing) and its directory; failures are logged.
+void remove_job_files(JobStore& store, const std::filesystem::path& data_dir, std::string_view id);
 
 /// Wakes whoever waits for a change of any job (WatchJob). Never loses a change:
 /// waiters remember the version they saw.
@@ -59,7 +77,9 @@ class ChangeSignal {
   std::uint64_t version_ = 0;
 };
 
-/// Told by the engine what it is doing.
+/// Told by the engine what it is doing. report() may be called often (once per
+/// merged leaf): the record is written to the store when the phase changes and
+/// at most every few hundred milliseconds otherwise.
 class JobProgress {
  public:
   virtual ~JobProgress() = default;
@@ -67,22 +87,20 @@ class JobProgress {
   /// (cancelled, or the coordinator is shutting down): the engine then returns
   /// any error as soon as it can; the runner decides what the job becomes.
   virtual bool report(std::string_view phase, double progress) = 0;
+  /// False once the job must stop; cheap, callable from any thread.
+  virtual bool keep_going() = 0;
   virtual void mesh_size(std::uint64_t tets, std::uint64_t points) = 0;
+  /// Leaves merged of the current round's total (0, 0 outside the rounds).
+  virtual void leaves(std::uint64_t done, std::uint64_t total) = 0;
 };
 
 /// Turns a checked, meshable surface into a validated volume mesh.
 class MeshEngine {
  public:
   virtual ~MeshEngine() = default;
-  virtual Result<VolumeMesh> mesh(const SurfaceMesh& surface, const JobOptions& options,
+  /// `job`: whose mesh it is (id and user for logs and leaf dispatch).
+  virtual Result<VolumeMesh> mesh(const JobRecord& job, const SurfaceMesh& surface, const JobOptions& options,
                                   JobProgress& progress) = 0;
-};
-
-/// Today's path: tetrahedralize (TetGen in a child process), validate against
-/// the surface (a failure is an internal error: the mesh is never served).
-class SerialEngine final : public MeshEngine {
- public:
-  Result<VolumeMesh> mesh(const SurfaceMesh& surface, const JobOptions& options, JobProgress& progress) override;
 };
 
 struct RunnerOptions {
@@ -110,6 +128,10 @@ class JobRunner {
   /// its result first stays succeeded); a final job is returned unchanged.
   /// Returns the job as it is now.
   Result<JobRecord> cancel(const JobRecord& job);
+  /// For deleting `job`: a queued job leaves the queue (true: the caller
+  /// removes it now); a running one is cancelled and removed (record and
+  /// files) by its thread when it stops (false).
+  bool cancel_for_removal(const JobRecord& job);
 
  private:
   struct Entry {
@@ -131,7 +153,11 @@ class JobRunner {
   std::condition_variable cv_;
   bool stopping_ = false;
   std::deque<Entry> queue_;
-  std::map<std::string, bool> running_;          ///< job id -> cancel requested
+  struct Running {
+    bool cancel = false;  ///< cancel requested
+    bool remove = false;  ///< delete the job when it stops
+  };
+  std::map<std::string, Running> running_;       ///< job id -> requests
   std::map<std::string, int> running_per_user_;  ///< user -> jobs running
   std::vector<std::thread> threads_;
 };

@@ -28,8 +28,6 @@ double elapsed_s(const JobRecord& j) {
   return static_cast<double>(end - j.started_ms) / 1000.0;
 }
 
-bool valid_positive(double v) { return std::isfinite(v) && v > 0; }
-
 }  // namespace
 
 grpc::Status to_grpc_status(const Status& status) {
@@ -61,10 +59,7 @@ void to_proto(const JobRecord& job, v1::Job& out) {
   out.set_state(to_proto(job.state));
   out.set_phase(job.phase);
   out.set_progress(job.progress);
-  if (auto o = JobOptions::from_json(job.options_json); o.ok()) {
-    if (o->max_volume) out.mutable_options()->set_max_volume(*o->max_volume);
-    out.mutable_options()->set_time_limit_s(o->time_limit_s);
-  }
+  if (auto o = JobOptions::from_json(job.options_json); o.ok()) to_proto(*o, *out.mutable_options());
   out.set_input_name(job.input_name);
   out.set_input_bytes(job.input_bytes);
   out.set_created_unix_ms(job.created_ms);
@@ -73,6 +68,40 @@ void to_proto(const JobRecord& job, v1::Job& out) {
   out.set_error(job.error);
   out.set_tets(job.tets);
   out.set_points(job.points);
+  out.set_leaves_done(job.leaves_done);
+  out.set_leaves_total(job.leaves_total);
+}
+
+void to_proto(const JobOptions& o, v1::MeshOptions& out) {
+  out.Clear();
+  if (o.max_volume) out.set_max_volume(*o.max_volume);
+  out.set_time_limit_s(o.time_limit_s);
+  if (o.sizing.size) out.set_size(*o.sizing.size);
+  if (o.sizing.hmin) out.set_hmin(*o.sizing.hmin);
+  if (o.sizing.hmax) out.set_hmax(*o.sizing.hmax);
+  out.set_growth(o.sizing.growth);
+  if (o.depth >= 0) out.set_depth(o.depth);
+  out.set_kernel(o.kernel);
+  out.set_interface_round(o.interface_round);
+  out.set_optimize(o.optimize);
+}
+
+Result<JobOptions> from_proto(const v1::MeshOptions& in, JobOptions o) {
+  if (in.has_max_volume()) o.max_volume = in.max_volume();
+  if (in.has_time_limit_s()) o.time_limit_s = in.time_limit_s();
+  if (in.has_size()) o.sizing.size = in.size();
+  if (in.has_hmin()) o.sizing.hmin = in.hmin();
+  if (in.has_hmax()) o.sizing.hmax = in.hmax();
+  if (in.has_growth()) o.sizing.growth = in.growth();
+  if (in.has_depth()) {
+    if (in.depth() < 0) return invalid_input(fmt::format("job option depth must be 0..10 (or unset), got {}", in.depth()));
+    o.depth = in.depth();
+  }
+  if (in.has_kernel()) o.kernel = in.kernel();
+  if (in.has_interface_round()) o.interface_round = in.interface_round();
+  if (in.has_optimize()) o.optimize = in.optimize();
+  PDR_TRY(o.validate());
+  return o;
 }
 
 grpc::Status JobServiceImpl::authenticate(const grpc::ServerContext& context, std::string& user) const {
@@ -96,20 +125,11 @@ grpc::Status JobServiceImpl::SubmitJob(grpc::ServerContext* context, grpc::Serve
   }
   const v1::SubmitHeader header = msg.header();
   if (auto s = manager_.admit(user, header.total_bytes()); !s.ok()) return to_grpc_status(s);
-  JobOptions options;
-  options.time_limit_s = manager_.config().default_time_limit_s;
-  if (header.options().has_max_volume()) {
-    if (!valid_positive(header.options().max_volume())) {
-      return {grpc::StatusCode::INVALID_ARGUMENT, "max_volume must be a positive number"};
-    }
-    options.max_volume = header.options().max_volume();
-  }
-  if (header.options().has_time_limit_s()) {
-    if (!valid_positive(header.options().time_limit_s())) {
-      return {grpc::StatusCode::INVALID_ARGUMENT, "time_limit_s must be a positive number"};
-    }
-    options.time_limit_s = header.options().time_limit_s();
-  }
+  JobOptions defaults;
+  defaults.time_limit_s = manager_.config().default_time_limit_s;
+  auto parsed = from_proto(header.options(), defaults);
+  if (!parsed.ok()) return to_grpc_status(parsed.status());
+  const JobOptions options = std::move(parsed).value();
   std::string bytes;
   bytes.reserve(static_cast<std::size_t>(header.total_bytes()));  // admitted: within the upload limit
   while (reader->Read(&msg)) {
@@ -184,6 +204,16 @@ grpc::Status JobServiceImpl::CancelJob(grpc::ServerContext* context, const v1::C
   std::string user;
   if (auto s = authenticate(*context, user); !s.ok()) return s;
   auto job = manager_.cancel(user, request->job_id());
+  if (!job.ok()) return to_grpc_status(job.status());
+  to_proto(*job, *response);
+  return grpc::Status::OK;
+}
+
+grpc::Status JobServiceImpl::DeleteJob(grpc::ServerContext* context, const v1::DeleteJobRequest* request,
+                                       v1::Job* response) {
+  std::string user;
+  if (auto s = authenticate(*context, user); !s.ok()) return s;
+  auto job = manager_.remove(user, request->job_id());
   if (!job.ok()) return to_grpc_status(job.status());
   to_proto(*job, *response);
   return grpc::Status::OK;

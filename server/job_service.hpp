@@ -27,6 +27,10 @@ inline constexpr std::size_t kChunkBytes = 1 << 20;
 grpc::Status to_grpc_status(const Status& status);
 
 void to_proto(const JobRecord& job, v1::Job& out);
+void to_proto(const JobOptions& options, v1::MeshOptions& out);
+/// The job options a client asked for, over `defaults` (the coordinator's time
+/// limit); invalid_input naming the first option out of range.
+Result<JobOptions> from_proto(const v1::MeshOptions& in, JobOptions defaults);
 
 class JobServiceImpl final : public v1::JobService::Service {
  public:
@@ -42,6 +46,8 @@ class JobServiceImpl final : public v1::JobService::Service {
   grpc::Status ListJobs(grpc::ServerContext* context, const v1::ListJobsRequest* request,
                         v1::ListJobsResponse* response) override;
   grpc::Status CancelJob(grpc::ServerContext* context, const v1::CancelJobRequest* request,
+                         v1::Job* response) override;
+  grpc::Status DeleteJob(grpc::ServerContext* context, const v1::DeleteJobRequest* request,
                          v1::Job* response) override;
   grpc::Status FetchResult(grpc::ServerContext* context, const v1::FetchRequest* request,
                            grpc::ServerWriter<v1::ResultChunk>* writer) override;

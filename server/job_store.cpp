@@ -13,7 +13,7 @@ namespace {
 
 constexpr const char* kColumns =
     "id, user, state, phase, progress, options, input_name, input_bytes, created_ms, started_ms, "
-    "finished_ms, error, tets, points, seq";
+    "finished_ms, error, tets, points, leaves_done, leaves_total, seq";
 
 /// A prepared statement, finalized on scope exit.
 class Stmt {
@@ -68,11 +68,13 @@ JobRecord read_row(const Stmt& s) {
   j.error = s.text(11);
   j.tets = static_cast<std::uint64_t>(s.i64(12));
   j.points = static_cast<std::uint64_t>(s.i64(13));
-  j.seq = s.i64(14);
+  j.leaves_done = static_cast<std::uint64_t>(s.i64(14));
+  j.leaves_total = static_cast<std::uint64_t>(s.i64(15));
+  j.seq = s.i64(16);
   return j;
 }
 
-/// Binds every column but seq, as parameters 1..14.
+/// Binds every column but seq, as parameters 1..16.
 void bind_record(Stmt& s, const JobRecord& j) {
   s.bind(1, j.id);
   s.bind(2, j.user);
@@ -88,6 +90,8 @@ void bind_record(Stmt& s, const JobRecord& j) {
   s.bind(12, j.error);
   s.bind(13, static_cast<std::int64_t>(j.tets));
   s.bind(14, static_cast<std::int64_t>(j.points));
+  s.bind(15, static_cast<std::int64_t>(j.leaves_done));
+  s.bind(16, static_cast<std::int64_t>(j.leaves_total));
 }
 
 Result<std::vector<JobRecord>> query(sqlite3* db, const std::string& sql, std::string_view user,
@@ -140,7 +144,15 @@ Result<std::unique_ptr<JobStore>> JobStore::open(const std::filesystem::path& pa
       " state INTEGER NOT NULL, phase TEXT NOT NULL, progress REAL NOT NULL, options TEXT NOT NULL,"
       " input_name TEXT NOT NULL, input_bytes INTEGER NOT NULL, created_ms INTEGER NOT NULL,"
       " started_ms INTEGER NOT NULL, finished_ms INTEGER NOT NULL, error TEXT NOT NULL,"
-      " tets INTEGER NOT NULL, points INTEGER NOT NULL)"));
+      " tets INTEGER NOT NULL, points INTEGER NOT NULL,"
+      " leaves_done INTEGER NOT NULL DEFAULT 0, leaves_total INTEGER NOT NULL DEFAULT 0)"));
+  // A database made before the leaf counts existed gets their columns.
+  for (const char* column : {"leaves_done", "leaves_total"}) {
+    Stmt probe(db, fmt::format("SELECT {} FROM jobs LIMIT 0", column));
+    if (!probe.prepared("probe").ok()) {
+      PDR_TRY(store->exec(fmt::format("ALTER TABLE jobs ADD COLUMN {} INTEGER NOT NULL DEFAULT 0", column).c_str()));
+    }
+  }
   PDR_TRY(store->exec("CREATE INDEX IF NOT EXISTS jobs_user_state ON jobs(user, state)"));
   return store;
 }
@@ -159,7 +171,7 @@ Status JobStore::exec(const char* sql) {
 
 Status JobStore::create(JobRecord& job) {
   std::lock_guard lock(mu_);
-  Stmt s(db_, fmt::format("INSERT INTO jobs ({}) VALUES (?1,?2,?3,?4,?5,?6,?7,?8,?9,?10,?11,?12,?13,?14, NULL)",
+  Stmt s(db_, fmt::format("INSERT INTO jobs ({}) VALUES (?1,?2,?3,?4,?5,?6,?7,?8,?9,?10,?11,?12,?13,?14,?15,?16, NULL)",
                           kColumns));
   PDR_TRY(s.prepared("insert"));
   bind_record(s, job);
@@ -174,7 +186,8 @@ Status JobStore::update(const JobRecord& job) {
   std::lock_guard lock(mu_);
   Stmt s(db_,
          "UPDATE jobs SET user=?2, state=?3, phase=?4, progress=?5, options=?6, input_name=?7, input_bytes=?8,"
-         " created_ms=?9, started_ms=?10, finished_ms=?11, error=?12, tets=?13, points=?14 WHERE id=?1");
+         " created_ms=?9, started_ms=?10, finished_ms=?11, error=?12, tets=?13, points=?14, leaves_done=?15,"
+         " leaves_total=?16 WHERE id=?1");
   PDR_TRY(s.prepared("update"));
   bind_record(s, job);
   PDR_TRY(s.done(s.step(), "update"));
@@ -211,9 +224,33 @@ Result<std::int64_t> JobStore::count(std::string_view user, JobState state) {
   return s.i64(0);
 }
 
+Status JobStore::remove(std::string_view id) {
+  std::lock_guard lock(mu_);
+  Stmt s(db_, "DELETE FROM jobs WHERE id=?1");
+  PDR_TRY(s.prepared("delete"));
+  s.bind(1, id);
+  return s.done(s.step(), "delete");
+}
+
+Result<std::vector<std::string>> JobStore::finished_before(std::int64_t before_ms) {
+  std::lock_guard lock(mu_);
+  Stmt s(db_, "SELECT id FROM jobs WHERE state IN (?1, ?2, ?3) AND finished_ms < ?4 ORDER BY finished_ms, seq");
+  PDR_TRY(s.prepared("expired"));
+  s.bind(1, static_cast<std::int64_t>(JobState::kSucceeded));
+  s.bind(2, static_cast<std::int64_t>(JobState::kFailed));
+  s.bind(3, static_cast<std::int64_t>(JobState::kCancelled));
+  s.bind(4, before_ms);
+  std::vector<std::string> ids;
+  int rc;
+  while ((rc = s.step()) == SQLITE_ROW) ids.push_back(s.text(0));
+  PDR_TRY(s.done(rc, "expired"));
+  return ids;
+}
+
 Result<std::vector<JobRecord>> JobStore::recover() {
   std::lock_guard lock(mu_);
-  Stmt s(db_, "UPDATE jobs SET state=?1, phase='queued', progress=0, started_ms=0 WHERE state=?2");
+  Stmt s(db_, "UPDATE jobs SET state=?1, phase='queued', progress=0, started_ms=0, leaves_done=0, leaves_total=0"
+              " WHERE state=?2");
   PDR_TRY(s.prepared("recover"));
   s.bind(1, static_cast<std::int64_t>(JobState::kQueued));
   s.bind(2, static_cast<std::int64_t>(JobState::kRunning));

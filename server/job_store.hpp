@@ -47,6 +47,8 @@ struct JobRecord {
   std::string error;             ///< kFailed: why
   std::uint64_t tets = 0;
   std::uint64_t points = 0;
+  std::uint64_t leaves_done = 0;   ///< while meshing: leaves merged in this round
+  std::uint64_t leaves_total = 0;  ///< and the round's leaves
   std::int64_t seq = 0;  ///< insertion order (assigned by create); queues run in this order
 };
 
@@ -69,6 +71,10 @@ class JobStore {
   Result<std::vector<JobRecord>> list(std::string_view user);
   /// Number of the user's jobs in `state`.
   Result<std::int64_t> count(std::string_view user, JobState state);
+  /// Deletes job `id`'s record (none: ok).
+  Status remove(std::string_view id);
+  /// Ids of final jobs (any user) that finished before `before_ms`, oldest first.
+  Result<std::vector<std::string>> finished_before(std::int64_t before_ms);
   /// After a restart: every running job goes back to queued (phase "queued",
   /// progress 0); returns all queued jobs in submission order.
   Result<std::vector<JobRecord>> recover();

@@ -41,6 +41,13 @@ int main(int argc, char** argv) {
   app.add_option("--tls-key", o.tls_key_file, "PEM private key")->check(CLI::ExistingFile);
   app.add_flag("--allow-insecure", o.allow_insecure_remote,
                "allow plaintext on a non-loopback address (tokens travel in clear)");
+  app.add_option("--leaf-threads", o.leaf_threads,
+                 "leaves refined at once in this process when it has no workers (0: hardware concurrency)")
+      ->capture_default_str();
+  app.add_option("--result-ttl", o.result_ttl_hours,
+                 "hours after which a finished job (record and files) is deleted; 0: kept until deleted")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error, off")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   spdlog::set_default_logger(spdlog::stderr_color_mt("pdrmesh-coordinator"));  // stdout: the address only

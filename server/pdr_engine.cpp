@@ -1,0 +1,89 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// PdrEngine: mesh_parallel behind the job runner's progress and stop signals.
+#include "pdr_engine.hpp"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+
+#include "pdrmesh/tetgen_adapter.hpp"
+#include "pdrmesh/validate.hpp"
+
+namespace pdrmesh::server {
+namespace {
+
+/// The job's overall progress (0..1) at a PDR progress report: the rounds take
+/// most of the time, leaf by leaf.
+double overall(const PdrProgress& p) {
+  const double frac = p.leaves_total > 0 ? static_cast<double>(p.leaves_done) / static_cast<double>(p.leaves_total) : 0;
+  if (p.phase == "refinement") return 0.2 + 0.5 * frac;
+  if (p.phase == "interface round") return 0.7 + 0.15 * frac;
+  if (p.phase == "optimization") return 0.86;
+  return 0.18;  // initial mesh
+}
+
+}  // namespace
+
+ParallelOptions parallel_options(const JobOptions& options) {
+  ParallelOptions o;
+  o.sizing = options.sizing;
+  o.pdr.depth = options.depth;
+  o.pdr.interface_round = options.interface_round;
+  o.pdr.tetgen_time_limit_s = options.time_limit_s;
+  if (!options.optimize) o.optimize.reset();
+  return o;
+}
+
+Result<VolumeMesh> PdrEngine::mesh(const JobRecord& job, const SurfaceMesh& surface, const JobOptions& options,
+                                   JobProgress& progress) {
+  const auto start = std::chrono::steady_clock::now();
+  const auto deadline = start + std::chrono::duration<double>(options.time_limit_s);
+  bool timed_out = false;
+  VolumeMesh mesh;
+  if (options.max_volume) {
+    // The boundary-conforming initial mesh alone, with TetGen's volume bound.
+    if (!progress.report("tetrahedralizing", 0.3)) return cancelled("stopped");
+    TetgenOptions t;
+    t.max_volume = options.max_volume;
+    t.time_limit_s = options.time_limit_s;
+    PDR_ASSIGN_OR_RETURN(mesh, tetrahedralize(surface, t));
+  } else {
+    if (!progress.report("sizing", 0.15)) return cancelled("stopped");
+    LeafJob leaf_job{job.id, job.user, options.kernel, [&progress] { return progress.keep_going(); }};
+    PDR_ASSIGN_OR_RETURN(const std::unique_ptr<LeafKernel> kernel, dispatch_->kernel_for(leaf_job));
+    ParallelOptions po = parallel_options(options);
+    po.pdr.workers = dispatch_->concurrency();
+    po.pdr.progress = [&](const PdrProgress& p) {
+      if (std::chrono::steady_clock::now() > deadline) {
+        timed_out = true;
+        return false;
+      }
+      progress.leaves(p.leaves_done, p.leaves_total);
+      progress.mesh_size(p.tets, 0);
+      return progress.report(p.phase, overall(p));
+    };
+    spdlog::debug("job {}: mesh_parallel with the {} kernel, {} leaf task(s) at once", job.id, options.kernel,
+                  po.pdr.workers);
+    auto result = mesh_parallel(surface, po, kernel.get());
+    progress.leaves(0, 0);
+    if (!result.ok()) {
+      if (timed_out) {
+        return deadline_exceeded(fmt::format("the job ran past its time limit of {} s ({})", options.time_limit_s,
+                                             result.status().message()));
+      }
+      return result.status();
+    }
+    mesh = std::move(result).value().mesh;
+  }
+  progress.mesh_size(mesh.tets.size(), mesh.points.size());
+  if (!progress.report("validating", 0.9)) return cancelled("stopped");
+  const ValidationReport v = validate_mesh(mesh, &surface);
+  if (!v.ok()) {
+    return internal_error(fmt::format("the generated mesh failed validation (a bug; please report it): {}",
+                                      validation_status(v).message()));
+  }
+  return mesh;
+}
+
+}  // namespace pdrmesh::server

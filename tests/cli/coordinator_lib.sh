@@ -1,0 +1,51 @@
+# Sourced by the service CLI tests and bench/load.sh: start and stop a real
+# pdrmesh-coordinator on loopback. Needs $tmp (a scratch directory) and
+# $coordinator (the binary).
+
+# service_test_setup "$@" (the test's arguments PDRMESH COORDINATOR SURFACE
+# [MESH OPTIONS...]): sets pdrmesh, coordinator, surface, options and tmp (removed,
+# with the coordinator stopped, on exit); exits 77 when the corpus is absent; no
+# client config or token from the caller's environment leaks in.
+service_test_setup() {
+  pdrmesh=$1 coordinator=$2 surface=$3
+  options=("${@:4}")
+  [[ -f $surface ]] || { echo "corpus surface $surface not found: skipped"; exit 77; }
+  tmp=$(mktemp -d)
+  trap 'stop_coordinator; rm -rf "$tmp"' EXIT
+  unset PDRMESH_TOKEN PDRMESH_TOKEN_FILE PDRMESH_CONFIG PDRMESH_TLS_CA
+  export XDG_CONFIG_HOME=$tmp/config
+}
+
+# start_coordinator DATA_DIR [FLAGS...]: starts it in the background with the
+# tokens file $tmp/tokens; sets coord_pid and PDRMESH_SERVER (exported).
+start_coordinator() {
+  local data=$1; shift
+  : > "$tmp/coordinator.out"
+  "$coordinator" --listen 127.0.0.1:0 --data-dir "$data" --tokens "$tmp/tokens" --log-level warn "$@" \
+    > "$tmp/coordinator.out" 2>> "$tmp/coordinator.err" &
+  coord_pid=$!
+  for _ in $(seq 200); do
+    grep -q '^listening on ' "$tmp/coordinator.out" && break
+    kill -0 "$coord_pid" 2> /dev/null || { echo "the coordinator died:"; cat "$tmp/coordinator.err"; return 1; }
+    sleep 0.05
+  done
+  PDRMESH_SERVER=$(sed -n 's/^listening on //p' "$tmp/coordinator.out")
+  [[ -n $PDRMESH_SERVER ]] || { echo "the coordinator did not start"; cat "$tmp/coordinator.err"; return 1; }
+  export PDRMESH_SERVER
+}
+
+stop_coordinator() {
+  if [[ -n ${coord_pid:-} ]]; then
+    kill "$coord_pid" 2> /dev/null || true
+    wait "$coord_pid" 2> /dev/null || true
+    coord_pid=
+  fi
+}
+
+# json_field FIELD: prints FIELD of the JSON object on stdin (dots for nesting).
+json_field() {
+  python3 -c 'import json,sys
+v=json.load(sys.stdin)
+for k in sys.argv[1].split("."): v=v[k]
+print(v)' "$1"
+}
