@@ -37,7 +37,7 @@ int main(int argc, char** argv) {
   app.add_option("--tls-cert", o.tls.cert, "PEM certificate chain (mutual TLS, with --tls-key and --tls-ca)")
       ->check(CLI::ExistingFile);
   app.add_option("--tls-key", o.tls.key, "PEM private key")->check(CLI::ExistingFile);
-  app.add_option("--tls-ca", o.tls.ca, "PEM CA that signs the coordinator's certificate (required of callers)")
+  app.add_option("--tls-ca", o.tls.ca, "PEM CA that must sign the certificates of callers and of the coordinator")
       ->check(CLI::ExistingFile);
   app.add_flag("--allow-insecure", o.allow_insecure_remote,
                "allow plaintext on a non-loopback address (the cluster token travels in clear)");

@@ -28,6 +28,7 @@
 #include "pdrmesh/surface_io.hpp"
 #include "pdrmesh/v1/pdrmesh.grpc.pb.h"
 #include "pdrmesh/validate.hpp"
+#include "coordinator.hpp"
 #include "process.hpp"
 #include "temp_dir.hpp"
 #include "worker_pool.hpp"
@@ -515,6 +516,96 @@ TEST_F(Workers, AWaitingLeafGivesUpWhenItsJobStops) {
   Result<ParallelResult> res = job.get();
   ASSERT_FALSE(res.ok());
   EXPECT_EQ(res.status().code(), StatusCode::kCancelled) << res.status().to_string();
+}
+
+TEST_F(Workers, CoordinatorTakesRegistrationsOnItsWorkerPort) {
+  std::ofstream(dir_.path() / "tokens") << "alice tok-alice\n";
+  Options o;
+  o.data_dir = dir_.path() / "data";
+  o.tokens_file = dir_.path() / "tokens";
+  o.worker_listen_address = "127.0.0.1:0";
+  EXPECT_FALSE(Coordinator::BuildAndStart(o).ok());  // no cluster token
+  o.cluster_token_file = dir_.path() / "cluster-token";
+  auto c = Coordinator::BuildAndStart(o);
+  ASSERT_TRUE(c.ok()) << c.status().to_string();
+  ASSERT_GT((*c)->worker_port(), 0);
+  ASSERT_NE((*c)->remote_dispatch(), nullptr);
+  const std::string registry = fmt::format("127.0.0.1:{}", (*c)->worker_port());
+  EXPECT_EQ(health(registry), 1);
+  std::unique_ptr<test::Process> w;
+  start_worker(w, {"--threads", "2", "--coordinator", registry});
+  EXPECT_TRUE(eventually([&] { return (*c)->remote_dispatch()->concurrency() == 2; }));
+  // Without any worker option the coordinator has no remote dispatch.
+  Options plain;
+  plain.data_dir = dir_.path() / "data2";
+  plain.tokens_file = o.tokens_file;
+  auto c2 = Coordinator::BuildAndStart(plain);
+  ASSERT_TRUE(c2.ok()) << c2.status().to_string();
+  EXPECT_EQ((*c2)->remote_dispatch(), nullptr);
+  EXPECT_EQ((*c2)->worker_port(), 0);
+}
+
+/// A CA and one certificate it signs for localhost and 127.0.0.1 (openssl CLI); false when openssl fails.
+bool make_certificates(const std::filesystem::path& dir, const std::string& name) {
+  const std::string d = dir.string();
+  std::ofstream(dir / "san.ext") << "subjectAltName=DNS:localhost,IP:127.0.0.1\n";
+  const std::string cmd = fmt::format(
+      "cd '{0}' && openssl req -x509 -newkey ec -pkeyopt ec_paramgen_curve:prime256v1 -nodes -keyout {1}-ca.key "
+      "-out {1}-ca.pem -days 2 -subj /CN={1}-ca && "
+      "openssl req -newkey ec -pkeyopt ec_paramgen_curve:prime256v1 -nodes -keyout {1}.key -out {1}.csr "
+      "-subj /CN=localhost && "
+      "openssl x509 -req -in {1}.csr -CA {1}-ca.pem -CAkey {1}-ca.key -CAcreateserial -out {1}.pem -days 2 "
+      "-extfile san.ext) >/dev/null 2>&1",
+      d, name);
+  return std::system(("(" + cmd).c_str()) == 0;
+}
+
+TEST_F(Workers, MutualTlsBetweenCoordinatorAndWorker) {
+  const Reference& ref = reference();
+  if (!make_certificates(dir_.path(), "a") || !make_certificates(dir_.path(), "b")) GTEST_SKIP() << "no openssl";
+  const auto tls = [&](const std::string& n, const std::string& ca) {
+    return worker::TlsFiles{dir_.path() / (n + ".pem"), dir_.path() / (n + ".key"), dir_.path() / (ca + "-ca.pem")};
+  };
+  std::ofstream(dir_.path() / "tokens") << "alice tok-alice\n";
+  Options o;
+  o.data_dir = dir_.path() / "data";
+  o.tokens_file = dir_.path() / "tokens";
+  o.worker_listen_address = "127.0.0.1:0";
+  o.cluster_token_file = dir_.path() / "cluster-token";
+  const worker::TlsFiles a = tls("a", "a");
+  o.worker_tls_cert_file = a.cert;
+  o.worker_tls_key_file = a.key;
+  EXPECT_FALSE(Coordinator::BuildAndStart(o).ok());  // two of three TLS files
+  o.worker_tls_ca_file = a.ca;
+  auto c = Coordinator::BuildAndStart(o);
+  ASSERT_TRUE(c.ok()) << c.status().to_string();
+  // The worker registers over mutual TLS, and the coordinator dials it over mutual TLS.
+  worker::WorkerOptions wo;
+  wo.threads = 1;
+  wo.cluster_token = std::string(kToken);
+  wo.tls = a;
+  wo.coordinator_address = fmt::format("127.0.0.1:{}", (*c)->worker_port());
+  auto w = worker::Worker::Start(wo).value();
+  ASSERT_TRUE(eventually([&] { return (*c)->remote_dispatch()->concurrency() == 1 && w->stats().registered; }));
+  LeafJob job{"job1", "alice", "native", [] { return true; }};
+  auto kernel = (*c)->remote_dispatch()->kernel_for(job).value();
+  const SizingField sizing = SizingField::decode(ref.sizing).value();
+  Result<LeafTaskOutput> out = kernel->run(LeafTaskInput::decode(ref.input).value(), sizing);
+  ASSERT_TRUE(out.ok()) << out.status().to_string();
+  EXPECT_EQ(out->encode(), ref.output);
+  // A plaintext caller, and one whose certificate another CA signed, get nothing.
+  for (const worker::TlsFiles& other : {worker::TlsFiles{}, tls("b", "a")}) {
+    WorkerPoolOptions po = pool_options({w->listen_address()});
+    po.tls = other;
+    auto pool = WorkerPool::create(po).value();
+    EXPECT_EQ(pool->total_slots(), 0U);
+  }
+  // A worker that trusts another CA cannot register.
+  wo.tls = tls("a", "b");
+  wo.coordinator_address = fmt::format("127.0.0.1:{}", (*c)->worker_port());
+  auto stranger = worker::Worker::Start(wo).value();
+  std::this_thread::sleep_for(300ms);  // a few registration attempts (a positive result would show at once)
+  EXPECT_FALSE(stranger->stats().registered);
 }
 
 }  // namespace
