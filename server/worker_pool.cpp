@@ -571,7 +571,15 @@ class RemoteKernel final : public LeafKernel {
     std::vector<std::string> errors;
     const int max_attempts = pool_->options().max_attempts;
     for (int attempt = 1; attempt <= max_attempts; ++attempt) {
-      PDR_ASSIGN_OR_RETURN(WorkerPool::Lease lease, pool_->acquire(job_.user, tried, job_.keep_going));
+      if (pool_->total_slots() == 0 && !warned_idle_.exchange(true)) {
+        spdlog::warn("job {}: no worker available; its leaves wait for one", job_.job_id);
+      }
+      Result<WorkerPool::Lease> acquired = pool_->acquire(job_.user, tried, job_.keep_going);
+      if (!acquired.ok()) {
+        return Status(acquired.status().code(),
+                      fmt::format("job {} leaf {}: {}", job_.job_id, in.leaf, acquired.status().message()));
+      }
+      WorkerPool::Lease lease = std::move(acquired).value();
       const std::string address = lease.address();
       tried.insert(address);
       v1::LeafTaskHeader header;
@@ -733,6 +741,7 @@ class RemoteKernel final : public LeafKernel {
   std::unique_ptr<LeafKernel> local_;  ///< names the kernel, answers needs_manifold_hull
   std::shared_ptr<RemoteLeafDispatch::Counters> counters_;
   mutable std::atomic<std::uint64_t> seq_{0};
+  mutable std::atomic<bool> warned_idle_{false};
   mutable std::mutex blob_mu_;
   mutable const SizingField* blob_key_ = nullptr;
   mutable std::array<std::size_t, 3> blob_shape_{};

@@ -518,6 +518,21 @@ TEST_F(Workers, AWaitingLeafGivesUpWhenItsJobStops) {
   EXPECT_EQ(res.status().code(), StatusCode::kCancelled) << res.status().to_string();
 }
 
+TEST_F(Workers, AJobWaitsForAWorkerToJoin) {
+  const Reference& ref = reference();
+  auto pool = WorkerPool::create(pool_options()).value();
+  const std::string registry = serve_registry(pool);
+  RemoteLeafDispatch dispatch(pool);
+  auto job = std::async(std::launch::async, [&] { return mesh_remote(dispatch); });
+  ASSERT_TRUE(eventually([&] { return pool->waiting() > 0; }));
+  std::unique_ptr<test::Process> w;
+  start_worker(w, {"--threads", "2", "--coordinator", registry});
+  Result<ParallelResult> res = job.get();
+  ASSERT_TRUE(res.ok()) << res.status().to_string();
+  expect_same_mesh(res->mesh, ref.mesh);
+  EXPECT_EQ(dispatch.stats().accepted, ref.leaf_tasks);
+}
+
 TEST_F(Workers, CoordinatorTakesRegistrationsOnItsWorkerPort) {
   std::ofstream(dir_.path() / "tokens") << "alice tok-alice\n";
   Options o;
