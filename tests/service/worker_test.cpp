@@ -146,6 +146,58 @@ struct RawResult {
   std::string output;
 };
 
+/// A misbehaving worker (in this process): answers every leaf in one bad way.
+class FakeWorker final : public v1::WorkerService::Service {
+ public:
+  enum class Mode { kGarbage, kInvalidMesh, kCutStream, kKernelError };
+  FakeWorker(Mode mode, unsigned threads) : mode_(mode), threads_(threads) {
+    grpc::ServerBuilder builder;
+    builder.AddListeningPort("127.0.0.1:0", grpc::InsecureServerCredentials(), &port_);
+    builder.RegisterService(this);
+    server_ = builder.BuildAndStart();
+  }
+  ~FakeWorker() override { server_->Shutdown(std::chrono::system_clock::now()); }
+  std::string address() const { return fmt::format("127.0.0.1:{}", port_); }
+
+  grpc::Status GetWorkerInfo(grpc::ServerContext*, const v1::GetWorkerInfoRequest*, v1::WorkerInfo* info) override {
+    info->set_threads(threads_);
+    info->set_version(std::string(worker::pdrmesh_version()));
+    return grpc::Status::OK;
+  }
+  grpc::Status RefineLeaf(grpc::ServerContext*,
+                          grpc::ServerReaderWriter<v1::RefineLeafResponse, v1::RefineLeafRequest>* stream) override {
+    v1::RefineLeafRequest request;
+    std::string input;
+    while (stream->Read(&request)) input += request.input();
+    std::string out = "not a leaf result";
+    if (mode_ == Mode::kInvalidMesh || mode_ == Mode::kCutStream) {
+      LeafTaskOutput empty;  // decodes, but its hull is not the leaf's
+      const LeafTaskInput in = LeafTaskInput::decode(input).value();
+      empty.leaf = in.leaf;
+      empty.input_points = static_cast<std::uint32_t>(in.points.size());
+      out = empty.encode();
+    }
+    v1::RefineLeafResponse response;
+    response.mutable_header()->set_output_bytes(out.size());
+    if (mode_ == Mode::kKernelError) {
+      response.mutable_header()->mutable_error()->set_code(std::string(to_string(StatusCode::kInvalidInput)));
+      response.mutable_header()->mutable_error()->set_message("this leaf cannot be refined");
+    }
+    stream->Write(response);
+    if (mode_ == Mode::kKernelError) return grpc::Status::OK;
+    response.Clear();
+    response.set_output(mode_ == Mode::kCutStream ? out.substr(0, out.size() / 2) : out);
+    stream->Write(response);
+    return grpc::Status::OK;
+  }
+
+ private:
+  Mode mode_;
+  unsigned threads_;
+  int port_ = 0;
+  std::unique_ptr<grpc::Server> server_;
+};
+
 class Workers : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -516,6 +568,55 @@ TEST_F(Workers, AWaitingLeafGivesUpWhenItsJobStops) {
   Result<ParallelResult> res = job.get();
   ASSERT_FALSE(res.ok());
   EXPECT_EQ(res.status().code(), StatusCode::kCancelled) << res.status().to_string();
+}
+
+TEST_F(Workers, BadResultsGoToAnotherWorkerAndKernelErrorsDoNot) {
+  const Reference& ref = reference();
+  const LeafTaskInput in = LeafTaskInput::decode(ref.input).value();
+  const SizingField sizing = SizingField::decode(ref.sizing).value();
+  const LeafJob job{"job1", "alice", "native", [] { return true; }};
+  std::unique_ptr<test::Process> good;
+  const std::string good_address = start_worker(good, {"--threads", "1"});
+  using Mode = FakeWorker::Mode;
+  for (const Mode mode : {Mode::kGarbage, Mode::kInvalidMesh, Mode::kCutStream}) {
+    FakeWorker bad(mode, 8);  // the most free slots: tried first
+    auto pool = WorkerPool::create(pool_options({bad.address(), good_address})).value();
+    RemoteLeafDispatch dispatch(pool);
+    Result<LeafTaskOutput> out = dispatch.kernel_for(job).value()->run(in, sizing);
+    ASSERT_TRUE(out.ok()) << out.status().to_string();
+    EXPECT_EQ(out->encode(), ref.output);
+    EXPECT_EQ(dispatch.stats().retried, 1U);
+    EXPECT_EQ(dispatch.stats().accepted, 1U);
+    for (const WorkerSnapshot& w : pool->workers()) {
+      if (w.address != bad.address()) continue;
+      EXPECT_FALSE(w.available);  // left out for a while
+      EXPECT_EQ(w.failures, 1U);
+      EXPECT_NE(w.last_error.find("result"), std::string::npos) << w.last_error;
+    }
+  }
+  {  // Only bad workers: the attempts run out, and the error names the leaf and every worker tried.
+    FakeWorker bad1(Mode::kGarbage, 1), bad2(Mode::kInvalidMesh, 1);
+    WorkerPoolOptions o = pool_options({bad1.address(), bad2.address()});
+    o.max_attempts = 2;
+    auto pool = WorkerPool::create(o).value();
+    RemoteLeafDispatch dispatch(pool);
+    Result<LeafTaskOutput> out = dispatch.kernel_for(job).value()->run(in, sizing);
+    ASSERT_FALSE(out.ok());
+    const std::string& m = out.status().message();
+    EXPECT_NE(m.find(fmt::format("leaf {}", in.leaf)), std::string::npos) << m;
+    EXPECT_NE(m.find(bad1.address()), std::string::npos) << m;
+    EXPECT_NE(m.find(bad2.address()), std::string::npos) << m;
+  }
+  {  // A kernel error is the leaf's own: the same on every worker, so no retry.
+    FakeWorker failing(Mode::kKernelError, 8);
+    auto pool = WorkerPool::create(pool_options({failing.address(), good_address})).value();
+    RemoteLeafDispatch dispatch(pool);
+    Result<LeafTaskOutput> out = dispatch.kernel_for(job).value()->run(in, sizing);
+    ASSERT_FALSE(out.ok());
+    EXPECT_EQ(out.status().code(), StatusCode::kInvalidInput);
+    EXPECT_NE(out.status().message().find("this leaf cannot be refined"), std::string::npos);
+    EXPECT_EQ(dispatch.stats().retried, 0U);
+  }
 }
 
 TEST_F(Workers, AJobWaitsForAWorkerToJoin) {
