@@ -129,6 +129,41 @@ int health(const std::string& address) {
   return bytes.size() == 2 && bytes[0] == 0x08 ? bytes[1] : 0;  // field 1, varint
 }
 
+/// The raw answer of server reflection to "list services" (v1alpha); empty when there is none.
+std::string reflection_list(const std::string& address) {
+  grpc::GenericStub stub(grpc::CreateChannel(address, grpc::InsecureChannelCredentials()));
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + 5s);
+  grpc::CompletionQueue cq;
+  auto call = stub.PrepareCall(&context, "/grpc.reflection.v1alpha.ServerReflection/ServerReflectionInfo", &cq);
+  void* tag = nullptr;
+  bool ok = false;
+  const auto step = [&](std::intptr_t t) { return cq.Next(&tag, &ok) && tag == reinterpret_cast<void*>(t) && ok; };
+  call->StartCall(reinterpret_cast<void*>(1));
+  std::string bytes;
+  if (step(1)) {
+    grpc::Slice list(std::string("\x3a\x00", 2));  // field 7 list_services = ""
+    grpc::ByteBuffer request(&list, 1), response;
+    call->Write(request, reinterpret_cast<void*>(2));
+    if (step(2)) {
+      call->Read(&response, reinterpret_cast<void*>(3));
+      if (step(3)) {
+        std::vector<grpc::Slice> slices;
+        if (response.Dump(&slices).ok()) {
+          for (const auto& sl : slices) bytes.append(reinterpret_cast<const char*>(sl.begin()), sl.size());
+        }
+      }
+    }
+  }
+  context.TryCancel();
+  grpc::Status status;
+  call->Finish(&status, reinterpret_cast<void*>(4));
+  cq.Shutdown();
+  while (cq.Next(&tag, &ok)) {
+  }
+  return bytes;
+}
+
 /// Polls `done` every 20 ms for at most `limit` (a bound reached only on failure).
 template <class F>
 bool eventually(F done, std::chrono::milliseconds limit = 20s) {
@@ -399,6 +434,7 @@ TEST_F(Workers, TwoWorkerProcessesGiveTheLocalBytes) {
   const std::string a1 = start_worker(w1, {"--threads", "2"});
   const std::string a2 = start_worker(w2, {"--threads", "1"});
   EXPECT_EQ(health(a1), 1);
+  EXPECT_NE(reflection_list(a1).find("pdrmesh.v1.WorkerService"), std::string::npos);
   auto pool = WorkerPool::create(pool_options({a1, a2})).value();
   EXPECT_EQ(pool->total_slots(), 3U);
   RemoteLeafDispatch dispatch(pool);
@@ -648,6 +684,7 @@ TEST_F(Workers, CoordinatorTakesRegistrationsOnItsWorkerPort) {
   ASSERT_NE((*c)->remote_dispatch(), nullptr);
   const std::string registry = fmt::format("127.0.0.1:{}", (*c)->worker_port());
   EXPECT_EQ(health(registry), 1);
+  EXPECT_NE(reflection_list(registry).find("pdrmesh.v1.WorkerRegistry"), std::string::npos);
   std::unique_ptr<test::Process> w;
   start_worker(w, {"--threads", "2", "--coordinator", registry});
   EXPECT_TRUE(eventually([&] { return (*c)->remote_dispatch()->concurrency() == 2; }));
