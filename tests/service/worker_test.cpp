@@ -302,7 +302,9 @@ class Workers : public ::testing::Test {
     o.static_workers = std::move(workers);
     o.cluster_token = std::string(kToken);
     o.heartbeat_interval_s = 0.2;
-    o.failure_backoff_s = 30;  // a failed worker stays out for the rest of the test
+    // Short: a healthy worker whose leaf overran a deadline on a loaded machine comes back soon
+    // (a dead or stopped one stays out anyway: it answers no probe or heartbeat).
+    o.failure_backoff_s = 2;
     o.leaf_deadline_s = 60;
     return o;
   }
@@ -616,7 +618,9 @@ TEST_F(Workers, BadResultsGoToAnotherWorkerAndKernelErrorsDoNot) {
   using Mode = FakeWorker::Mode;
   for (const Mode mode : {Mode::kGarbage, Mode::kInvalidMesh, Mode::kCutStream}) {
     FakeWorker bad(mode, 8);  // the most free slots: tried first
-    auto pool = WorkerPool::create(pool_options({bad.address(), good_address})).value();
+    WorkerPoolOptions o = pool_options({bad.address(), good_address});
+    o.failure_backoff_s = 60;
+    auto pool = WorkerPool::create(o).value();
     RemoteLeafDispatch dispatch(pool);
     Result<LeafTaskOutput> out = dispatch.kernel_for(job).value()->run(in, sizing);
     ASSERT_TRUE(out.ok()) << out.status().to_string();
