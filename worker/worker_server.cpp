@@ -408,6 +408,9 @@ Result<std::unique_ptr<Worker>> Worker::Start(WorkerOptions options) {
   spdlog::info("pdrmesh-worker serving on {} ({} threads, {}), advertised as {}", s.listen_bound, s.threads,
                tls ? "mutual TLS" : "plaintext", s.advertise);
   if (!s.options.coordinator_address.empty()) {
+    if (s.advertise.starts_with("0.0.0.0:") || s.advertise.starts_with("[::]:")) {
+      spdlog::warn("registering as {}, which the coordinator cannot dial: give --advertise HOST:PORT", s.advertise);
+    }
     PDR_ASSIGN_OR_RETURN(const auto channel_creds, channel_credentials(s.options.tls));
     s.registry = v1::WorkerRegistry::NewStub(make_channel(s.options.coordinator_address, channel_creds));
     s.registrar = std::thread([&s] { s.registration_loop(); });
