@@ -8,8 +8,10 @@
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "job_manager.hpp"
+#include "leaf_dispatch.hpp"
 #include "pdrmesh/status.hpp"
 #include "tokens.hpp"
 
@@ -19,6 +21,8 @@ class Service;
 }  // namespace grpc
 
 namespace pdrmesh::server {
+
+class WorkerPool;
 
 struct Options {
   /// host:port; port 0 picks a free port (see Coordinator::port()). Loopback by
@@ -44,6 +48,19 @@ struct Options {
   double result_ttl_hours = 0;
   /// How often the expiry sweep runs, seconds.
   double sweep_interval_s = 60;
+
+  // Workers (worker_pool.hpp). With a worker_listen_address or workers, leaves
+  // go to worker daemons (RemoteLeafDispatch); without, they run in-process.
+  /// host:port of the WorkerRegistry (workers register there); empty: none.
+  std::string worker_listen_address;
+  /// Static worker list, host:port each.
+  std::vector<std::string> workers;
+  /// The cluster's shared secret (first line); required with workers.
+  std::filesystem::path cluster_token_file;
+  /// PEM files of mutual TLS towards the workers and on the worker port: all or none.
+  std::filesystem::path worker_tls_cert_file, worker_tls_key_file, worker_tls_ca_file;
+  /// One leaf RPC's deadline before the leaf goes to another worker, seconds.
+  double leaf_deadline_s = 300;
 };
 
 /// True for 127.0.0.0/8, localhost, [::1] and unix: addresses.
@@ -63,6 +80,11 @@ class Coordinator {
 
   /// The port the server listens on (the chosen one when asked for 0).
   int port() const { return port_; }
+  /// The worker port (WorkerRegistry), 0 without --worker-listen.
+  int worker_port() const { return worker_port_; }
+  /// The RemoteLeafDispatch over the worker pool; null when no workers are
+  /// configured (the engine then runs leaves in-process).
+  std::shared_ptr<LeafDispatch> remote_dispatch() const { return remote_dispatch_; }
   /// Ends watch streams, stops accepting calls (in-flight calls get
   /// `grace_s`), stops the runner. Idempotent.
   void Shutdown(double grace_s = 2.0);
@@ -75,6 +97,14 @@ class Coordinator {
   std::unique_ptr<grpc::Service> service_;
   std::unique_ptr<grpc::Server> server_;
   int port_ = 0;
+  // Workers.
+  Status start_workers(const Options& options);
+  std::shared_ptr<WorkerPool> pool_;
+  std::shared_ptr<LeafDispatch> remote_dispatch_;
+  std::unique_ptr<grpc::Service> registry_service_;
+  std::unique_ptr<grpc::Server> worker_server_;
+  int worker_port_ = 0;
+  std::shared_ptr<void> parallelism_;  ///< a tbb::global_control allowing one thread per worker slot
 };
 
 }  // namespace pdrmesh::server

@@ -48,6 +48,24 @@ int main(int argc, char** argv) {
                  "hours after which a finished job (record and files) is deleted; 0: kept until deleted")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  app.add_option("--worker-listen", o.worker_listen_address,
+                 "host:port where workers register (WorkerRegistry); unset: no registry");
+  app.add_option("--workers", o.workers, "static worker list host:port,... (also works without --worker-listen)")
+      ->delimiter(',');
+  app.add_option("--cluster-token-file", o.cluster_token_file,
+                 "file whose first line is the cluster's shared secret (required with --worker-listen or --workers)")
+      ->check(CLI::ExistingFile);
+  app.add_option("--worker-tls-cert", o.worker_tls_cert_file,
+                 "PEM certificate chain for mutual TLS towards the workers and on the worker port")
+      ->check(CLI::ExistingFile);
+  app.add_option("--worker-tls-key", o.worker_tls_key_file, "PEM private key for --worker-tls-cert")
+      ->check(CLI::ExistingFile);
+  app.add_option("--worker-tls-ca", o.worker_tls_ca_file, "PEM CA that signs the workers' certificates")
+      ->check(CLI::ExistingFile);
+  app.add_option("--leaf-deadline", o.leaf_deadline_s,
+                 "seconds one leaf RPC may take before the leaf goes to another worker")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error, off")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   spdlog::set_default_logger(spdlog::stderr_color_mt("pdrmesh-coordinator"));  // stdout: the address only
@@ -68,6 +86,10 @@ int main(int argc, char** argv) {
   }
   const auto colon = o.listen_address.rfind(':');
   fmt::print("listening on {}:{}\n", o.listen_address.substr(0, colon), (*coordinator)->port());
+  if (!o.worker_listen_address.empty()) {
+    const auto wcolon = o.worker_listen_address.rfind(':');
+    fmt::print("workers on {}:{}\n", o.worker_listen_address.substr(0, wcolon), (*coordinator)->worker_port());
+  }
   std::fflush(stdout);
   int sig = 0;
   sigwait(&stop_signals, &sig);
