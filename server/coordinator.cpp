@@ -41,7 +41,8 @@ Status Coordinator::start_workers(const Options& options) {
   WorkerPoolOptions po;
   po.static_workers = options.workers;
   PDR_ASSIGN_OR_RETURN(po.cluster_token, worker::read_cluster_token(options.cluster_token_file));
-  po.tls = {options.worker_tls_cert_file, options.worker_tls_key_file, options.worker_tls_ca_file};
+  po.tls = {options.worker_tls_cert_file, options.worker_tls_key_file, options.worker_tls_ca_file,
+            options.worker_tls_server_name};
   PDR_TRY(po.tls.check("between the coordinator and its workers"));
   if (!(options.leaf_deadline_s > 0)) return invalid_input("the leaf deadline must be > 0 seconds");
   po.leaf_deadline_s = options.leaf_deadline_s;
@@ -64,7 +65,7 @@ Status Coordinator::start_workers(const Options& options) {
   if (options.worker_listen_address.empty()) return {};
   PDR_ASSIGN_OR_RETURN(const auto creds, worker::server_credentials(
                                              {options.worker_tls_cert_file, options.worker_tls_key_file,
-                                              options.worker_tls_ca_file}));
+                                              options.worker_tls_ca_file, {}}));
   registry_service_ = make_worker_registry_service(pool_);
   grpc::ServerBuilder builder;
   builder.AddListeningPort(options.worker_listen_address, creds, &worker_port_);

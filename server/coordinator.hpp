@@ -59,6 +59,9 @@ struct Options {
   std::filesystem::path cluster_token_file;
   /// PEM files of mutual TLS towards the workers and on the worker port: all or none.
   std::filesystem::path worker_tls_cert_file, worker_tls_key_file, worker_tls_ca_file;
+  /// The name every worker certificate carries (checked instead of the address
+  /// dialled); empty: each worker's advertised host.
+  std::string worker_tls_server_name;
   /// One leaf RPC's deadline before the leaf goes to another worker, seconds.
   double leaf_deadline_s = 300;
 };

@@ -62,6 +62,9 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   app.add_option("--worker-tls-ca", o.worker_tls_ca_file, "PEM CA that signs the workers' certificates")
       ->check(CLI::ExistingFile);
+  app.add_option("--worker-tls-server-name", o.worker_tls_server_name,
+                 "name every worker certificate carries, checked instead of the address dialled "
+                 "(workers dialled by pod IP sharing one certificate)");
   app.add_option("--leaf-deadline", o.leaf_deadline_s,
                  "seconds one leaf RPC may take before the leaf goes to another worker")
       ->check(CLI::PositiveNumber)

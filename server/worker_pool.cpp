@@ -192,7 +192,7 @@ struct WorkerPool::State {
   std::shared_ptr<Entry> make_entry(const std::string& address) const {
     auto e = std::make_shared<Entry>();
     e->address = address;
-    e->stub = v1::WorkerService::NewStub(worker::make_channel(address, credentials));
+    e->stub = v1::WorkerService::NewStub(worker::make_channel(address, credentials, options.tls.server_name));
     return e;
   }
   void insert_sorted(std::shared_ptr<Entry> e) {

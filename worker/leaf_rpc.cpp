@@ -114,8 +114,10 @@ Result<std::shared_ptr<grpc::ChannelCredentials>> channel_credentials(const TlsF
 }
 
 std::shared_ptr<grpc::Channel> make_channel(const std::string& address,
-                                            const std::shared_ptr<grpc::ChannelCredentials>& credentials) {
+                                            const std::shared_ptr<grpc::ChannelCredentials>& credentials,
+                                            const std::string& server_name) {
   grpc::ChannelArguments args;
+  if (!server_name.empty()) args.SetSslTargetNameOverride(server_name);
   args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, 200);
   args.SetInt(GRPC_ARG_MIN_RECONNECT_BACKOFF_MS, 200);
   args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, 2000);

@@ -63,6 +63,10 @@ bool is_loopback_address(std::string_view address);
 /// signs the peers' certificates. All three or none.
 struct TlsFiles {
   std::filesystem::path cert, key, ca;
+  /// Client side: the name the peer's certificate must carry, instead of the
+  /// host dialled (workers on Kubernetes are dialled by pod IP and share one
+  /// certificate issued for a fixed name). Empty: the host dialled.
+  std::string server_name;
   bool enabled() const { return !cert.empty(); }
   /// invalid_input unless all three or none are given.
   Status check(std::string_view what) const;
@@ -74,9 +78,11 @@ Result<std::shared_ptr<grpc::ServerCredentials>> server_credentials(const TlsFil
 /// Client side: plaintext without TLS; with it, the peer must be signed by the
 /// CA and we present our cert and key.
 Result<std::shared_ptr<grpc::ChannelCredentials>> channel_credentials(const TlsFiles& tls);
-/// A channel with short reconnect backoff (a restarted peer is found within ~2 s).
+/// A channel with short reconnect backoff (a restarted peer is found within ~2 s);
+/// with a TLS `server_name`, the peer's certificate is checked against it.
 std::shared_ptr<grpc::Channel> make_channel(const std::string& address,
-                                            const std::shared_ptr<grpc::ChannelCredentials>& credentials);
+                                            const std::shared_ptr<grpc::ChannelCredentials>& credentials,
+                                            const std::string& server_name = {});
 
 /// "host:port" of a listen address with the port a server bound ("0.0.0.0:0", 4711 -> "0.0.0.0:4711").
 std::string with_port(std::string_view listen_address, int port);

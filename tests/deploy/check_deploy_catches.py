@@ -18,7 +18,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 COORDINATOR_FLAGS = ("--listen --data-dir --tokens --max-upload-bytes --max-queued-jobs --max-running-jobs "
                      "--threads --default-time-limit --max-time-limit --tls-cert --tls-key --allow-insecure "
                      "--log-level --worker-listen --workers --cluster-token-file --worker-tls-cert "
-                     "--worker-tls-key --worker-tls-ca --leaf-deadline --leaf-threads")
+                     "--worker-tls-key --worker-tls-ca --worker-tls-server-name --leaf-deadline --leaf-threads --result-ttl")
 WORKER_FLAGS = ("--listen --advertise --coordinator --threads --cluster-token-file --tls-cert --tls-key "
                 "--tls-ca --allow-insecure --drain-timeout --log-level")
 

@@ -702,10 +702,12 @@ TEST_F(Workers, CoordinatorTakesRegistrationsOnItsWorkerPort) {
   EXPECT_EQ((*c2)->worker_port(), 0);
 }
 
-/// A CA and one certificate it signs for localhost and 127.0.0.1 (openssl CLI); false when openssl fails.
-bool make_certificates(const std::filesystem::path& dir, const std::string& name) {
+/// A CA and one certificate it signs for `names` (localhost and 127.0.0.1 by
+/// default; openssl CLI); false when openssl fails.
+bool make_certificates(const std::filesystem::path& dir, const std::string& name,
+                       const std::string& names = "DNS:localhost,IP:127.0.0.1") {
   const std::string d = dir.string();
-  std::ofstream(dir / "san.ext") << "subjectAltName=DNS:localhost,IP:127.0.0.1\n";
+  std::ofstream(dir / "san.ext") << "subjectAltName=" << names << "\n";
   const std::string cmd = fmt::format(
       "cd '{0}' && openssl req -x509 -newkey ec -pkeyopt ec_paramgen_curve:prime256v1 -nodes -keyout {1}-ca.key "
       "-out {1}-ca.pem -days 2 -subj /CN={1}-ca && "
@@ -721,7 +723,8 @@ TEST_F(Workers, MutualTlsBetweenCoordinatorAndWorker) {
   const Reference& ref = reference();
   if (!make_certificates(dir_.path(), "a") || !make_certificates(dir_.path(), "b")) GTEST_SKIP() << "no openssl";
   const auto tls = [&](const std::string& n, const std::string& ca) {
-    return worker::TlsFiles{dir_.path() / (n + ".pem"), dir_.path() / (n + ".key"), dir_.path() / (ca + "-ca.pem")};
+    return worker::TlsFiles{dir_.path() / (n + ".pem"), dir_.path() / (n + ".key"), dir_.path() / (ca + "-ca.pem"),
+                            {}};
   };
   std::ofstream(dir_.path() / "tokens") << "alice tok-alice\n";
   Options o;
@@ -763,6 +766,27 @@ TEST_F(Workers, MutualTlsBetweenCoordinatorAndWorker) {
   auto stranger = worker::Worker::Start(wo).value();
   std::this_thread::sleep_for(300ms);  // a few registration attempts (a positive result would show at once)
   EXPECT_FALSE(stranger->stats().registered);
+}
+
+TEST_F(Workers, MutualTlsChecksAFixedWorkerNameWhenAsked) {
+  // The worker's certificate names only "pdrmesh-worker" (as on Kubernetes,
+  // where workers are dialled by pod IP): dialling 127.0.0.1 fails the name
+  // check unless the pool checks that fixed name instead.
+  if (!make_certificates(dir_.path(), "c") || !make_certificates(dir_.path(), "w", "DNS:pdrmesh-worker")) {
+    GTEST_SKIP() << "no openssl";
+  }
+  const auto file = [&](const std::string& n) { return dir_.path() / n; };
+  worker::WorkerOptions wo;
+  wo.threads = 1;
+  wo.cluster_token = std::string(kToken);
+  wo.tls = {file("w.pem"), file("w.key"), file("c-ca.pem"), {}};  // trusts the coordinator's CA
+  auto w = worker::Worker::Start(wo).value();
+  WorkerPoolOptions po = pool_options({w->listen_address()});
+  po.tls = {file("c.pem"), file("c.key"), file("w-ca.pem"), {}};
+  EXPECT_EQ(WorkerPool::create(po).value()->total_slots(), 0U);  // 127.0.0.1 is not in the certificate
+  po.tls.server_name = "pdrmesh-worker";
+  auto pool = WorkerPool::create(po).value();
+  ASSERT_TRUE(eventually([&] { return pool->total_slots() == 1; }));
 }
 
 }  // namespace
