@@ -11,6 +11,7 @@
 
 #include "exit_codes.hpp"
 #include "pdrmesh/leaf_kernels.hpp"
+#include "pdrmesh/pdr_profile.hpp"
 #include "pdrmesh/optimize.hpp"
 #include "pdrmesh/pdr.hpp"
 #include "pdrmesh/pipeline.hpp"
@@ -174,6 +175,7 @@ struct RunArgs {
   int depth = -1;
   std::string kernel = "native";
   bool profile = false;
+  std::string profile_json;
   bool no_interface_round = false;
   bool no_optimize = false;
   bool quiet = false;
@@ -193,6 +195,8 @@ void print_profile(const PdrProfile& p) {
     fmt::print(stderr, "  {:<16} {:9.3f} s {:6.1f}%\n", name, s, 100 * s / total);
   fmt::print(stderr, "  {:<16} {:9.3f} s; fix-ups moved {} tets by partition swap, {} by boundary extraction\n",
              "total", p.total, p.fixup_swaps, p.fixup_moves);
+  fmt::print(stderr, "  of which optimization rounds {:.3f} s; leaf tasks {:.3f} s in all rounds; serial {:.1f}%\n",
+             p.optimization_leaves, p.task_busy, 100 * serial_seconds(p) / total);
 }
 
 int run_run(const RunArgs& a) {
@@ -217,7 +221,14 @@ int run_run(const RunArgs& a) {
   progress.say("parallel refinement ({} kernel, {} worker(s), depth {}): {} tets, {} points", (*kernel)->name(),
                a.workers, profile.depth, mesh.tets.size(), mesh.points.size());
 
+  if (profile.failed_leaves > 0) {
+    progress.say("warning: {} leaf task(s) failed and were kept unrefined (first: {})", profile.failed_leaves,
+                 profile.first_failure);
+  }
   if (a.profile) print_profile(profile);
+  if (!a.profile_json.empty()) {
+    if (Status s = write_text(a.profile_json, profile_to_json(profile, a.workers)); !s.ok()) return fail(s);
+  }
   return finish(mesh, surface, a.output, true, progress, a.quiet);
 }
 
@@ -305,6 +316,8 @@ void add_local_commands(CLI::App& app, int& exit_code) {
         ->check(CLI::Range(0, 10));
     cmd->add_option("--kernel", a->kernel, "leaf kernel")->check(CLI::IsMember({"native", "tetgen"}))->capture_default_str();
     cmd->add_flag("--profile", a->profile, "print the time of each phase and its share");
+    cmd->add_option("--profile-json", a->profile_json,
+                    "write the phase times and every round's leaf task times as JSON (for pdrmesh_bench_replay)");
     cmd->add_flag("--no-interface-round", a->no_interface_round, "skip the second, shifted round over the interfaces");
     cmd->add_flag("--no-optimize", a->no_optimize, "skip the final optimization");
     cmd->add_flag("-q,--quiet", a->quiet, "no progress or summary on stderr");
