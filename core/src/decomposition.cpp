@@ -36,6 +36,8 @@ struct FaceRecord {
   }
 };
 
+Result<Decomposition> decompose_impl(const VolumeMesh& mesh, int depth, const Box& box, bool interfaces);
+
 }  // namespace
 
 LeafId leaf_of_point(const Box& box, int depth, const Vec3& p) {
@@ -86,6 +88,16 @@ Result<Decomposition> decompose(const VolumeMesh& mesh, int depth) {
 }
 
 Result<Decomposition> decompose(const VolumeMesh& mesh, int depth, const Box& box) {
+  return decompose_impl(mesh, depth, box, true);
+}
+
+Result<Decomposition> decompose_leaves(const VolumeMesh& mesh, int depth, const Box& box) {
+  return decompose_impl(mesh, depth, box, false);
+}
+
+namespace {
+
+Result<Decomposition> decompose_impl(const VolumeMesh& mesh, int depth, const Box& box, bool interfaces) {
   if (depth < 0 || depth > kMaxDepth) {
     return invalid_input(fmt::format("octree depth {} is outside [0, {}]", depth, kMaxDepth));
   }
@@ -148,6 +160,8 @@ Result<Decomposition> decompose(const VolumeMesh& mesh, int depth, const Box& bo
     std::sort(out.begin(), out.end());
   }
 
+  d.interface_faces.assign(nl, {});
+  if (!interfaces) return d;
   // Interface faces: pair up equal face keys after a sort (a total order, so the
   // outcome does not depend on the sort algorithm or thread count).
   std::vector<FaceRecord> faces;
@@ -165,7 +179,6 @@ Result<Decomposition> decompose(const VolumeMesh& mesh, int depth, const Box& bo
     }
   }
   tbb::parallel_sort(faces.begin(), faces.end());
-  d.interface_faces.assign(nl, {});
   for (std::size_t i = 0; i < faces.size();) {
     std::size_t j = i + 1;
     while (j < faces.size() && faces[j].key == faces[i].key) ++j;
@@ -188,6 +201,8 @@ Result<Decomposition> decompose(const VolumeMesh& mesh, int depth, const Box& bo
   for (auto& list : d.interface_faces) std::sort(list.begin(), list.end());
   return d;
 }
+
+}  // namespace
 
 std::vector<std::vector<Index>> grid_n1(std::span<const LeafId> leaves, int depth) {
   depth = std::clamp(depth, 0, kMaxDepth);

@@ -582,7 +582,7 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
   const bool fixups = options.fixups.value_or(kernel.needs_manifold_hull());
 
   t0 = Clock::now();
-  PDR_ASSIGN_OR_RETURN(Decomposition d1, decompose(cur, depth));
+  PDR_ASSIGN_OR_RETURN(Decomposition d1, decompose(cur, depth));  // checks the initial mesh's faces
   prof.decomposition = seconds_since(t0);
   const Box box1 = d1.box;
   Box box2 = box1;
@@ -608,7 +608,7 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
   /// A round over a new decomposition of `cur` at `box`.
   const auto round = [&](std::string_view phase, const Box& box, const LeafKernel& k, bool fix) -> Status {
     const auto td = Clock::now();
-    PDR_ASSIGN_OR_RETURN(Decomposition d, decompose(cur, depth, box));
+    PDR_ASSIGN_OR_RETURN(Decomposition d, decompose_leaves(cur, depth, box));
     prof.decomposition += seconds_since(td);
     RoundResult r;
     PDR_TRY(run_round(phase, cur, std::move(d), boundary, sizing, k, options, fix, r));
