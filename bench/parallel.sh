@@ -1,12 +1,18 @@
 #!/usr/bin/env bash
-# Serial `pdrmesh mesh` beside the parallel `pdrmesh run` (native kernel, 1 and 2 workers) on
-# corpus surfaces: tets, ratio of parallel to serial tets, dihedral extremes and the share of tets
-# under 10 degrees, wall time, speedup of 2 workers over 1, tets per second.
+# Serial `pdrmesh mesh` beside the parallel `pdrmesh run` on corpus surfaces (issue 4, item 8):
+#  * native kernel with the interface rounds, 1 and 2 workers: tets, parallel/serial tet ratio,
+#    dihedral extremes, share under 10 degrees, wall time, speedup of 2 workers over 1, tets/s,
+#    and the profile shares of the 2-worker run (initial mesh, decomposition, fix-ups, leaf
+#    refinement, interface rounds, optimization, serial share);
+#  * the same figures (2 workers) for the native kernel without the interface rounds and for the
+#    TetGen kernel, so that the gain of the interface rounds is visible.
 #   bench/parallel.sh [DEPTH] [SURFACE...]     (default: depth 2, the small corpus surfaces)
+# Each run also writes its profile JSON; pdrmesh_bench_replay projects it to P workers.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 corpus=${CORPUS:-$root/../shared/corpus}
 pdrmesh=${PDRMESH:-$root/build/client/pdrmesh}
+replay=${REPLAY:-$root/build/bench/pdrmesh_bench_replay}
 depth=${1:-2}; shift || true
 names=("$@"); ((${#names[@]})) || names=(sphere966 bunny_npm hinge elephant couplingdown knot2 fandisk primitives13)
 tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
@@ -19,22 +25,43 @@ measure() {  # measure OUT_PREFIX command...: wall seconds into $1.s, quality js
   awk -v a="$t0" -v b="$(date +%s.%N)" 'BEGIN { printf "%.2f", b - a }' >"$prefix.s"
   "$pdrmesh" quality --json "$prefix.meshb" >"$prefix.q"
 }
+share() {  # share JSON PHASE: percentage of the total
+  python3 -c "import json,sys; p=json.load(open(sys.argv[1]))['phases']; print('%.0f' % (100*p[sys.argv[2]]/p['total']))" "$1" "$2"
+}
+serial_share() {
+  python3 -c "import json,sys; j=json.load(open(sys.argv[1])); t=j['phases']['total']; print('%.0f' % (100*max(0,t-sum(r['wall_s'] for r in j['rounds']))/t))" "$1"
+}
+quality() {  # quality PREFIX SERIAL_TETS: tets ratio min max under10
+  awk -v t="$(field tets "$1.q")" -v st="$2" -v mn="$(field min_dihedral "$1.q")" -v mx="$(field max_dihedral "$1.q")" \
+      -v u="$(field share_below_10 "$1.q")" 'BEGIN { printf "%9d %5.3f %6.2f %6.2f %6.3f%%", t, t / st, mn, mx, 100 * u }'
+}
 
-echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'); $(date -u +%F)"
-echo "serial: pdrmesh mesh; parallel: pdrmesh run --kernel native --depth $depth (interface round and optimization on)"
-printf '%-13s %9s %7s %6s %6s | %9s %6s %6s %6s %7s %6s %6s %7s %8s\n' surface ser_tets ser_s min max \
-  par_tets ratio min max under10 w1_s w2_s speedup tets/s
+echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'); $(date -u +%F); load $(cut -d' ' -f1-3 /proc/loadavg)"
+echo "serial: pdrmesh mesh; parallel: pdrmesh run --depth $depth (optimization on); timings are wall seconds on a shared machine"
+printf '%-13s %9s %6s %6s %6s | %-8s %9s %5s %6s %6s %7s %6s %6s %6s %7s | %s\n' surface ser_tets ser_s min max \
+  run tets ratio min max under10 w1_s w2_s spdup tets/s "shares: init decomp fixup leaves iface opt serial"
 for n in "${names[@]}"; do
   s=$corpus/$n.stl
   measure "$tmp/ser" "$pdrmesh" mesh -q "$s" -o "$tmp/ser.meshb" || continue
-  measure "$tmp/w1" "$pdrmesh" run -q "$s" -o "$tmp/w1.meshb" --depth "$depth" --workers 1 || continue
-  measure "$tmp/w2" "$pdrmesh" run -q "$s" -o "$tmp/w2.meshb" --depth "$depth" --workers 2 || continue
-  cmp -s "$tmp/w1.meshb" "$tmp/w2.meshb" || echo "WARNING: $n: 1 and 2 workers differ" >&2
-  st=$(field tets "$tmp/ser.q"); pt=$(field tets "$tmp/w2.q")
-  awk -v n="$n" -v st="$st" -v ss="$(cat "$tmp/ser.s")" -v smin="$(field min_dihedral "$tmp/ser.q")" \
-      -v smax="$(field max_dihedral "$tmp/ser.q")" -v pt="$pt" -v pmin="$(field min_dihedral "$tmp/w2.q")" \
-      -v pmax="$(field max_dihedral "$tmp/w2.q")" -v u10="$(field share_below_10 "$tmp/w2.q")" \
-      -v w1="$(cat "$tmp/w1.s")" -v w2="$(cat "$tmp/w2.s")" \
-      'BEGIN { printf "%-13s %9d %7.2f %6.2f %6.2f | %9d %6.2f %6.2f %6.2f %5.3f%% %6.2f %6.2f %6.2f %8.0f\n",
-               n, st, ss, smin, smax, pt, pt / st, pmin, pmax, 100 * u10, w1, w2, w1 / w2, pt / w2 }'
+  st=$(field tets "$tmp/ser.q")
+  ser=$(printf '%-13s %9d %6.2f %6.2f %6.2f' "$n" "$st" "$(cat "$tmp/ser.s")" "$(field min_dihedral "$tmp/ser.q")" \
+        "$(field max_dihedral "$tmp/ser.q")")
+  for variant in native no-iface tetgen; do
+    args=(--depth "$depth" --kernel native); [[ $variant == no-iface ]] && args+=(--no-interface-round)
+    [[ $variant == tetgen ]] && args=(--depth "$depth" --kernel tetgen)
+    measure "$tmp/w2" "$pdrmesh" run -q "$s" -o "$tmp/w2.meshb" "${args[@]}" --workers 2 --profile-json "$tmp/w2.json" ||
+      { printf '%s | %-8s failed\n' "$ser" "$variant"; continue; }
+    w1=-; spd=-
+    if [[ $variant == native ]]; then
+      measure "$tmp/w1" "$pdrmesh" run -q "$s" -o "$tmp/w1.meshb" "${args[@]}" --workers 1 || continue
+      cmp -s "$tmp/w1.meshb" "$tmp/w2.meshb" || echo "WARNING: $n: 1 and 2 workers differ" >&2
+      w1=$(cat "$tmp/w1.s"); spd=$(awk -v a="$w1" -v b="$(cat "$tmp/w2.s")" 'BEGIN { printf "%.2f", a / b }')
+      cp "$tmp/w2.json" "${PROFILE_DIR:-$tmp}/$n.d$depth.json" 2>/dev/null || true
+    fi
+    j=$tmp/w2.json
+    printf '%s | %-8s %s %6s %6.2f %6s %7.0f | %s %s %s %s %s %s %s\n' "$ser" "$variant" "$(quality "$tmp/w2" "$st")" \
+      "$w1" "$(cat "$tmp/w2.s")" "$spd" "$(awk -v t="$(field tets "$tmp/w2.q")" -v s="$(cat "$tmp/w2.s")" 'BEGIN { print t / s }')" \
+      "$(share "$j" initial)" "$(share "$j" decomposition)" "$(share "$j" fixups)" "$(share "$j" leaves)" \
+      "$(share "$j" interface_round)" "$(share "$j" optimization)" "$(serial_share "$j")"
+  done
 done

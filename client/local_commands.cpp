@@ -13,6 +13,7 @@
 #include "progress_display.hpp"
 #include "run_options.hpp"
 #include "pdrmesh/leaf_kernels.hpp"
+#include "pdrmesh/pdr_profile.hpp"
 #include "pdrmesh/optimize.hpp"
 #include "pdrmesh/pdr.hpp"
 #include "pdrmesh/pipeline.hpp"
@@ -138,6 +139,7 @@ struct RunArgs {
   std::string output;
   std::size_t workers = 1;
   bool profile = false;
+  std::string profile_json;
   bool quiet = false;
   RunOptionArgs mesh;
 };
@@ -155,6 +157,8 @@ void print_profile(const PdrProfile& p) {
     fmt::print(stderr, "  {:<16} {:9.3f} s {:6.1f}%\n", name, s, 100 * s / total);
   fmt::print(stderr, "  {:<16} {:9.3f} s; fix-ups moved {} tets by partition swap, {} by boundary extraction\n",
              "total", p.total, p.fixup_swaps, p.fixup_moves);
+  fmt::print(stderr, "  of which optimization rounds {:.3f} s; leaf tasks {:.3f} s in all rounds; serial {:.1f}%\n",
+             p.optimization_leaves, p.task_busy, 100 * serial_seconds(p) / total);
 }
 
 int run_run(const RunArgs& a) {
@@ -181,7 +185,14 @@ int run_run(const RunArgs& a) {
   progress.say("parallel refinement ({} kernel, {} worker(s), depth {}): {} tets, {} points", (*kernel)->name(),
                a.workers, profile.depth, mesh.tets.size(), mesh.points.size());
 
+  if (profile.failed_leaves > 0) {
+    progress.say("warning: {} leaf task(s) failed and were kept unrefined (first: {})", profile.failed_leaves,
+                 profile.first_failure);
+  }
   if (a.profile) print_profile(profile);
+  if (!a.profile_json.empty()) {
+    if (Status s = write_text(a.profile_json, profile_to_json(profile, a.workers)); !s.ok()) return fail(s);
+  }
   return finish(mesh, surface, a.output, true, progress, a.quiet);
 }
 
@@ -266,6 +277,8 @@ void add_local_commands(CLI::App& app, int& exit_code) {
     cmd->add_option("-o,--output", a->output, "output volume mesh " + volume_formats)->required();
     cmd->add_option("--workers", a->workers, "leaf tasks run at once")->check(CLI::PositiveNumber)->capture_default_str();
     cmd->add_flag("--profile", a->profile, "print the time of each phase and its share");
+    cmd->add_option("--profile-json", a->profile_json,
+                    "write the phase times and every round's leaf task times as JSON (for pdrmesh_bench_replay)");
     cmd->add_flag("-q,--quiet", a->quiet, "no progress or summary on stderr");
     a->mesh.add_to(cmd);
     cmd->callback([&exit_code, a] { exit_code = run_run(*a); });

@@ -17,9 +17,11 @@ namespace {
 /// most of the time, leaf by leaf.
 double overall(const PdrProgress& p) {
   const double frac = p.leaves_total > 0 ? static_cast<double>(p.leaves_done) / static_cast<double>(p.leaves_total) : 0;
-  if (p.phase == "refinement") return 0.2 + 0.5 * frac;
-  if (p.phase == "interface round") return 0.7 + 0.15 * frac;
-  if (p.phase == "optimization") return 0.86;
+  if (p.phase == "refinement") return 0.2 + 0.4 * frac;
+  if (p.phase == "interface round") return 0.6 + 0.1 * frac;
+  if (p.phase == "second interface round") return 0.7 + 0.05 * frac;
+  if (p.phase == "optimization") return 0.75 + 0.05 * frac;
+  if (p.phase == "shifted optimization") return 0.8 + 0.05 * frac;
   return 0.18;  // initial mesh
 }
 

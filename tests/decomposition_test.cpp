@@ -238,3 +238,25 @@ TEST(Decomposition, DefaultDepthIsTheSmallestThatReachesTheTarget) {
 
 }  // namespace
 }  // namespace pdrmesh
+
+namespace pdrmesh {
+namespace {
+
+TEST(Decomposition, LeavesOnlyMatchesTheFullDecompositionWithoutInterfaces) {
+  const VolumeMesh g = fixtures::kuhn_grid(6);
+  Result<Decomposition> full = decompose(g, 2);
+  ASSERT_TRUE(full.ok());
+  Result<Decomposition> lean = decompose_leaves(g, 2, full->box);
+  ASSERT_TRUE(lean.ok());
+  EXPECT_EQ(lean->leaves, full->leaves);
+  EXPECT_EQ(lean->leaf_tets, full->leaf_tets);
+  EXPECT_EQ(lean->tet_leaf, full->tet_leaf);
+  EXPECT_EQ(lean->n1, full->n1);
+  EXPECT_EQ(lean->n2, full->n2);
+  EXPECT_EQ(lean->interface_faces.size(), full->size());
+  for (const auto& f : lean->interface_faces) EXPECT_TRUE(f.empty());
+  EXPECT_FALSE(decompose_leaves(g, kMaxDepth + 1, full->box).ok());
+}
+
+}  // namespace
+}  // namespace pdrmesh

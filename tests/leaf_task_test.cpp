@@ -201,6 +201,34 @@ TEST(NativeLeafKernel, RefinesInsideTheFrozenHull) {
   EXPECT_NEAR(volume_of(v), 8.0, 1e-12);
 }
 
+TEST(LeafTask, MovedInteriorPointsRoundTripAndAreChecked) {
+  const LeafTaskInput in = whole_grid_input(2);  // 27 points, the centre (1, 1, 1) the only interior one
+  Index centre = kNoIndex;
+  for (Index v = 0; v < in.points.size(); ++v)
+    if (in.points[v] == Vec3{1, 1, 1}) centre = v;
+  ASSERT_NE(centre, kNoIndex);
+  LeafTaskOutput out;
+  out.leaf = in.leaf;
+  out.input_points = static_cast<std::uint32_t>(in.points.size());
+  out.tets = in.tets;
+  out.moved = {centre};
+  out.moved_to = {{1.1, 0.95, 1.05}};
+  Result<LeafTaskOutput> back = LeafTaskOutput::decode(out.encode());
+  ASSERT_TRUE(back.ok()) << back.status().to_string();
+  EXPECT_EQ(back->moved, out.moved);
+  EXPECT_EQ(back->moved_to, out.moved_to);
+  EXPECT_TRUE(validate_leaf_output(in, out).ok()) << validate_leaf_output(in, out).to_string();
+  LeafTaskOutput r = out;
+  r.moved_to = {{2.5, 1, 1}};  // out of the cube: the tets on the face x = 2 invert
+  EXPECT_NE(validate_leaf_output(in, r).message().find("positively"), std::string::npos);
+  r = out;
+  r.moved = {in.frozen_faces[0][0]};  // a hull point may not move
+  EXPECT_NE(validate_leaf_output(in, r).message().find("hull point"), std::string::npos);
+  r = out;
+  r.moved_to.clear();
+  EXPECT_FALSE(validate_leaf_output(in, r).ok());
+}
+
 TEST(NativeLeafKernel, ReportsHookErrorsWithTheLeaf) {
   const NativeLeafKernel kernel([](TetMesh&, const SizingField&) { return internal_error("boom"); });
   Result<LeafTaskOutput> r = kernel.run(whole_grid_input(1), uniform_sizing(1));

@@ -13,6 +13,7 @@
 
 #include "pdr_fixtures.hpp"
 #include "pdrmesh/leaf_kernels.hpp"
+#include "pdrmesh/predicates.hpp"
 #include "pdrmesh/surface_io.hpp"
 #include "pdrmesh/tetgen_adapter.hpp"
 #include "pdrmesh/validate.hpp"
@@ -133,22 +134,159 @@ std::string meshb_bytes(const VolumeMesh& m, const std::string& name) {
   return bytes;
 }
 
-TEST(Pdr, ByteIdenticalFor1And2And4Workers) {
+TEST(Pdr, ByteIdenticalFor1To8WorkersAndBothPolicies) {
   const Sphere* sp = sphere();
   if (sp == nullptr) GTEST_SKIP() << "sphere966.mesh not readable";
   const VolumeMesh one = run_native(*sp, 1);
   expect_valid(one, sp->surface);
   const std::string ref = meshb_bytes(one, "pdr_w1");
   ASSERT_GT(ref.size(), 1000u);
-  for (std::size_t w : {2u, 4u}) {
-    const VolumeMesh m = run_native(*sp, w);
-    EXPECT_EQ(m.points, one.points) << w;
-    EXPECT_EQ(m.tets, one.tets) << w;
-    EXPECT_EQ(m.tet_regions, one.tet_regions) << w;
-    EXPECT_EQ(meshb_bytes(m, "pdr_w" + std::to_string(w)), ref) << w;
+  for (SchedulePolicy policy : {SchedulePolicy::kDynamic, SchedulePolicy::kColoured}) {
+    for (std::size_t w : {1u, 2u, 4u, 8u}) {
+      if (w == 1 && policy == SchedulePolicy::kDynamic) continue;  // the reference
+      const VolumeMesh m = run_native(*sp, w, policy);
+      EXPECT_EQ(m.points, one.points) << w;
+      EXPECT_EQ(m.tets, one.tets) << w;
+      EXPECT_EQ(m.tet_regions, one.tet_regions) << w;
+      EXPECT_EQ(meshb_bytes(m, "pdr_w" + std::to_string(w)), ref) << w;
+    }
   }
-  // kDynamic is valid too, though its numbering may follow the timing.
-  expect_valid(run_native(*sp, 4, SchedulePolicy::kDynamic), sp->surface);
+}
+
+/// A refinement hook that also moves every interior point a little towards
+/// the mean of its first tet's other vertices when that keeps all tets around
+/// it positive: a stand-in for smoothing, so that moved points travel.
+RefineHook nudging_hook() {
+  return [](TetMesh& m, const SizingField& h) -> Status {
+    PDR_TRY(fixtures::barycenter_hook(10)(m, h));
+    std::vector<unsigned char> fixed(m.num_points(), 0);
+    std::vector<std::vector<Index>> star(m.num_points());
+    for (Index t = 0; t < m.num_slots(); ++t) {
+      if (!m.alive(t)) continue;
+      for (int f = 0; f < 4; ++f) {
+        if (m.neighbour(t, f) == kNoIndex || m.frozen(t, f))
+          for (int k = 0; k < 4; ++k)
+            if (k != f) fixed[m.tet(t)[k]] = 1;
+        star[m.tet(t)[f]].push_back(t);
+      }
+    }
+    for (Index v = 0; v < m.num_points(); ++v) {
+      if (fixed[v] != 0 || star[v].empty()) continue;
+      const Tet& t0 = m.tet(star[v][0]);
+      Vec3 mean{0, 0, 0};
+      for (Index u : t0)
+        if (u != v) mean = mean + (1.0 / 3.0) * m.point(u);
+      const Vec3 old = m.point(v);
+      m.set_point(v, old + 0.05 * (mean - old));
+      bool ok = true;
+      for (Index t : star[v]) {
+        const Tet& q = m.tet(t);
+        ok = ok && exact::orient3d(m.point(q[0]), m.point(q[1]), m.point(q[2]), m.point(q[3])) > 0;
+        m.invalidate_quality(t);
+      }
+      if (!ok) m.set_point(v, old);
+    }
+    return m.check();
+  };
+}
+
+TEST(Pdr, OptimizationRoundsMayMoveInteriorPointsAndStayIdentical) {
+  const SurfaceMesh cube = fixtures::unit_cube_surface();
+  const SizingField h = uniform_sizing(0.12);
+  const NativeLeafKernel kernel(barycenter_hook(20));
+  const NativeLeafKernel optimizer(nudging_hook());
+  bool saw_regions = true;
+  PdrOptions o = depth2(1);
+  o.optimize_kernel = &optimizer;
+  o.optimize = [&](VolumeMesh& m) {
+    saw_regions = !m.tet_regions.empty();  // the global pass must see one region
+    return Status{};
+  };
+  PdrProfile prof;
+  Result<VolumeMesh> a = run_pdr(cube, h, kernel, o, &prof);
+  ASSERT_TRUE(a.ok()) << a.status().to_string();
+  expect_valid(*a, cube);
+  EXPECT_FALSE(saw_regions);
+  std::vector<std::string> names;
+  for (const RoundRecord& r : prof.rounds) names.push_back(r.name);
+  EXPECT_EQ(names, (std::vector<std::string>{"refinement", "interface round", "second interface round",
+                                             "optimization", "shifted optimization"}));
+  // The same with 4 workers; and without the optimization rounds the points
+  // the refinement made are where they were made: the rounds moved some.
+  o.workers = 4;
+  Result<VolumeMesh> b = run_pdr(cube, h, kernel, o, nullptr);
+  ASSERT_TRUE(b.ok()) << b.status().to_string();
+  EXPECT_EQ(a->points, b->points);
+  EXPECT_EQ(a->tets, b->tets);
+  o.optimize_kernel = nullptr;
+  Result<VolumeMesh> c = run_pdr(cube, h, kernel, o, nullptr);
+  ASSERT_TRUE(c.ok()) << c.status().to_string();
+  std::size_t moved = 0;
+  for (std::size_t i = 0; i < std::min(a->points.size(), c->points.size()); ++i) moved += a->points[i] != c->points[i];
+  EXPECT_GT(moved, 0u);
+}
+
+TEST(Pdr, ATetgenCrashOnALeafKeepsThatLeafUnrefined) {
+  const SurfaceMesh cube = fixtures::unit_cube_surface();
+  const SizingField h = uniform_sizing(0.15);
+  TetgenLeafOptions crash;
+  crash.inject_fault = TetgenOptions::Fault::kCrash;
+  crash.fault_leaf = 3;
+  const TetgenLeafKernel kernel(crash);
+  PdrOptions o = depth2(2);
+  o.interface_round = false;
+  PdrProfile prof;
+  Result<VolumeMesh> m = run_pdr(cube, h, kernel, o, &prof);
+  ASSERT_TRUE(m.ok()) << m.status().to_string();
+  expect_valid(*m, cube);
+  EXPECT_EQ(prof.failed_leaves, 1u);
+  EXPECT_NE(prof.first_failure.find("leaf 3"), std::string::npos) << prof.first_failure;
+  EXPECT_NE(prof.first_failure.find("crashed"), std::string::npos) << prof.first_failure;
+  const TetgenLeafKernel honest;
+  PdrProfile p2;
+  Result<VolumeMesh> ok = run_pdr(cube, h, honest, o, &p2);
+  ASSERT_TRUE(ok.ok());
+  EXPECT_EQ(p2.failed_leaves, 0u);
+  o.keep_failed_leaves = false;
+  Result<VolumeMesh> fails = run_pdr(cube, h, kernel, o, nullptr);
+  ASSERT_FALSE(fails.ok());
+  EXPECT_NE(fails.status().message().find("leaf 3"), std::string::npos) << fails.status().to_string();
+}
+
+/// Fails one leaf with a given status, as a dispatcher would when no worker
+/// could run it; refines the others with the native kernel.
+class FailingLeafKernel final : public LeafKernel {
+ public:
+  FailingLeafKernel(std::uint32_t leaf, Status status) : leaf_(leaf), status_(std::move(status)) {}
+  Result<LeafTaskOutput> run(const LeafTaskInput& in, const SizingField& sizing) const override {
+    if (in.leaf == leaf_) return status_;
+    return native_.run(in, sizing);
+  }
+  std::string_view name() const override { return "failing"; }
+
+ private:
+  std::uint32_t leaf_;
+  Status status_;
+  NativeLeafKernel native_{barycenter_hook(5)};
+};
+
+TEST(Pdr, ATaskThatCouldNotRunFailsTheRunInsteadOfKeepingTheLeaf) {
+  // Keeping a leaf unrefined is for a kernel that gave up on it (the same
+  // anywhere); a dispatcher's failure must fail the run, or the output would
+  // depend on faults.
+  const SurfaceMesh cube = fixtures::unit_cube_surface();
+  const SizingField h = uniform_sizing(0.15);
+  for (const Status& s : {io_error("no valid result after 4 attempts"), resource_exhausted("task too large"),
+                          invalid_input("worker refused the task")}) {
+    Result<VolumeMesh> m = run_pdr(cube, h, FailingLeafKernel(3, s), depth2(2), nullptr);
+    ASSERT_FALSE(m.ok()) << s.to_string();
+    EXPECT_EQ(m.status().code(), s.code());
+  }
+  PdrProfile prof;
+  Result<VolumeMesh> kept = run_pdr(cube, h, FailingLeafKernel(3, internal_error("kernel crashed")), depth2(2), &prof);
+  ASSERT_TRUE(kept.ok()) << kept.status().to_string();
+  expect_valid(*kept, cube);
+  EXPECT_GE(prof.failed_leaves, 1u);
 }
 
 TEST(Pdr, TetgenKernelByteIdenticalFor1And4Workers) {
@@ -245,7 +383,8 @@ TEST(Pdr, ProgressCountsEveryMergedLeaf) {
   Result<VolumeMesh> m = run_pdr(cube, h, kernel, o, &prof);
   ASSERT_TRUE(m.ok()) << m.status().to_string();
   expect_valid(*m, cube);
-  EXPECT_EQ(phases, (std::vector<std::string>{"initial mesh", "refinement", "interface round"}));
+  EXPECT_EQ(phases, (std::vector<std::string>{"initial mesh", "refinement", "interface round",
+                                              "second interface round"}));
   EXPECT_EQ(merged_refinement, prof.leaf_count);
   EXPECT_EQ(last_tets, m->tets.size());  // the last merge's count is the final one (no optimization)
 }

@@ -5,6 +5,10 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
+
+#include <thread>
+
 #include <atomic>
 #include <cstdint>
 #include <memory>
@@ -253,6 +257,51 @@ TEST(RunLeaves, AnAsymmetricN1IsCountedAndStillExclusive) {
       EXPECT_EQ(s.lock_failures, 1u);  // leaf 1, in leaf 0's class
     }
   }
+}
+
+TEST(DynamicPicker, StartsTheReadyLeafOfLowestRank) {
+  // A chain 0 - 1 - 2 - 3 - 4: lock sets {l-1, l, l+1}.
+  const std::vector<std::vector<Index>> n1{{1}, {0, 2}, {1, 3}, {2, 4}, {3}};
+  const std::vector<Index> rank{4, 3, 2, 1, 0};  // leaf 4 first
+  DynamicPicker p(n1, rank);
+  ASSERT_TRUE(p.has_ready());
+  EXPECT_EQ(p.pop_lowest(), 4u);
+  EXPECT_EQ(p.pop_lowest(), 1u);  // 3 and 2 conflict with 4 (2 shares 3); 1 is next by rank
+  EXPECT_FALSE(p.has_ready());
+  p.finish(4);
+  EXPECT_FALSE(p.has_ready());  // 1 still holds {0, 1, 2}: 0, 2 and 3 all meet it
+  p.finish(1);
+  EXPECT_EQ(p.pop_lowest(), 3u);  // rank 1
+  EXPECT_EQ(p.pop_lowest(), 0u);  // {0, 1} misses {2, 3, 4}; 2 does not
+  EXPECT_FALSE(p.has_ready());
+  p.finish(3);
+  p.finish(0);
+  EXPECT_EQ(p.pop_lowest(), 2u);
+  EXPECT_FALSE(p.has_ready());
+}
+
+TEST(RunLeaves, DynamicMergesOnTheCallingThreadWithAllWorkersBusy) {
+  const Decomposition d = grid_decomposition(8, 3);
+  const auto caller = std::this_thread::get_id();
+  std::atomic<int> off_thread{0};
+  std::mutex mu;
+  std::set<std::thread::id> task_threads;
+  const ScheduleStats s = run_leaf_tasks(
+      d.n1, {}, 4, SchedulePolicy::kDynamic,
+      [&](Index l) {
+        spin(l);
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
+        std::lock_guard lock(mu);
+        task_threads.insert(std::this_thread::get_id());
+      },
+      [&](Index) {
+        if (std::this_thread::get_id() != caller) off_thread.fetch_add(1);
+      });
+  EXPECT_EQ(off_thread.load(), 0);
+  EXPECT_EQ(task_threads.size(), 4u);  // exactly `workers` threads, none of them the caller
+  EXPECT_EQ(task_threads.count(caller), 0u);
+  EXPECT_GE(s.max_concurrency, 2u);
+  EXPECT_LE(s.max_concurrency, 4u);
 }
 
 TEST(RunLeaves, HandlesNoLeavesAndZeroWorkers) {

@@ -36,6 +36,8 @@ struct FaceRecord {
   }
 };
 
+Result<Decomposition> decompose_impl(const VolumeMesh& mesh, int depth, const Box& box, bool interfaces);
+
 }  // namespace
 
 LeafId leaf_of_point(const Box& box, int depth, const Vec3& p) {
@@ -86,6 +88,16 @@ Result<Decomposition> decompose(const VolumeMesh& mesh, int depth) {
 }
 
 Result<Decomposition> decompose(const VolumeMesh& mesh, int depth, const Box& box) {
+  return decompose_impl(mesh, depth, box, true);
+}
+
+Result<Decomposition> decompose_leaves(const VolumeMesh& mesh, int depth, const Box& box) {
+  return decompose_impl(mesh, depth, box, false);
+}
+
+namespace {
+
+Result<Decomposition> decompose_impl(const VolumeMesh& mesh, int depth, const Box& box, bool interfaces) {
   if (depth < 0 || depth > kMaxDepth) {
     return invalid_input(fmt::format("octree depth {} is outside [0, {}]", depth, kMaxDepth));
   }
@@ -128,23 +140,7 @@ Result<Decomposition> decompose(const VolumeMesh& mesh, int depth, const Box& bo
     d.leaf_tets[l].push_back(static_cast<Index>(t));
   }
 
-  // N1: the 26-neighbourhood, visited in ascending grid id (k, then j, then i).
-  const std::int64_t n = d.per_side;
-  d.n1.assign(nl, {});
-  for (std::size_t l = 0; l < nl; ++l) {
-    const auto c = leaf_coords(d.leaves[l], depth);
-    for (std::int64_t dk = -1; dk <= 1; ++dk) {
-      for (std::int64_t dj = -1; dj <= 1; ++dj) {
-        for (std::int64_t di = -1; di <= 1; ++di) {
-          if (di == 0 && dj == 0 && dk == 0) continue;
-          const std::int64_t i = c[0] + di, j = c[1] + dj, k = c[2] + dk;
-          if (i < 0 || j < 0 || k < 0 || i >= n || j >= n || k >= n) continue;
-          const Index m = index_of(static_cast<LeafId>(i + n * (j + n * k)));
-          if (m != kNoIndex) d.n1[l].push_back(m);
-        }
-      }
-    }
-  }
+  d.n1 = grid_n1(d.leaves, depth);
   // N2: n1 of the n1 members, less {L} and n1 (stamp[x] == l: x seen for l).
   d.n2.assign(nl, {});
   std::vector<Index> stamp(nl, kNoIndex);
@@ -164,6 +160,8 @@ Result<Decomposition> decompose(const VolumeMesh& mesh, int depth, const Box& bo
     std::sort(out.begin(), out.end());
   }
 
+  d.interface_faces.assign(nl, {});
+  if (!interfaces) return d;
   // Interface faces: pair up equal face keys after a sort (a total order, so the
   // outcome does not depend on the sort algorithm or thread count).
   std::vector<FaceRecord> faces;
@@ -181,7 +179,6 @@ Result<Decomposition> decompose(const VolumeMesh& mesh, int depth, const Box& bo
     }
   }
   tbb::parallel_sort(faces.begin(), faces.end());
-  d.interface_faces.assign(nl, {});
   for (std::size_t i = 0; i < faces.size();) {
     std::size_t j = i + 1;
     while (j < faces.size() && faces[j].key == faces[i].key) ++j;
@@ -203,6 +200,34 @@ Result<Decomposition> decompose(const VolumeMesh& mesh, int depth, const Box& bo
   }
   for (auto& list : d.interface_faces) std::sort(list.begin(), list.end());
   return d;
+}
+
+}  // namespace
+
+std::vector<std::vector<Index>> grid_n1(std::span<const LeafId> leaves, int depth) {
+  depth = std::clamp(depth, 0, kMaxDepth);
+  auto index_of = [&](LeafId id) -> Index {
+    const auto it = std::lower_bound(leaves.begin(), leaves.end(), id);
+    return it != leaves.end() && *it == id ? static_cast<Index>(it - leaves.begin()) : kNoIndex;
+  };
+  // The 26-neighbourhood, visited in ascending grid id (k, then j, then i).
+  const std::int64_t n = std::int64_t{1} << depth;
+  std::vector<std::vector<Index>> n1(leaves.size());
+  for (std::size_t l = 0; l < leaves.size(); ++l) {
+    const auto c = leaf_coords(leaves[l], depth);
+    for (std::int64_t dk = -1; dk <= 1; ++dk) {
+      for (std::int64_t dj = -1; dj <= 1; ++dj) {
+        for (std::int64_t di = -1; di <= 1; ++di) {
+          if (di == 0 && dj == 0 && dk == 0) continue;
+          const std::int64_t i = c[0] + di, j = c[1] + dj, k = c[2] + dk;
+          if (i < 0 || j < 0 || k < 0 || i >= n || j >= n || k >= n) continue;
+          const Index m = index_of(static_cast<LeafId>(i + n * (j + n * k)));
+          if (m != kNoIndex) n1[l].push_back(m);
+        }
+      }
+    }
+  }
+  return n1;
 }
 
 int default_depth(std::size_t target_tets, std::size_t tets_per_leaf) {

@@ -62,6 +62,7 @@ Result<LeafTaskOutput> TetgenLeafKernel::run(const LeafTaskInput& in, const Sizi
   TetgenOptions options;
   options.max_volume = regular_tet_volume(sum_h / static_cast<double>(in.points.size()));
   options.time_limit_s = options_.time_limit_s;
+  if (in.leaf == options_.fault_leaf) options.inject_fault = options_.inject_fault;
   Result<VolumeMesh> filled = tetrahedralize(surface, options);
   if (!filled.ok()) {
     return Status(filled.status().code(), fmt::format("leaf {}: TetGen on its hull ({} faces): {}", in.leaf,

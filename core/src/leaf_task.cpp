@@ -19,7 +19,7 @@ namespace {
 
 constexpr char kInputMagic[8] = {'P', 'D', 'R', 'L', 'E', 'A', 'F', 'I'};
 constexpr char kOutputMagic[8] = {'P', 'D', 'R', 'L', 'E', 'A', 'F', 'O'};
-constexpr std::uint32_t kVersion = 1;
+constexpr std::uint32_t kVersion = 2;
 
 Status decode_error(std::string_view what, std::string_view detail) {
   return invalid_input(fmt::format("leaf task {}: {}", what, detail));
@@ -136,6 +136,11 @@ std::string LeafTaskOutput::encode() const {
   for (const Vec3& p : new_points) put_point(w, p);
   w.u64(tets.size());
   for (const Tet& t : tets) put_indices(w, t);
+  w.u64(moved.size());
+  for (std::size_t i = 0; i < moved.size(); ++i) {
+    w.u32(moved[i]);
+    put_point(w, i < moved_to.size() ? moved_to[i] : Vec3{});
+  }
   return w.take();
 }
 
@@ -159,6 +164,14 @@ Result<LeafTaskOutput> LeafTaskOutput::decode(std::string_view bytes) {
     if (!get_indices(r, out.tets[t], limit))
       return decode_error("output", fmt::format("tet {} has a reference out of range (of {}) or repeated", t, limit));
   }
+  std::size_t k = 0;
+  if (!r.count(28, k)) return decode_error("output", "moved point count exceeds the buffer");
+  out.moved.resize(k);
+  out.moved_to.resize(k);
+  for (std::size_t i = 0; i < k; ++i) {
+    if (!r.u32(out.moved[i]) || out.moved[i] >= out.input_points || !get_point(r, out.moved_to[i]))
+      return decode_error("output", fmt::format("moved point {} is truncated, out of range or not finite", i));
+  }
   if (r.left() != 0) return decode_error("output", fmt::format("{} trailing bytes", r.left()));
   return out;
 }
@@ -172,7 +185,25 @@ Status validate_leaf_output(const LeafTaskInput& in, const LeafTaskOutput& out) 
     return fail(fmt::format("it counts {} input points, the task had {}", out.input_points, in.points.size()));
   const std::size_t ni = in.points.size();
   const std::size_t limit = ni + out.new_points.size();
-  auto point = [&](Index r) -> const Vec3& { return r < ni ? in.points[r] : out.new_points[r - ni]; };
+  if (out.moved_to.size() != out.moved.size())
+    return fail(fmt::format("it moves {} points with {} coordinates", out.moved.size(), out.moved_to.size()));
+  std::vector<Vec3> moved_points;  // in.points with the moves applied (only when there are moves)
+  if (!out.moved.empty()) {
+    std::vector<unsigned char> on_hull(ni, 0);
+    for (const Tri& f : in.frozen_faces)
+      for (Index v : f) on_hull[v] = 1;
+    moved_points = in.points;
+    for (std::size_t i = 0; i < out.moved.size(); ++i) {
+      const Index v = out.moved[i];
+      if (v >= ni || (i > 0 && v <= out.moved[i - 1]))
+        return fail(fmt::format("moved point {} ({}) is out of range or not ascending", i, v));
+      if (on_hull[v] != 0) return fail(fmt::format("it moves hull point {}", v));
+      if (!is_finite(out.moved_to[i])) return fail(fmt::format("moved point {} is not finite", v));
+      moved_points[v] = out.moved_to[i];
+    }
+  }
+  const std::vector<Vec3>& inputs = out.moved.empty() ? in.points : moved_points;
+  auto point = [&](Index r) -> const Vec3& { return r < ni ? inputs[r] : out.new_points[r - ni]; };
   std::vector<unsigned char> used(out.new_points.size(), 0);
   struct Face {
     Tri key;  // sorted
@@ -254,6 +285,12 @@ LeafTaskOutput leaf_output_from(const LeafTaskInput& in, const TetMesh& mesh) {
   out.tets.reserve(mesh.num_tets());
   for (Index t = 0; t < mesh.num_slots(); ++t)
     if (mesh.alive(t)) out.tets.push_back(mesh.tet(t));
+  for (Index v = 0; v < in.points.size(); ++v) {
+    if (mesh.point(v) != in.points[v]) {
+      out.moved.push_back(v);
+      out.moved_to.push_back(mesh.point(v));
+    }
+  }
   return out;
 }
 
@@ -261,6 +298,10 @@ Result<std::string> run_leaf_task(const LeafKernel& kernel, std::string_view inp
   PDR_ASSIGN_OR_RETURN(LeafTaskInput in, LeafTaskInput::decode(input));
   PDR_ASSIGN_OR_RETURN(LeafTaskOutput out, kernel.run(in, sizing));
   return out.encode();
+}
+
+bool is_kernel_failure(const Status& s) {
+  return s.code() == StatusCode::kInternal || s.code() == StatusCode::kDeadlineExceeded;
 }
 
 }  // namespace pdrmesh

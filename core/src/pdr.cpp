@@ -12,9 +12,10 @@
 #include <limits>
 #include <mutex>
 #include <numeric>
-#include <shared_mutex>
 #include <string>
 #include <utility>
+
+#include <oneapi/tbb/parallel_for.h>
 
 #include "pdrmesh/leaf_kernels.hpp"
 #include "pdrmesh/tetgen_adapter.hpp"
@@ -361,18 +362,52 @@ namespace {
 struct RoundResult {
   std::size_t leaves = 0;
   std::size_t max_leaf_tets = 0;
-  double merge_s = 0;
+  std::size_t failed = 0;      ///< leaves kept unrefined after a kernel error
+  std::string first_failure;   ///< the lowest such leaf's error
+  double merge_s = 0;          ///< serial: merges and the final splice
   ScheduleStats schedule;
   FixupStats fixups;
+  RoundRecord record;
 };
 
 struct TaskResult {
-  LeafTaskInput input;
-  Result<std::string> output;
+  Status status;                  ///< a validation failure, or cancelled
+  Status kernel_error;            ///< the kernel failed and the leaf was kept as it was
+  std::vector<GlobalId> point_ids;
+  LeafTaskOutput output;
 };
 
-/// One refinement round over decomposition d of `cur` (its tets in d's order
-/// are replaced, its points appended to).
+/// The expected cost of each leaf's task, as ranks (0 = the most expensive
+/// starts first): its tet count plus the tets its volume should hold at h
+/// (sampled on every 4th tet). A heuristic for the order only; the result does
+/// not depend on it.
+std::vector<Index> cost_ranks(const VolumeMesh& cur, const Decomposition& d, const SizingField& sizing) {
+  std::vector<double> cost(d.size(), 0.0);
+  tbb::parallel_for(std::size_t{0}, d.size(), [&](std::size_t l) {
+    const auto& tets = d.leaf_tets[l];
+    double c = static_cast<double>(tets.size());
+    for (std::size_t i = 0; i < tets.size(); i += 4) {
+      const Tet& v = cur.tets[tets[i]];
+      const auto& P = cur.points;
+      const double vol = signed_volume(P[v[0]], P[v[1]], P[v[2]], P[v[3]]);
+      c += 4 * vol / regular_tet_volume(sizing.at(tet_barycenter(cur, tets[i])));
+    }
+    cost[l] = c;
+  });
+  std::vector<Index> order(d.size());
+  std::iota(order.begin(), order.end(), Index{0});
+  std::stable_sort(order.begin(), order.end(), [&](Index a, Index b) { return cost[a] > cost[b]; });
+  std::vector<Index> rank(d.size());
+  for (Index i = 0; i < order.size(); ++i) rank[order[i]] = i;
+  return rank;
+}
+
+/// One round over decomposition d of `cur`: every leaf's tets go through
+/// `kernel` (its hull frozen), and `cur` gets the results, leaf by leaf in
+/// ascending order, new points appended in that order. Task inputs depend only
+/// on the leaf's own tets and the points present before the round (nothing
+/// moves a hull point, and new points get their ids only after the round), so
+/// the result is the same for any worker count, completion order or policy.
 Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const FaceIdTable& boundary,
                  const SizingField& sizing, const LeafKernel& kernel, const PdrOptions& options, bool fixups,
                  RoundResult& rr) {
@@ -380,65 +415,59 @@ Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const
   rr.leaves = d.size();
   std::vector<std::vector<Tet>> leaf_tets(d.size());
   for (Index l = 0; l < d.size(); ++l) {
+    leaf_tets[l].reserve(d.leaf_tets[l].size());
     for (Index t : d.leaf_tets[l]) leaf_tets[l].push_back(cur.tets[t]);
     rr.max_leaf_tets = std::max(rr.max_leaf_tets, leaf_tets[l].size());
   }
-  std::vector<Vec3>& points = cur.points;
-  std::shared_mutex mu;  // tasks read points while (kDynamic) merges append
+  const std::vector<Index> rank = cost_ranks(cur, d, sizing);
+  const std::vector<Vec3>& points = cur.points;  // read-only during the round
   Status error;
-
   std::atomic<bool> stop{false};
   std::size_t merged = 0;
   std::size_t tet_count = cur.tets.size();
   if (options.progress && !options.progress({phase, 0, d.size(), tet_count})) {
     return cancelled(fmt::format("stopped before the {}", phase));
   }
+  std::vector<TaskResult> results(d.size());
   std::function<TaskResult(Index)> task = [&](Index l) -> TaskResult {
-    if (stop.load()) return {LeafTaskInput{}, cancelled("stopped")};
-    LeafTaskInput in;
-    {
-      std::shared_lock lock(mu);
-      in = build_leaf_input(l, points, leaf_tets[l], boundary);
+    TaskResult r;
+    if (stop.load()) {
+      r.status = cancelled("stopped");
+      return r;
     }
-    if (in.tets.empty()) {
-      LeafTaskOutput empty;
-      empty.leaf = l;
-      return {std::move(in), empty.encode()};
+    LeafTaskInput in = build_leaf_input(l, points, leaf_tets[l], boundary);
+    r.output.leaf = l;
+    r.output.input_points = static_cast<std::uint32_t>(in.points.size());
+    if (in.tets.empty()) return r;
+    Result<std::string> bytes = run_leaf_task(kernel, in.encode(), sizing);
+    Result<LeafTaskOutput> out = bytes.ok() ? LeafTaskOutput::decode(*bytes) : Result<LeafTaskOutput>(bytes.status());
+    if (!bytes.ok() && options.keep_failed_leaves && is_kernel_failure(bytes.status())) {
+      // The kernel gave up on this leaf (TetGen crashing on a hull, say): keep
+      // the leaf as it was, which conforms to its neighbours by construction.
+      r.kernel_error = Status(bytes.status().code(), fmt::format("leaf {}: {}", l, bytes.status().message()));
+      r.output.tets = std::move(in.tets);
+      r.point_ids = std::move(in.point_ids);
+      return r;
     }
-    Result<std::string> out = run_leaf_task(kernel, in.encode(), sizing);
-    return {std::move(in), std::move(out)};
+    if (!out.ok()) {
+      r.status = Status(out.status().code(), fmt::format("leaf {}: {}", l, out.status().message()));
+      return r;
+    }
+    r.status = validate_leaf_output(in, *out);
+    r.output = std::move(*out);
+    r.point_ids = std::move(in.point_ids);
+    return r;
   };
   std::function<void(Index, TaskResult&&)> merge = [&](Index l, TaskResult&& r) {
     if (!error.ok()) return;
     const auto t0 = Clock::now();
-    if (!r.output.ok()) {
-      error = r.output.status();
+    if (!r.status.ok()) {
+      error = r.status;
       stop = true;
       return;
     }
-    Result<LeafTaskOutput> out = LeafTaskOutput::decode(*r.output);
-    if (!out.ok()) {
-      error = Status(out.status().code(), fmt::format("leaf {}: {}", l, out.status().message()));
-      stop = true;
-      return;
-    }
-    if (Status s = validate_leaf_output(r.input, *out); !s.ok()) {
-      error = s;
-      stop = true;
-      return;
-    }
-    const auto ni = static_cast<Index>(r.input.points.size());
-    std::unique_lock lock(mu);
-    const auto base = static_cast<Index>(points.size());
-    points.insert(points.end(), out->new_points.begin(), out->new_points.end());
-    std::vector<Tet>& tets = leaf_tets[l];
-    tet_count = tet_count - tets.size() + out->tets.size();
-    tets.clear();
-    for (const Tet& t : out->tets) {
-      Tet g;
-      for (int i = 0; i < 4; ++i) g[i] = t[i] < ni ? static_cast<Index>(r.input.point_ids[t[i]]) : base + (t[i] - ni);
-      tets.push_back(g);
-    }
+    tet_count = tet_count - leaf_tets[l].size() + r.output.tets.size();
+    results[l] = std::move(r);
     rr.merge_s += seconds_since(t0);
     ++merged;
     if (options.progress && !options.progress({phase, merged, d.size(), tet_count})) {
@@ -446,15 +475,41 @@ Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const
       stop = true;
     }
   };
-  rr.schedule = run_leaves<TaskResult>(d, std::max<std::size_t>(options.workers, 1), task, merge, options.policy);
+  rr.schedule = run_leaves<TaskResult>(d, std::max<std::size_t>(options.workers, 1), task, merge, options.policy, rank);
   PDR_TRY(error);
 
+  // Splice, in ascending leaf order: new point k of leaf l gets the next id.
+  const auto t0 = Clock::now();
+  std::vector<Vec3>& pts = cur.points;
   cur.tets.clear();
   cur.tet_regions.clear();
+  cur.tets.reserve(tet_count);
+  cur.tet_regions.reserve(tet_count);
   for (Index l = 0; l < d.size(); ++l) {
-    cur.tets.insert(cur.tets.end(), leaf_tets[l].begin(), leaf_tets[l].end());
-    cur.tet_regions.insert(cur.tet_regions.end(), leaf_tets[l].size(), static_cast<int>(d.leaves[l]));
+    TaskResult& r = results[l];
+    if (!r.kernel_error.ok()) {
+      if (rr.failed++ == 0) rr.first_failure = r.kernel_error.message();
+    }
+    const auto ni = static_cast<Index>(r.point_ids.size());
+    for (std::size_t i = 0; i < r.output.moved.size(); ++i) pts[r.point_ids[r.output.moved[i]]] = r.output.moved_to[i];
+    const auto base = static_cast<Index>(pts.size());
+    pts.insert(pts.end(), r.output.new_points.begin(), r.output.new_points.end());
+    for (const Tet& t : r.output.tets) {
+      Tet g;
+      for (int i = 0; i < 4; ++i) g[i] = t[i] < ni ? static_cast<Index>(r.point_ids[t[i]]) : base + (t[i] - ni);
+      cur.tets.push_back(g);
+    }
+    cur.tet_regions.insert(cur.tet_regions.end(), r.output.tets.size(), static_cast<int>(d.leaves[l]));
+    r = TaskResult{};
   }
+  rr.merge_s += seconds_since(t0);
+  rr.record.name = std::string(phase);
+  rr.record.depth = d.depth;
+  rr.record.leaves = d.leaves;
+  rr.record.task_s = rr.schedule.task_s;
+  rr.record.wall_s = rr.schedule.wall_s;
+  rr.record.rank = rank;
+  rr.record.n1 = std::move(d.n1);
   return {};
 }
 
@@ -496,11 +551,11 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
   const Box bb = surface.bounds();
   const double side = std::max({bb.hi[0] - bb.lo[0], bb.hi[1] - bb.lo[1], bb.hi[2] - bb.lo[2]});
   int depth = options.depth;
+  double sum_h = 0;
+  for (const Vec3& p : surface.points) sum_h += sizing.at(p);
+  const double surface_h = sum_h / static_cast<double>(surface.points.size());
   if (depth < 0) {
-    double sum_h = 0;
-    for (const Vec3& p : surface.points) sum_h += sizing.at(p);
-    const double estimate =
-        enclosed_volume(surface) / regular_tet_volume(sum_h / static_cast<double>(surface.points.size()));
+    const double estimate = enclosed_volume(surface) / regular_tet_volume(surface_h);
     const double capped = std::isfinite(estimate) ? std::clamp(estimate, 0.0, 1e15) : 0.0;
     depth = default_depth(static_cast<std::size_t>(capped), options.final_tets_per_leaf);
   }
@@ -513,8 +568,10 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
   auto t0 = Clock::now();
   TetgenOptions tg;
   const double leaf_side = side / static_cast<double>(1 << depth);
-  tg.max_volume = leaf_side * leaf_side * leaf_side / options.initial_volume_divisor;
+  tg.max_volume = std::max(leaf_side * leaf_side * leaf_side / options.initial_volume_divisor,
+                           options.initial_min_volume_factor * regular_tet_volume(surface_h));
   tg.time_limit_s = options.tetgen_time_limit_s;
+  tg.radius_edge = options.initial_radius_edge;
   if (!(*tg.max_volume > 0) || !std::isfinite(*tg.max_volume)) tg.max_volume.reset();
   Result<VolumeMesh> initial = tetrahedralize(surface, tg);
   if (!initial.ok()) return initial.status();
@@ -525,48 +582,93 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
   const bool fixups = options.fixups.value_or(kernel.needs_manifold_hull());
 
   t0 = Clock::now();
-  PDR_ASSIGN_OR_RETURN(Decomposition d1, decompose(cur, depth));
+  PDR_ASSIGN_OR_RETURN(Decomposition d1, decompose(cur, depth));  // checks the initial mesh's faces
   prof.decomposition = seconds_since(t0);
   const Box box1 = d1.box;
+  Box box2 = box1;
+  const double half = 0.5 * (box1.hi[0] - box1.lo[0]) / static_cast<double>(1 << depth);
+  for (int k = 0; k < 3; ++k) {
+    box2.lo[k] += half;
+    box2.hi[k] += half;
+  }
+  std::vector<RoundResult> rounds;
+  const auto account = [&](RoundResult&& r) {
+    prof.partition_swap += r.fixups.swap_s;
+    prof.boundary_extraction += r.fixups.extraction_s;
+    prof.fixup_swaps += r.fixups.swaps;
+    prof.fixup_moves += r.fixups.moves;
+    prof.fixup_unresolved += r.fixups.unresolved;
+    prof.merge += r.merge_s;
+    prof.task_busy += r.schedule.busy_s;
+    prof.max_concurrency = std::max(prof.max_concurrency, r.schedule.max_concurrency);
+    if (r.failed > 0 && prof.failed_leaves == 0) prof.first_failure = r.first_failure;
+    prof.failed_leaves += r.failed;
+    prof.rounds.push_back(std::move(r.record));
+  };
+  /// A round over a new decomposition of `cur` at `box`.
+  const auto round = [&](std::string_view phase, const Box& box, const LeafKernel& k, bool fix) -> Status {
+    const auto td = Clock::now();
+    PDR_ASSIGN_OR_RETURN(Decomposition d, decompose_leaves(cur, depth, box));
+    prof.decomposition += seconds_since(td);
+    RoundResult r;
+    PDR_TRY(run_round(phase, cur, std::move(d), boundary, sizing, k, options, fix, r));
+    account(std::move(r));
+    return {};
+  };
+
   RoundResult r1;
   t0 = Clock::now();
   PDR_TRY(run_round("refinement", cur, std::move(d1), boundary, sizing, kernel, options, fixups, r1));
   prof.leaves = seconds_since(t0) - r1.fixups.swap_s - r1.fixups.extraction_s;
   prof.leaf_count = r1.leaves;
   prof.max_leaf_tets = r1.max_leaf_tets;
-  prof.max_concurrency = r1.schedule.max_concurrency;
+  account(std::move(r1));
 
-  RoundResult r2;
-  if (options.interface_round && depth > 0) {
+  Box last_box = box1;
+  if (options.interface_round && depth > 0 && options.interface_rounds > 0) {
     t0 = Clock::now();
-    Box box2 = box1;
-    const double half = 0.5 * (box1.hi[0] - box1.lo[0]) / static_cast<double>(1 << depth);
-    for (int k = 0; k < 3; ++k) {
-      box2.lo[k] += half;
-      box2.hi[k] += half;
+    const std::size_t before = prof.rounds.size();
+    PDR_TRY(round("interface round", box2, kernel, fixups));
+    prof.interface_leaf_count = prof.rounds.size() > before ? prof.rounds.back().n1.size() : 0;
+    last_box = box2;
+    if (options.interface_rounds > 1) {
+      // A quarter-leaf shift: the lines where a first-round interface plane
+      // crosses a second-round one (frozen in both rounds) lie inside its leaves.
+      Box box3 = box1;
+      for (int k = 0; k < 3; ++k) {
+        box3.lo[k] += 0.5 * half;
+        box3.hi[k] += 0.5 * half;
+      }
+      PDR_TRY(round("second interface round", box3, kernel, fixups));
+      last_box = box3;
     }
-    const auto td = Clock::now();
-    PDR_ASSIGN_OR_RETURN(Decomposition d2, decompose(cur, depth, box2));
-    prof.decomposition += seconds_since(td);
-    PDR_TRY(run_round("interface round", cur, std::move(d2), boundary, sizing, kernel, options, fixups, r2));
     prof.interface_round = seconds_since(t0);
-    prof.interface_leaf_count = r2.leaves;
-    prof.max_concurrency = std::max(prof.max_concurrency, r2.schedule.max_concurrency);
   }
-  prof.partition_swap = r1.fixups.swap_s + r2.fixups.swap_s;
-  prof.boundary_extraction = r1.fixups.extraction_s + r2.fixups.extraction_s;
   prof.fixups = prof.partition_swap + prof.boundary_extraction;
-  prof.fixup_swaps = r1.fixups.swaps + r2.fixups.swaps;
-  prof.fixup_moves = r1.fixups.moves + r2.fixups.moves;
-  prof.fixup_unresolved = r1.fixups.unresolved + r2.fixups.unresolved;
-  prof.merge = r1.merge_s + r2.merge_s;
 
   remove_unused_points(cur);
   prof.interior_points = cur.points.size() - surface.points.size();
-  if (options.optimize) {
+  if (options.optimize_kernel != nullptr || options.optimize) {
     if (!report("optimization", cur.tets.size())) return cancelled("stopped before the optimization");
     t0 = Clock::now();
-    PDR_TRY(options.optimize(cur));
+    if (options.optimize_kernel != nullptr) {
+      PDR_TRY(round("optimization", box1, *options.optimize_kernel, false));
+      if (depth > 0) PDR_TRY(round("shifted optimization", box2, *options.optimize_kernel, false));
+      last_box = depth > 0 ? box2 : box1;
+      prof.optimization_leaves = seconds_since(t0);
+    }
+    if (options.optimize) {
+      // The leaf of each tet is bookkeeping, not a material region: the
+      // optimization must see one region, or it would treat every former leaf
+      // interface as a constraint (no flip across it, its points fixed) and
+      // leave the slivers there. Afterwards each tet gets the leaf of the last
+      // round's grid that holds its barycenter.
+      cur.tet_regions.clear();
+      PDR_TRY(options.optimize(cur));
+      cur.tet_regions.resize(cur.tets.size());
+      for (Index t = 0; t < cur.tets.size(); ++t)
+        cur.tet_regions[t] = static_cast<int>(leaf_of_point(last_box, depth, tet_barycenter(cur, t)));
+    }
     prof.optimization = seconds_since(t0);
   }
   prof.final_tets = cur.tets.size();

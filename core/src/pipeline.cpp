@@ -65,7 +65,12 @@ Result<ParallelResult> mesh_parallel(const SurfaceMesh& surface, const ParallelO
   out.boundary_points = sizing.boundary_points();
   PdrOptions pdr = options.pdr;
   pdr.optimize = nullptr;
+  pdr.optimize_kernel = nullptr;
+  std::optional<NativeLeafKernel> optimizer;
   if (options.optimize) {
+    const OptimizeOptions opt = *options.optimize;
+    optimizer.emplace([opt](TetMesh& leaf, const SizingField& h) { return pdrmesh::optimize(leaf, &h, opt).status(); });
+    pdr.optimize_kernel = &*optimizer;
     pdr.optimize = [&sizing, &options](VolumeMesh& m) { return optimize_volume(m, sizing, *options.optimize); };
   }
   PDR_ASSIGN_OR_RETURN(out.mesh, run_pdr(surface, sizing, *kernel, pdr, &out.profile));

@@ -32,8 +32,8 @@ double coloured_makespan(std::span<const std::vector<Index>> classes,
 }
 
 double dynamic_makespan(std::span<const std::vector<Index>> n1, std::span<const double> dur,
-                        std::size_t workers) {
-  DynamicPicker picker(n1);
+                        std::size_t workers, std::span<const Index> rank) {
+  DynamicPicker picker(n1, rank);
   using Event = std::pair<double, Index>;  // (finish time, leaf)
   std::priority_queue<Event, std::vector<Event>, std::greater<>> running;
   double now = 0;
@@ -60,7 +60,8 @@ double dynamic_makespan(std::span<const std::vector<Index>> n1, std::span<const 
 ReplayResult replay_schedule(std::span<const std::vector<Index>> n1,
                              std::span<const double> durations, std::size_t workers,
                              SchedulePolicy policy,
-                             std::span<const std::vector<Index>> classes) {
+                             std::span<const std::vector<Index>> classes,
+                             std::span<const Index> rank) {
   ReplayResult r;
   r.workers = std::max<std::size_t>(workers, 1);
   for (double d : durations) r.total_s += std::max(0.0, d);
@@ -68,7 +69,7 @@ ReplayResult replay_schedule(std::span<const std::vector<Index>> n1,
     const auto own = classes.empty() ? colour_classes(n1) : std::vector<std::vector<Index>>{};
     r.makespan_s = coloured_makespan(classes.empty() ? std::span(own) : classes, durations, r.workers);
   } else {
-    r.makespan_s = dynamic_makespan(n1, durations, r.workers);
+    r.makespan_s = dynamic_makespan(n1, durations, r.workers, rank);
   }
   r.speedup = r.makespan_s > 0 ? r.total_s / r.makespan_s : 1.0;
   r.efficiency = r.speedup / static_cast<double>(r.workers);

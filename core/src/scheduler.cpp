@@ -6,10 +6,12 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <thread>
 
 #include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/task_arena.h>
-#include <oneapi/tbb/task_group.h>
 
 namespace pdrmesh {
 
@@ -76,9 +78,12 @@ std::vector<std::vector<Index>> colour_classes(const Decomposition& d) {
   return colour_classes(d.n1, order);
 }
 
-DynamicPicker::DynamicPicker(std::span<const std::vector<Index>> n1)
-    : n1_(n1), blocked_(n1.size(), 0), started_(n1.size(), 0) {
-  for (std::size_t l = 0; l < n1.size(); ++l) ready_.push(static_cast<Index>(l));
+DynamicPicker::DynamicPicker(std::span<const std::vector<Index>> n1, std::span<const Index> rank)
+    : n1_(n1), rank_(n1.size()), blocked_(n1.size(), 0), started_(n1.size(), 0) {
+  for (std::size_t l = 0; l < n1.size(); ++l) {
+    rank_[l] = l < rank.size() ? rank[l] : static_cast<Index>(l);
+    ready_.emplace(rank_[l], static_cast<Index>(l));
+  }
 }
 
 void DynamicPicker::adjust(Index leaf, int delta) {
@@ -87,7 +92,7 @@ void DynamicPicker::adjust(Index leaf, int delta) {
     if (delta > 0) {
       ++blocked_[m];
     } else if (--blocked_[m] == 0 && !started_[m]) {
-      ready_.push(m);
+      ready_.emplace(rank_[m], m);
     }
   };
   auto take = [&](Index x) {
@@ -99,13 +104,13 @@ void DynamicPicker::adjust(Index leaf, int delta) {
 }
 
 bool DynamicPicker::has_ready() {
-  while (!ready_.empty() && (started_[ready_.top()] || blocked_[ready_.top()] != 0)) ready_.pop();
+  while (!ready_.empty() && (started_[ready_.top().second] || blocked_[ready_.top().second] != 0)) ready_.pop();
   return !ready_.empty();
 }
 
 Index DynamicPicker::pop_lowest() {
   has_ready();
-  const Index leaf = ready_.top();
+  const Index leaf = ready_.top().second;
   ready_.pop();
   started_[leaf] = 1;
   adjust(leaf, +1);
@@ -165,22 +170,94 @@ void run_alone(Index leaf, std::span<const Index> n1, LockTable& locks, Instrume
   locks.unlock(leaf, n1);
 }
 
+/// kDynamic: `workers` threads run the tasks the calling thread hands them;
+/// the calling thread merges each finished one, unlocks it and hands out what
+/// became ready. Leaves whose lock fails (an asymmetric n1) go to `postponed`.
+void run_dynamic(std::span<const std::vector<Index>> n1, std::size_t workers, LockTable& locks,
+                 Instrument& inst, const std::function<void(Index)>& commit, std::span<const Index> rank,
+                 std::vector<Index>& postponed) {
+  DynamicPicker picker(n1, rank);
+  std::mutex mu;  // guards jobs, done, quit
+  std::condition_variable work_cv, done_cv;
+  std::deque<Index> jobs;
+  std::vector<Index> done;
+  bool quit = false;
+  std::vector<std::thread> pool;
+  pool.reserve(workers);
+  for (std::size_t w = 0; w < workers; ++w) {
+    pool.emplace_back([&] {
+      std::unique_lock lock(mu);
+      for (;;) {
+        work_cv.wait(lock, [&] { return quit || !jobs.empty(); });
+        if (jobs.empty()) return;
+        const Index leaf = jobs.front();
+        jobs.pop_front();
+        lock.unlock();
+        inst(leaf);
+        lock.lock();
+        done.push_back(leaf);
+        done_cv.notify_one();
+      }
+    });
+  }
+  std::size_t in_flight = 0;
+  auto launch = [&] {
+    while (in_flight < workers && picker.has_ready()) {
+      const Index leaf = picker.pop_lowest();
+      if (!locks.try_lock(leaf, n1[leaf])) {
+        picker.finish(leaf);
+        postponed.push_back(leaf);
+        continue;
+      }
+      ++in_flight;
+      {
+        std::lock_guard lock(mu);
+        jobs.push_back(leaf);
+      }
+      work_cv.notify_one();
+    }
+  };
+  launch();
+  std::vector<Index> finished;
+  while (in_flight > 0) {
+    {
+      std::unique_lock lock(mu);
+      done_cv.wait(lock, [&] { return !done.empty(); });
+      finished.swap(done);
+    }
+    for (Index leaf : finished) {
+      commit(leaf);
+      locks.unlock(leaf, n1[leaf]);
+      picker.finish(leaf);
+      --in_flight;
+    }
+    finished.clear();
+    launch();
+  }
+  {
+    std::lock_guard lock(mu);
+    quit = true;
+  }
+  work_cv.notify_all();
+  for (std::thread& t : pool) t.join();
+}
+
 }  // namespace
 
 ScheduleStats run_leaf_tasks(std::span<const std::vector<Index>> n1,
                              std::span<const std::vector<Index>> classes, std::size_t workers,
                              SchedulePolicy policy, const std::function<void(Index)>& run,
-                             const std::function<void(Index)>& commit) {
+                             const std::function<void(Index)>& commit, std::span<const Index> rank) {
   workers = std::max<std::size_t>(workers, 1);
   const std::size_t nl = n1.size();
   ScheduleStats stats;
   LockTable locks(nl);
   Instrument inst(nl, run);
   std::vector<Index> postponed;
-  tbb::task_arena arena(static_cast<int>(workers));
   const auto t0 = Clock::now();
 
   if (policy == SchedulePolicy::kColoured) {
+    tbb::task_arena arena(static_cast<int>(workers));
     std::vector<std::vector<Index>> own;
     if (classes.empty()) {
       own = colour_classes(n1);
@@ -214,39 +291,7 @@ ScheduleStats run_leaf_tasks(std::span<const std::vector<Index>> n1,
       postponed.clear();
     }
   } else {
-    std::mutex mu;  // guards picker, in_flight, postponed, and serialises commits
-    DynamicPicker picker(n1);
-    std::size_t in_flight = 0;
-    tbb::task_group group;
-    std::function<void()> launch;  // called with mu held
-    auto body = [&](Index leaf) {
-      inst(leaf);
-      std::lock_guard lock(mu);
-      commit(leaf);
-      locks.unlock(leaf, n1[leaf]);
-      picker.finish(leaf);
-      --in_flight;
-      launch();
-    };
-    launch = [&] {
-      while (in_flight < workers && picker.has_ready()) {
-        const Index leaf = picker.pop_lowest();
-        if (!locks.try_lock(leaf, n1[leaf])) {
-          picker.finish(leaf);
-          postponed.push_back(leaf);
-          continue;
-        }
-        ++in_flight;
-        group.run([&body, leaf] { body(leaf); });
-      }
-    };
-    arena.execute([&] {
-      {
-        std::lock_guard lock(mu);
-        launch();
-      }
-      group.wait();
-    });
+    run_dynamic(n1, workers, locks, inst, commit, rank, postponed);
     stats.lock_failures = postponed.size();
     std::sort(postponed.begin(), postponed.end());
     for (Index leaf : postponed) run_alone(leaf, n1[leaf], locks, inst, commit);

@@ -9,6 +9,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <span>
 #include <utility>
 #include <vector>
 
@@ -82,6 +83,15 @@ Result<Decomposition> decompose(const VolumeMesh& mesh, int depth);
 /// so a box shifted by half a leaf puts every interface of the unshifted
 /// grid inside a leaf (the PDR interface round).
 Result<Decomposition> decompose(const VolumeMesh& mesh, int depth, const Box& box);
+
+/// The same without interface_faces (left empty) and without the check of
+/// faces shared by more than two tets: the face sort is most of the cost, and
+/// the PDR rounds, which build each leaf's hull themselves, need neither.
+Result<Decomposition> decompose_leaves(const VolumeMesh& mesh, int depth, const Box& box);
+
+/// Decomposition::n1 for the grid leaves `leaves` (ascending grid ids at
+/// `depth`): per entry, the indices of the entries whose boxes touch it.
+std::vector<std::vector<Index>> grid_n1(std::span<const LeafId> leaves, int depth);
 
 /// The octree depth for a mesh of `target_tets` (the initial mesh's tet count)
 /// so that leaves hold about `tets_per_leaf` tets: the smallest d with

@@ -18,6 +18,7 @@
 #include "pdrmesh/sizing.hpp"
 #include "pdrmesh/status.hpp"
 #include "pdrmesh/tet_mesh.hpp"
+#include "pdrmesh/tetgen_adapter.hpp"
 
 namespace pdrmesh {
 
@@ -40,6 +41,10 @@ class NativeLeafKernel final : public LeafKernel {
 
 struct TetgenLeafOptions {
   double time_limit_s = 600;  ///< per leaf (TetGen runs in a child process)
+  /// Test seam: TetGen misbehaves this way (tetgen_adapter.hpp) on leaf
+  /// `fault_leaf` of every round, to test that a crash stays one leaf's problem.
+  TetgenOptions::Fault inject_fault = TetgenOptions::Fault::kNone;
+  std::uint32_t fault_leaf = 0;
 };
 
 class TetgenLeafKernel final : public LeafKernel {

@@ -18,14 +18,17 @@
 // A kernel must return a tet set whose hull is exactly these faces (same
 // triangles, same orientation), so that the neighbours still conform. Input
 // points off the hull may be dropped (TetGen re-fills the hull); hull points
-// may not.
+// may not. Input points off the hull may be moved (an optimization kernel
+// smooths them): the output lists them with their new coordinates; no other
+// leaf uses such a point, so the coordinator applies the move as it merges.
 //
 // Binary layout (little-endian; u32/u64 unsigned, f64 IEEE bits):
 //   input:  magic "PDRLEAFI", u32 version, u32 leaf,
 //           u64 n, n x (u64 id, 3 x f64), u64 m, m x 4 x u32,
 //           u64 k, k x (3 x u32, u32 id as two's complement)
 //   output: magic "PDRLEAFO", u32 version, u32 leaf, u32 input_points,
-//           u64 n, n x 3 x f64, u64 m, m x 4 x u32
+//           u64 n, n x 3 x f64, u64 m, m x 4 x u32, u64 k, k x (u32, 3 x f64)
+// (version 2: the moved points were added).
 // decode() checks every count against the bytes left, indices against the
 // point count, finiteness, repeated vertices and trailing bytes.
 #pragma once
@@ -61,6 +64,8 @@ struct LeafTaskOutput {
   std::uint32_t input_points = 0;  ///< must equal the input's point count
   std::vector<Vec3> new_points;    ///< local reference input_points + k
   std::vector<Tet> tets;           ///< local references (see the file comment), positive
+  std::vector<Index> moved;        ///< input points (off the hull) given new coordinates, ascending
+  std::vector<Vec3> moved_to;      ///< their new coordinates, one per entry of `moved`
 
   std::string encode() const;
   static Result<LeafTaskOutput> decode(std::string_view bytes);
@@ -69,8 +74,10 @@ struct LeafTaskOutput {
 /// The coordinator's acceptance test of `out` for `in`: same leaf and input
 /// point count; references in range; every new point finite and used; no tet
 /// with a repeated vertex or not positively oriented (exact::orient3d); every
-/// face shared by at most two tets, with opposite orientations; and the hull
-/// (faces used once) equal to in.frozen_faces exactly, orientation included.
+/// face shared by at most two tets, with opposite orientations; the hull
+/// (faces used once) equal to in.frozen_faces exactly, orientation included;
+/// moved points ascending, input points not on the hull, finite, and used as
+/// moved in the orientation test.
 /// invalid_input naming the leaf and the first problem otherwise.
 Status validate_leaf_output(const LeafTaskInput& in, const LeafTaskOutput& out);
 
@@ -80,7 +87,8 @@ Status validate_leaf_output(const LeafTaskInput& in, const LeafTaskOutput& out);
 Result<TetMesh> leaf_tet_mesh(const LeafTaskInput& in);
 
 /// The inverse for a TetMesh built by leaf_tet_mesh and then refined: its
-/// alive tets in slot order, with points beyond in.points as new points.
+/// alive tets in slot order, with points beyond in.points as new points and
+/// input points whose coordinates changed as moved.
 LeafTaskOutput leaf_output_from(const LeafTaskInput& in, const TetMesh& mesh);
 
 /// A leaf refinement kernel. run() must be a deterministic function of its
@@ -96,6 +104,14 @@ class LeafKernel {
   /// extraction fix-ups; run_pdr applies them before building the tasks).
   virtual bool needs_manifold_hull() const { return false; }
 };
+
+/// True when `s` says the kernel itself gave up on the leaf (kInternal: a
+/// crash, TetGen failing on the hull; kDeadlineExceeded: the kernel's own time
+/// limit): the same task fails the same way anywhere, so the engine may keep
+/// the leaf unrefined. False for what a kernel reports when the task could not
+/// be run (a dispatcher's kIoError, kResourceExhausted, kInvalidInput refusals,
+/// kCancelled): keeping the leaf then would make the output depend on faults.
+bool is_kernel_failure(const Status& s);
 
 /// Bytes in, bytes out: decodes an input, runs the kernel, encodes its output.
 /// What a remote worker runs.

@@ -7,22 +7,32 @@
 // inside a leaf and is refined too, then an optional final optimization hook.
 //
 // Numbering and determinism. Global point ids are indices into one global point
-// array: the initial mesh's points (the surface points first), then new points
-// appended in merge order, new point k of a leaf result taking the next id. Under
-// SchedulePolicy::kColoured the merge order is fixed (colour classes in order,
-// each in ascending leaf order) and every task reads only its own leaf's tets,
-// whose hull no other task can change, so each task's input bytes, the kernel's
-// output bytes and the ids given are the same for any worker count: the result
-// is byte-identical for 1 and N workers. Tets are listed leaf by leaf (ascending
-// leaf, then kernel output order); unused points (interior points a TetGen
-// kernel dropped) are removed at the end, keeping the order of the rest.
-// kDynamic merges in completion order, so its numbering depends on timing.
+// array: the initial mesh's points (the surface points first), then each
+// round's new points, appended after the round leaf by leaf in ascending leaf
+// order (new point k of a leaf result taking the next id), whatever the order
+// in which the results came in. Every task reads only its own leaf's tets and
+// the points present before the round; its hull is frozen, so no other task
+// changes anything it reads. Hence each task's input bytes, the kernel's output
+// bytes and the ids given are the same for any worker count, policy or timing:
+// the result is byte-identical for 1 and N workers. Tets are listed leaf by
+// leaf (ascending leaf, then kernel output order); unused points (interior
+// points a TetGen kernel dropped) are removed at the end, keeping the order of
+// the rest.
+//
+// Rounds: (1) refinement over the octree grid, (2) the interface round over the
+// grid shifted by half a leaf (every round-1 interface lies inside a leaf),
+// (3) a second interface round over the grid shifted by a quarter leaf (where
+// round-1 and round-2 interface planes cross), then, with an optimization
+// kernel, (4) optimization over the first grid and (5) over the half-shifted
+// grid (issue item 6iii: each region is optimized at least once away from a
+// frozen leaf hull), then the optional global `optimize` hook.
 #pragma once
 
 #include <cstddef>
 #include <functional>
 #include <optional>
 #include <span>
+#include <string>
 #include <string_view>
 #include <vector>
 
@@ -51,24 +61,64 @@ struct PdrOptions {
   int depth = -1;
   std::size_t final_tets_per_leaf = 20000;
   std::size_t workers = 1;
-  SchedulePolicy policy = SchedulePolicy::kColoured;
+  /// Both policies give the same bytes; kDynamic (no barriers) keeps workers busier.
+  SchedulePolicy policy = SchedulePolicy::kDynamic;
   /// The initial TetGen mesh gets max_volume = leaf volume / this (leaf volume
   /// = (octree cube side / 2^depth)^3), so a full leaf holds a few hundred tets.
   double initial_volume_divisor = 200;
-  /// A second round over the decomposition shifted by half a leaf (skipped at
-  /// depth 0, where there are no interfaces).
+  /// ... but never below this times the regular tet volume at the mean h of
+  /// the surface points: a denser initial mesh than the target leaves its
+  /// points in the result (sphere966 at depth 3: 6.7 times the serial tets
+  /// without this bound, 1.07 with 2, 0.52 with 8: too coarse a start leaves
+  /// small leaves nothing to refine between their frozen hulls).
+  double initial_min_volume_factor = 2;
+  /// TetGen -q for the initial mesh (radius-edge bound); unset: none. Without
+  /// it the dense initial mesh holds flat tets of four surface points that no
+  /// round refines and no optimization can flip away (fandisk, elephant:
+  /// min dihedral 2.9 and 6.6 degrees where the serial mesh has 14.5 and 15).
+  std::optional<double> initial_radius_edge = 1.4;
+  /// The interface rounds over the decomposition shifted by half a leaf, then
+  /// by a quarter leaf (skipped at depth 0, where there are no interfaces).
   bool interface_round = true;
+  /// How many of those rounds (1 or 2): after the half-leaf round, coarse
+  /// tets stay where a first-round interface plane crosses a second-round one
+  /// (frozen in both); the quarter-leaf round refines them (hinge, bunny_npm,
+  /// elephant at depth 2: parallel/serial tets 0.81, 0.90, 0.96 with one round,
+  /// 0.84, 0.98, 1.01 with two).
+  int interface_rounds = 2;
   /// Partition swap and boundary extraction; unset: kernel.needs_manifold_hull().
   std::optional<bool> fixups;
   /// Fix-up sweeps (swap then extraction over all leaves) at most, per round.
   std::size_t max_fixup_sweeps = 100;
   double tetgen_time_limit_s = 600;  ///< for the initial mesh
-  /// The final optimization over the merged mesh (optimize.hpp); empty: none.
+  /// Optimization as leaf tasks (rounds 3 and 4 above, over the grid and the
+  /// shifted grid; not owned; null: none). mesh_parallel passes a
+  /// NativeLeafKernel running optimize() with the leaf hull frozen.
+  const LeafKernel* optimize_kernel = nullptr;
+  /// The final optimization over the whole merged mesh (optimize.hpp), after
+  /// the optimization rounds; empty: none. It sees the mesh as one region.
   std::function<Status(VolumeMesh&)> optimize;
+  /// A leaf whose kernel fails (is_kernel_failure: a TetGen crash on its hull,
+  /// say) is kept as it was, unrefined, and counted in
+  /// PdrProfile::failed_leaves; false: the run fails. A task that could not be
+  /// run (a dispatcher's error) and a result that fails validation always fail
+  /// the run.
+  bool keep_failed_leaves = true;
   /// Called on the calling thread at each phase start and after each merged
   /// leaf result (serialised; it must be quick). Returning false stops the run:
   /// no further leaf task starts, and run_pdr returns a kCancelled status.
   std::function<bool(const PdrProgress&)> progress;
+};
+
+/// What one round's schedule was: enough to replay it (schedule_replay.hpp).
+struct RoundRecord {
+  std::string name;                    ///< "refinement", "interface round", ...
+  int depth = 0;
+  std::vector<LeafId> leaves;          ///< grid ids of the round's leaves, ascending
+  std::vector<std::vector<Index>> n1;  ///< the decomposition's N1 (lock sets)
+  std::vector<Index> rank;             ///< kDynamic priority of each leaf
+  std::vector<double> task_s;          ///< measured task seconds per leaf
+  double wall_s = 0;                   ///< the schedule's wall time (tasks and merges)
 };
 
 struct PdrProfile {
@@ -79,9 +129,11 @@ struct PdrProfile {
   double partition_swap = 0;
   double boundary_extraction = 0;
   double leaves = 0;           ///< round one run_leaves wall time (tasks and merges)
-  double merge = 0;            ///< decode + validate + splice, both rounds
-  double interface_round = 0;  ///< round two: decomposition, fix-ups, run_leaves
-  double optimization = 0;
+  double merge = 0;            ///< serial merge work (results stored, splice), all rounds
+  double interface_round = 0;  ///< the interface rounds: decomposition, fix-ups, run_leaves
+  double optimization = 0;     ///< optimization rounds and the global hook
+  double optimization_leaves = 0;  ///< of which the optimization rounds (decomposition included)
+  double task_busy = 0;        ///< sum of all leaf task durations, all rounds
   double total = 0;
   // Counts.
   int depth = 0;
@@ -95,6 +147,9 @@ struct PdrProfile {
   std::size_t interior_points = 0;     ///< result points that are not surface points
   std::size_t final_tets = 0;
   std::size_t max_concurrency = 0;     ///< most leaf tasks seen running at once
+  std::size_t failed_leaves = 0;       ///< leaves kept unrefined after a kernel error, all rounds
+  std::string first_failure;           ///< the first such error
+  std::vector<RoundRecord> rounds;     ///< every round's schedule, in run order
 };
 
 /// Meshes the volume inside `checked_surface` (closed, outward, checked by

@@ -30,8 +30,8 @@ struct ReplayResult {
 ///    to replay what run_leaves does) one after another; within a
 ///    class, tasks in ascending leaf order, each on the earliest free worker
 ///    (ties: lowest worker); the next class starts when the class's last task ends.
-///  kDynamic: DynamicPicker; at each time, free workers start the lowest ready
-///    leaves; completions are processed in (time, leaf) order, and all tasks
+///  kDynamic: DynamicPicker with `rank` (empty: leaf order); at each time,
+///    free workers start the ready leaves of lowest rank; completions are processed in (time, leaf) order, and all tasks
 ///    finishing at one instant release their locks before anything starts.
 /// Negative durations count as 0. Deterministic. Note that the makespan need not
 /// fall as workers are added: greedy list scheduling has anomalies (kDynamic on
@@ -39,6 +39,7 @@ struct ReplayResult {
 ReplayResult replay_schedule(std::span<const std::vector<Index>> n1,
                              std::span<const double> durations, std::size_t workers,
                              SchedulePolicy policy,
-                             std::span<const std::vector<Index>> classes = {});
+                             std::span<const std::vector<Index>> classes = {},
+                             std::span<const Index> rank = {});
 
 }  // namespace pdrmesh

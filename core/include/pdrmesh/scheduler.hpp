@@ -19,14 +19,19 @@
 //     tets) in call order.
 // The price is a barrier per class: a class waits for its slowest task.
 //
-// kDynamic (the paper's Algorithm 1, for comparison). Whenever a worker is free,
-// the lowest-index leaf whose lock set is free is locked and started; when it
-// finishes, its result is merged at once (serialised with other merges, on the
-// worker thread that ran it, under the scheduler's mutex; other tasks keep
-// running), then its lock set is unlocked. No barriers, so workers stay busier,
-// but the merge order, and the neighbour state each task sees, follow the
-// completion order: results depend on timing, unless the tasks ignore their
-// neighbours' refinement and the merges commute.
+// kDynamic (the paper's Algorithm 1). Whenever a worker is free, the ready leaf
+// (its lock set free, not yet started) of lowest rank is locked and started
+// (rank: the caller's priority order, e.g. longest task first; default: leaf
+// index). When it finishes, the calling thread merges its result (merges are
+// serialised, in completion order; other tasks keep running), then unlocks its
+// lock set and starts whatever became ready. No barriers, so workers stay
+// busy, but the merge order and the neighbour state each task sees follow the
+// completion order: the results are independent of timing only when each
+// task's input does not depend on other leaves' merges and the merges commute
+// (run_pdr makes them so: frozen interfaces, and new points numbered in leaf
+// order after the round, not in merge order). The tasks run on exactly
+// `workers` threads of the scheduler's own (std::thread), so the calling
+// thread is free to merge.
 //
 // Both policies lock through one LockTable; a failed lock (impossible when N1 is
 // symmetric, as decompose() makes it) is counted in ScheduleStats::lock_failures
@@ -54,7 +59,7 @@ namespace pdrmesh {
 
 enum class SchedulePolicy {
   kColoured,  ///< colour classes with barriers; deterministic (default)
-  kDynamic,   ///< the paper's lock table, completion-order merges; timing-dependent
+  kDynamic,   ///< the paper's lock table, no barriers, completion-order merges
 };
 
 /// All-or-nothing locking of a leaf and its N1. Thread-safe.
@@ -94,10 +99,12 @@ std::vector<std::vector<Index>> colour_classes(const Decomposition& d);
 /// Not thread-safe.
 class DynamicPicker {
  public:
-  explicit DynamicPicker(std::span<const std::vector<Index>> n1);
+  /// rank: one entry per leaf, the lower starts first among ready leaves (a
+  /// permutation of the leaves is best; ties: lower leaf); empty: the leaf index.
+  explicit DynamicPicker(std::span<const std::vector<Index>> n1, std::span<const Index> rank = {});
   bool has_ready();
-  /// The lowest not-yet-started leaf whose lock set is free; marks it started
-  /// and its lock set taken. Precondition: has_ready().
+  /// The not-yet-started leaf of lowest rank whose lock set is free; marks it
+  /// started and its lock set taken. Precondition: has_ready().
   Index pop_lowest();
   /// Releases the lock set of a leaf returned by pop_lowest.
   void finish(Index leaf);
@@ -105,11 +112,12 @@ class DynamicPicker {
  private:
   void adjust(Index leaf, int delta);
   std::span<const std::vector<Index>> n1_;
+  std::vector<Index> rank_;
   std::vector<unsigned> blocked_;  // per leaf: taken leaves in its lock set
   std::vector<unsigned char> started_;
   // Min-heap of candidates, checked lazily: a leaf is pushed whenever it may have
   // become ready; entries that are started or blocked are dropped at the top.
-  std::priority_queue<Index, std::vector<Index>, std::greater<>> ready_;
+  std::priority_queue<std::pair<Index, Index>, std::vector<std::pair<Index, Index>>, std::greater<>> ready_;  // (rank, leaf)
 };
 
 struct ScheduleStats {
@@ -126,11 +134,12 @@ struct ScheduleStats {
 /// The type-erased engine: run(leaf) computes and stores a leaf's result (it is
 /// called concurrently for leaves with disjoint lock sets), commit(leaf) merges
 /// the stored result (never two at once). n1 has one entry per leaf; `classes`
-/// is the colouring for kColoured (empty: colour_classes(n1)).
+/// is the colouring for kColoured (empty: colour_classes(n1)); `rank` the
+/// kDynamic priority (DynamicPicker).
 ScheduleStats run_leaf_tasks(std::span<const std::vector<Index>> n1,
                              std::span<const std::vector<Index>> classes, std::size_t workers,
                              SchedulePolicy policy, const std::function<void(Index)>& run,
-                             const std::function<void(Index)>& commit);
+                             const std::function<void(Index)>& commit, std::span<const Index> rank = {});
 
 /// Runs task(leaf) for every leaf of `d` exactly once, at most `workers` (0 is
 /// read as 1) at a time, never two with overlapping lock sets, and merge(leaf,
@@ -140,7 +149,7 @@ template <class Result>
 ScheduleStats run_leaves(const Decomposition& d, std::size_t workers,
                          std::function<Result(Index)> task,
                          std::function<void(Index, Result&&)> merge,
-                         SchedulePolicy policy = SchedulePolicy::kColoured) {
+                         SchedulePolicy policy = SchedulePolicy::kColoured, std::span<const Index> rank = {}) {
   std::vector<std::optional<Result>> slots(d.size());
   const auto classes = policy == SchedulePolicy::kColoured ? colour_classes(d)
                                                            : std::vector<std::vector<Index>>{};
@@ -149,7 +158,8 @@ ScheduleStats run_leaves(const Decomposition& d, std::size_t workers,
       [&](Index leaf) {
         merge(leaf, std::move(*slots[leaf]));
         slots[leaf].reset();
-      });
+      },
+      rank);
 }
 
 }  // namespace pdrmesh
