@@ -29,7 +29,10 @@ pids=()
 cleanup() {
   for pid in "${pids[@]}"; do kill -9 "$pid" 2> /dev/null || true; done
   for pid in "${pids[@]}"; do wait "$pid" 2> /dev/null || true; done
-  for n in "${names[@]}" br; do ip netns del "$tag-$n" 2> /dev/null || true; done
+  for n in "${names[@]}" br; do  # anything still inside our namespaces is ours
+    for pid in $(ip netns pids "$tag-$n" 2> /dev/null); do kill -9 "$pid" 2> /dev/null || true; done
+    ip netns del "$tag-$n" 2> /dev/null || true
+  done
   rm -rf "$tmp"
 }
 trap cleanup EXIT
@@ -65,16 +68,17 @@ printf 'alice tok-alice\n' > "$tmp/tokens"
 head -c 24 /dev/urandom | od -An -tx1 | tr -d ' \n' > "$tmp/cluster-token"
 unset PDRMESH_TOKEN_FILE PDRMESH_CONFIG PDRMESH_TLS_CA
 export XDG_CONFIG_HOME=$tmp/config PDRMESH_TOKEN=tok-alice
-in_ns c "$coordinator" --listen "${addr[c]}:7000" --data-dir "$tmp/data" --tokens "$tmp/tokens" \
+# Daemons are started with exec, so that $! is the daemon itself (ip netns exec execs it).
+(exec ip netns exec "$ns_c" "$coordinator" --listen "${addr[c]}:7000" --data-dir "$tmp/data" --tokens "$tmp/tokens" \
   --worker-listen "${addr[c]}:7001" --cluster-token-file "$tmp/cluster-token" --leaf-deadline 4 \
-  --log-level debug > "$tmp/coordinator.out" 2> "$tmp/coordinator.err" &
+  --log-level debug > "$tmp/coordinator.out" 2> "$tmp/coordinator.err") &
 pids+=($!)
 export PDRMESH_SERVER=${addr[c]}:7000
 declare -A wpid
 start_worker() {  # start_worker NAME
-  in_ns "$1" env PDRMESH_WORKER_TEST_LEAF_DELAY_MS=200 "$worker_bin" --listen "${addr[$1]}:7100" \
+  (exec ip netns exec "$tag-$1" env PDRMESH_WORKER_TEST_LEAF_DELAY_MS=200 "$worker_bin" --listen "${addr[$1]}:7100" \
     --coordinator "${addr[c]}:7001" --threads 1 --cluster-token-file "$tmp/cluster-token" --log-level info \
-    > "$tmp/$1.out" 2>> "$tmp/$1.err" &
+    > "$tmp/$1.out" 2>> "$tmp/$1.err") &
   pids+=($!)
   wpid[$1]=$!
 }
@@ -139,6 +143,7 @@ echo "ok: job $id survived w1's link cut for 6 s and $impairment, same bytes"
 id=$(submit)
 wait_for leaves_done "$id" 2
 kill -9 "${wpid[w3]}"
+wait "${wpid[w3]}" 2> /dev/null || true
 faults=$((faults + 1))
 finish "$id"
 echo "ok: job $id survived SIGKILL of w3, same bytes"
