@@ -130,6 +130,9 @@ Result<std::unique_ptr<Coordinator>> Coordinator::BuildAndStart(const Options& o
   }
   c->service_ = std::make_unique<JobServiceImpl>(*c->manager_, c->tokens_, c->stopping_, options.max_watch_s);
   grpc::ServerBuilder builder;
+  grpc::ResourceQuota quota("pdrmesh-client-port");
+  quota.SetMaxThreads(options.max_server_threads);
+  builder.SetResourceQuota(quota);
   builder.AddListeningPort(options.listen_address, creds, &c->port_);
   builder.RegisterService(c->service_.get());
   c->server_ = builder.BuildAndStart();

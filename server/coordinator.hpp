@@ -41,6 +41,9 @@ struct Options {
   bool allow_insecure_remote = false;
   /// Server-side limit on one WatchJob stream, seconds.
   double max_watch_s = 24 * 3600;
+  /// Threads serving client calls at most (grpc::ResourceQuota); calls beyond
+  /// them get RESOURCE_EXHAUSTED.
+  int max_server_threads = 256;
   /// Leaves refined at once in this process when there are no workers
   /// (LocalLeafDispatch); 0: the hardware concurrency.
   std::size_t leaf_threads = 0;

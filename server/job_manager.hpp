@@ -26,6 +26,8 @@ struct UserLimits {
   std::uint64_t max_upload_bytes = 256ULL << 20;  ///< size of one surface file
   int max_queued_jobs = 16;                       ///< queued jobs at once
   int max_running_jobs = 1;                       ///< running at once (more wait queued)
+  int max_open_streams = 16;                      ///< uploads, watches and downloads open at once
+  double max_upload_s = 600;                      ///< one upload, first byte to last
 };
 
 struct ManagerConfig {

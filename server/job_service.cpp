@@ -115,12 +115,31 @@ grpc::Status JobServiceImpl::authenticate(const grpc::ServerContext& context, st
   return grpc::Status::OK;
 }
 
+grpc::Status JobServiceImpl::open_stream(const std::string& user, StreamCounter::Slot& slot) {
+  slot = streams_.try_open(user);
+  if (slot) return grpc::Status::OK;
+  return {grpc::StatusCode::RESOURCE_EXHAUSTED,
+          fmt::format("user {} has {} streams (uploads, watches, downloads) open, the limit (--max-open-streams); "
+                      "close one first",
+                      user, streams_.max_per_user())};
+}
+
 grpc::Status JobServiceImpl::SubmitJob(grpc::ServerContext* context, grpc::ServerReader<v1::SubmitRequest>* reader,
                                        v1::Job* response) {
   std::string user;
   if (auto s = authenticate(*context, user); !s.ok()) return s;
+  StreamCounter::Slot slot;
+  if (auto s = open_stream(user, slot); !s.ok()) return s;
+  const double max_upload_s = manager_.config().limits.max_upload_s;
+  const CallWatchdog::Guard guard = watchdog_.watch(context, max_upload_s);
   v1::SubmitRequest msg;
+  const auto too_slow = [&](std::uint64_t got, std::uint64_t announced) {
+    return grpc::Status(grpc::StatusCode::DEADLINE_EXCEEDED,
+                        fmt::format("the upload took longer than {} s (--max-upload-seconds); {} of {} bytes arrived",
+                                    max_upload_s, got, announced));
+  };
   if (!reader->Read(&msg) || !msg.has_header()) {
+    if (guard.fired()) return too_slow(0, 0);
     return {grpc::StatusCode::INVALID_ARGUMENT, "the first message must be the header (file name, size, options)"};
   }
   const v1::SubmitHeader header = msg.header();
@@ -140,6 +159,7 @@ grpc::Status JobServiceImpl::SubmitJob(grpc::ServerContext* context, grpc::Serve
     }
     bytes += msg.chunk();
   }
+  if (guard.fired()) return too_slow(bytes.size(), header.total_bytes());
   if (context->IsCancelled()) return {grpc::StatusCode::CANCELLED, "the client cancelled the upload"};
   if (bytes.size() != header.total_bytes()) {
     return {grpc::StatusCode::INVALID_ARGUMENT,
@@ -165,6 +185,8 @@ grpc::Status JobServiceImpl::WatchJob(grpc::ServerContext* context, const v1::Wa
                                       grpc::ServerWriter<v1::JobEvent>* writer) {
   std::string user;
   if (auto s = authenticate(*context, user); !s.ok()) return s;
+  StreamCounter::Slot slot;
+  if (auto s = open_stream(user, slot); !s.ok()) return s;
   const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(max_watch_s_);
   std::string last_sent;
   for (;;) {
@@ -223,6 +245,8 @@ grpc::Status JobServiceImpl::FetchResult(grpc::ServerContext* context, const v1:
                                          grpc::ServerWriter<v1::ResultChunk>* writer) {
   std::string user;
   if (auto s = authenticate(*context, user); !s.ok()) return s;
+  StreamCounter::Slot slot;
+  if (auto s = open_stream(user, slot); !s.ok()) return s;
   auto job = manager_.get(user, request->job_id());
   if (!job.ok()) return to_grpc_status(job.status());
   if (job->state != JobState::kSucceeded) {

@@ -9,6 +9,7 @@
 #include <atomic>
 #include <string>
 
+#include "call_limits.hpp"
 #include "job_manager.hpp"
 #include "pdrmesh/v1/pdrmesh.grpc.pb.h"
 #include "tokens.hpp"
@@ -36,7 +37,11 @@ class JobServiceImpl final : public v1::JobService::Service {
  public:
   JobServiceImpl(JobManager& manager, const TokenTable& tokens, const std::atomic<bool>& stopping,
                  double max_watch_s)
-      : manager_(manager), tokens_(tokens), stopping_(stopping), max_watch_s_(max_watch_s) {}
+      : manager_(manager),
+        tokens_(tokens),
+        stopping_(stopping),
+        max_watch_s_(max_watch_s),
+        streams_(manager.config().limits.max_open_streams) {}
 
   grpc::Status SubmitJob(grpc::ServerContext* context, grpc::ServerReader<v1::SubmitRequest>* reader,
                          v1::Job* response) override;
@@ -55,11 +60,15 @@ class JobServiceImpl final : public v1::JobService::Service {
  private:
   /// The caller's user name, or UNAUTHENTICATED.
   grpc::Status authenticate(const grpc::ServerContext& context, std::string& user) const;
+  /// A stream slot of `user`, or RESOURCE_EXHAUSTED naming the limit.
+  grpc::Status open_stream(const std::string& user, StreamCounter::Slot& slot);
 
   JobManager& manager_;
   const TokenTable& tokens_;
   const std::atomic<bool>& stopping_;
   double max_watch_s_;
+  CallWatchdog watchdog_;
+  StreamCounter streams_;
 };
 
 }  // namespace pdrmesh::server

@@ -27,6 +27,18 @@ int main(int argc, char** argv) {
   app.add_option("--max-running-jobs", o.limits.max_running_jobs, "per user: running jobs at once")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
+  app.add_option("--max-open-streams", o.limits.max_open_streams,
+                 "per user: uploads, watches and downloads open at once")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--max-upload-seconds", o.limits.max_upload_s,
+                 "one upload may take this long, first byte to last (slow or endless uploads are cut)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--max-server-threads", o.max_server_threads,
+                 "threads serving client calls at most (further calls get RESOURCE_EXHAUSTED)")
+      ->check(CLI::Range(4, 100000))
+      ->capture_default_str();
   app.add_option("--threads", o.runner_threads, "jobs run at once in total")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();

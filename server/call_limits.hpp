@@ -1,0 +1,103 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// Bounds on what one client can hold on the coordinator's client port, which
+// uses gRPC's synchronous API (one server thread per call in flight):
+//  * CallWatchdog cancels a call that outlives its time (an upload that never
+//    ends, a client that sends one byte a second), whatever deadline the
+//    client set or did not set;
+//  * StreamCounter caps the streaming calls (uploads, watches, downloads) one
+//    user has open at once, so that one user cannot take every server thread.
+// The server's total threads are capped by a grpc::ResourceQuota (coordinator.cpp).
+#pragma once
+
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <map>
+#include <mutex>
+#include <string>
+#include <thread>
+
+namespace grpc {
+class ServerContext;
+}
+
+namespace pdrmesh::server {
+
+class CallWatchdog {
+ public:
+  CallWatchdog();
+  ~CallWatchdog();  ///< joins the thread; no guard may outlive the watchdog
+  CallWatchdog(const CallWatchdog&) = delete;
+  CallWatchdog& operator=(const CallWatchdog&) = delete;
+
+  /// While alive, the call is cancelled (ServerContext::TryCancel: its reads
+  /// and writes fail) once `seconds` have passed.
+  class Guard {
+   public:
+    Guard(CallWatchdog& dog, std::uint64_t id) : dog_(&dog), id_(id) {}
+    Guard(const Guard&) = delete;
+    Guard& operator=(const Guard&) = delete;
+    ~Guard();
+    /// True when the watchdog cancelled the call.
+    bool fired() const;
+
+   private:
+    CallWatchdog* dog_;
+    std::uint64_t id_;
+  };
+  Guard watch(grpc::ServerContext* context, double seconds);
+
+ private:
+  struct Entry {
+    std::chrono::steady_clock::time_point deadline;
+    grpc::ServerContext* context;
+    bool fired = false;
+  };
+  void loop();
+
+  mutable std::mutex mu_;
+  std::condition_variable cv_;
+  std::map<std::uint64_t, Entry> calls_;
+  std::uint64_t next_id_ = 0;
+  bool stopping_ = false;
+  std::thread thread_;
+};
+
+class StreamCounter {
+ public:
+  explicit StreamCounter(int max_per_user) : max_(max_per_user) {}
+
+  /// One open stream of a user; released when destroyed.
+  class Slot {
+   public:
+    Slot() = default;
+    Slot(StreamCounter* counter, std::string user) : counter_(counter), user_(std::move(user)) {}
+    Slot(Slot&& o) noexcept : counter_(o.counter_), user_(std::move(o.user_)) { o.counter_ = nullptr; }
+    Slot& operator=(Slot&& o) noexcept {
+      if (this != &o) {
+        release();
+        counter_ = o.counter_;
+        user_ = std::move(o.user_);
+        o.counter_ = nullptr;
+      }
+      return *this;
+    }
+    ~Slot() { release(); }
+    explicit operator bool() const { return counter_ != nullptr; }
+
+   private:
+    void release() noexcept;
+    StreamCounter* counter_ = nullptr;
+    std::string user_;
+  };
+  /// A slot, or an empty one when `user` has max_per_user streams open.
+  Slot try_open(const std::string& user);
+  int max_per_user() const { return max_; }
+
+ private:
+  std::mutex mu_;
+  std::map<std::string, int> open_;
+  int max_;
+};
+
+}  // namespace pdrmesh::server

@@ -1,0 +1,143 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// Resource exhaustion on the client port: an upload that never ends or trickles
+// is cut, a user's open streams are capped, a surface whose header declares
+// billions of triangles is refused at once; each time another user goes on.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cstdint>
+#include <fstream>
+#include <memory>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "coordinator.hpp"
+#include "service_client.hpp"
+#include "service_fixture.hpp"
+
+namespace pdrmesh::server {
+namespace {
+
+using namespace std::chrono_literals;
+
+class Limits : public Service {
+ protected:
+  std::unique_ptr<v1::JobService::Stub> stub() const {
+    return v1::JobService::NewStub(grpc::CreateChannel("127.0.0.1:" + std::to_string(coordinator_->port()),
+                                                       grpc::InsecureChannelCredentials()));
+  }
+  /// Bob's queued job and a watch of it, to show he is still served.
+  void expect_bob_served() const {
+    auto bob = client("tok-bob");
+    v1::Job job;
+    ASSERT_TRUE(bob->submit(kSphere, v1::MeshOptions{}, job).ok());
+    v1::Job got;
+    ASSERT_TRUE(bob->get(job.id(), got).ok());
+    EXPECT_EQ(got.state(), v1::JOB_STATE_QUEUED);
+  }
+};
+
+TEST_F(Limits, AnUploadThatTricklesIsCutAtTheUploadTimeLimit) {
+  UserLimits limits;
+  limits.max_upload_s = 1;
+  start(0, limits);
+  auto s = stub();
+  grpc::ClientContext context;
+  context.AddMetadata("authorization", "Bearer tok-alice");
+  context.set_deadline(std::chrono::system_clock::now() + 30s);  // far beyond the server's limit
+  v1::Job response;
+  auto writer = s->SubmitJob(&context, &response);
+  v1::SubmitRequest header;
+  header.mutable_header()->set_file_name("slow.stl");
+  header.mutable_header()->set_total_bytes(1000);
+  ASSERT_TRUE(writer->Write(header));
+  const auto t0 = std::chrono::steady_clock::now();
+  v1::SubmitRequest chunk;
+  chunk.set_chunk("s");
+  // One byte every 100 ms: 1000 bytes would take 100 s.
+  while (writer->Write(chunk) && std::chrono::steady_clock::now() - t0 < 20s) std::this_thread::sleep_for(100ms);
+  const grpc::Status status = writer->Finish();
+  EXPECT_FALSE(status.ok());
+  EXPECT_NE(status.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED) << "the server cut it, not our 30 s deadline";
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, 15s);
+  v1::ListJobsResponse list;
+  ASSERT_TRUE(client("tok-alice")->list(list).ok());
+  EXPECT_EQ(list.jobs_size(), 0);
+  expect_bob_served();
+}
+
+TEST_F(Limits, AUsersOpenStreamsAreCappedAndOthersGoOn) {
+  UserLimits limits;
+  limits.max_open_streams = 2;
+  start(0, limits);  // no runner: jobs stay queued, so their watches stay open
+  auto alice = client("tok-alice");
+  v1::Job job;
+  ASSERT_TRUE(alice->submit(kSphere, v1::MeshOptions{}, job).ok());
+  auto s = stub();
+  std::vector<std::unique_ptr<grpc::ClientContext>> contexts;
+  std::vector<std::unique_ptr<grpc::ClientReader<v1::JobEvent>>> watches;
+  v1::WatchJobRequest request;
+  request.set_job_id(job.id());
+  for (int i = 0; i < 2; ++i) {
+    contexts.push_back(std::make_unique<grpc::ClientContext>());
+    contexts.back()->AddMetadata("authorization", "Bearer tok-alice");
+    watches.push_back(s->WatchJob(contexts.back().get(), request));
+    v1::JobEvent event;
+    ASSERT_TRUE(watches.back()->Read(&event));  // the stream is open on the server
+  }
+  grpc::ClientContext third;
+  third.AddMetadata("authorization", "Bearer tok-alice");
+  auto refused = s->WatchJob(&third, request);
+  v1::JobEvent event;
+  EXPECT_FALSE(refused->Read(&event));
+  const grpc::Status status = refused->Finish();
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_NE(status.error_message().find("--max-open-streams"), std::string::npos) << status.error_message();
+  expect_bob_served();
+  // Closing a stream frees its slot once the server sees it closed (its watch
+  // loop wakes at least every 500 ms).
+  contexts[0]->TryCancel();
+  (void)watches[0]->Finish();
+  bool reopened_ok = false;
+  for (int attempt = 0; attempt < 50 && !reopened_ok; ++attempt) {
+    grpc::ClientContext again;
+    again.AddMetadata("authorization", "Bearer tok-alice");
+    auto reopened = s->WatchJob(&again, request);
+    reopened_ok = reopened->Read(&event);
+    again.TryCancel();
+    (void)reopened->Finish();
+    if (!reopened_ok) std::this_thread::sleep_for(100ms);
+  }
+  EXPECT_TRUE(reopened_ok);
+  for (std::size_t i = 1; i < contexts.size(); ++i) {
+    contexts[i]->TryCancel();
+    (void)watches[i]->Finish();
+  }
+}
+
+TEST_F(Limits, ASurfaceDeclaringBillionsOfTrianglesIsRefusedAtOnce) {
+  start(0);
+  // A binary STL header claiming 4,000,000,000 triangles, with one.
+  const auto path = dir_.path() / "huge.stl";
+  {
+    std::ofstream out(path, std::ios::binary);
+    out << std::string(80, ' ');
+    const std::uint32_t count = 4000000000U;
+    out.write(reinterpret_cast<const char*>(&count), 4);
+    const float tri[12] = {0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 0};
+    out.write(reinterpret_cast<const char*>(tri), sizeof tri);
+    out << std::string(2, '\0');
+  }
+  auto alice = client("tok-alice");
+  v1::Job job;
+  const auto t0 = std::chrono::steady_clock::now();
+  const grpc::Status status = alice->submit(path, v1::MeshOptions{}, job);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
+  EXPECT_NE(status.error_message().find("huge.stl"), std::string::npos) << status.error_message();
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, 5s);
+  expect_bob_served();
+}
+
+}  // namespace
+}  // namespace pdrmesh::server
