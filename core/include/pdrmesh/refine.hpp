@@ -33,12 +33,26 @@
 //     is below the radius are crossed, frozen faces never): this finds every
 //     point that a straight segment inside the mesh joins to the candidate
 //     within the radius, and adapts to graded h without a global grid.
-//  4. Reconnection after each insertion: a FIFO queue of the tets it created;
-//     for each alive one, flip 2-3 across each of its faces, then edge removal
-//     (3-2, 4-4, up to kMaxRemovalRing tets) on each of its edges, under the
-//     min-max dihedral criterion (flips.hpp); the tets of a flip that succeeds
-//     join the queue. A tet is skipped when neither it nor a face neighbour
-//     has a dihedral angle above min_max_angle. No sweep over the mesh.
+//  4. Insertion with the Delaunay step: constrained Bowyer-Watson. The cavity
+//     grows from the tets that contain the candidate across unfrozen faces
+//     within one region to every tet whose circumsphere holds it strictly
+//     (exact insphere); tets with a boundary face the point does not see
+//     strictly (exact orient3d) are dropped until the cavity is star-shaped,
+//     and it is re-tiled as the point's star (one TetMesh::replace_cavity).
+//     When that cannot be done (a containing tet would be dropped, a cavity
+//     vertex would vanish, over 1024 tets), the point splits its tet, face or
+//     edge and Lawson's flips (2-3, 3-2) follow instead.
+//  5. Reconnection (min-max), by default once at the end of each pass
+//     (defer_min_max; else after each insertion): a FIFO queue of the tets
+//     created since the last quality evaluation (their cached quality is still
+//     unknown), in slot order; for each alive one, flip 2-3 across each face,
+//     then edge removal (3-2, 4-4, up to kMaxRemovalRing tets) on each edge,
+//     under the min-max dihedral criterion (flips.hpp); the tets of a flip that
+//     succeeds join the queue. A tet is skipped when neither it nor a face
+//     neighbour has a dihedral angle above min_max_angle. Then edges longer
+//     than long_edge_ratio * h are removed from the same tets where
+//     remove_long_edge allows it (no angle above min_max_angle, shorter new
+//     edges). No sweep over the mesh beyond the slot scan.
 //
 // Frozen faces are never split, flipped or crossed and no point is added on
 // them; hull faces get no point either. The result is a pure function of the
@@ -96,6 +110,13 @@ struct RefineOptions {
   /// final dihedral extremes as good; t alone (no neighbour test) left worse
   /// extremes on bunny_npm (3.3 / 175.6 degrees after optimization).
   double min_max_angle = 150.0;
+  /// Run step 2 once at the end of each pass, from every tet created during
+  /// the pass that is still alive, instead of after each insertion.
+  bool defer_min_max = true;
+  /// With defer_min_max: after step 2, edges longer than this times the mean h
+  /// of their ends are removed where a flip can do it without a dihedral angle
+  /// above min_max_angle (flips.hpp remove_long_edge); 0: off.
+  double long_edge_ratio = 1.2;
 };
 
 /// Checks the options (positive, finite distances and limits).

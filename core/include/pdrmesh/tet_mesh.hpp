@@ -183,6 +183,7 @@ class TetMesh {
   std::vector<OuterFace> outer_;
   std::vector<int> old_regions_;
   std::vector<Index> created_;
+  std::vector<Index> bucket_;  ///< replace_cavity's face table: index into faces_, or kNoIndex
 };
 
 }  // namespace pdrmesh
