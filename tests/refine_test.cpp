@@ -150,6 +150,30 @@ TEST(Refine, CavityInsertionKeepsTheMeshDelaunay) {
   EXPECT_TRUE(report.ok()) << format_validation(report);
 }
 
+TEST(Refine, InteriorFillsInFewPassesFromACoarseBoundary) {
+  // The cube's boundary triangles are ten times h: advancing one layer per
+  // pass from them takes many passes; the longest-edge midpoints of interior
+  // tets with no front face fill the inside at once.
+  const SurfaceMesh surface = fixtures::unit_cube_surface();
+  const VolumeMesh initial = fixtures::unit_cube_mesh();
+  const SizingField field = uniform_field(surface, initial, 0.1);
+  std::size_t passes[2] = {0, 0};
+  for (bool fill : {false, true}) {
+    TetMesh m = fixtures::build(initial);
+    RefineOptions o;
+    o.void_midpoints = fill;
+    auto r = refine(m, field, o);
+    ASSERT_TRUE(r.ok()) << r.status().to_string();
+    ASSERT_TRUE(m.check().ok()) << m.check().to_string();
+    passes[fill ? 1 : 0] = r->passes.size();
+    std::size_t edges = 0;
+    const VolumeMesh out = m.to_volume_mesh();
+    EXPECT_GE(interior_edge_share(out, boundary_points(out), 0.1, &edges), 0.9) << fill;
+  }
+  EXPECT_LT(2 * passes[1], passes[0]) << passes[1] << " passes with the interior midpoints, "
+                                      << passes[0] << " without";
+}
+
 /// Two unit cubes side by side along x, each cut like the Kuhn cube (their
 /// common face x = 1 gets the same diagonal from both).
 VolumeMesh two_boxes() {

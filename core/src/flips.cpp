@@ -55,7 +55,8 @@ FlipOutcome remove_edge_of_size(TetMesh& m, Index t, int e, int required,
     if (m.frozen(t, f)) return FlipOutcome::kConstrained;
   }
   EdgeRing r;
-  if (!m.edge_ring(t, e, r) || !r.closed) return FlipOutcome::kNotApplicable;
+  if (!m.edge_ring(t, e, r, required != 0 ? required : kMaxRemovalRing) || !r.closed)
+    return FlipOutcome::kNotApplicable;
   const int n = r.size;
   if ((required != 0 && n != required) || n < 3 || n > kMaxRemovalRing)
     return FlipOutcome::kNotApplicable;

@@ -135,6 +135,7 @@ class Refiner {
         }
         continue;
       }
+      const std::size_t before = candidates_.size();
       for (int f = 0; f < 4; ++f) {
         const Index a = k[topo::kFaceVertex[f][0]], b = k[topo::kFaceVertex[f][1]],
                     c = k[topo::kFaceVertex[f][2]];
@@ -150,7 +151,24 @@ class Refiner {
         const Vec3 g = (1.0 / 3.0) * (pa + pb + pc);
         candidates_.push_back({g - (o_.advance_ratio * hf / ln) * normal, t, k});
       }
+      if (o_.void_midpoints && candidates_.size() == before) {
+        // No front face: a tet of the unfilled interior. Its longest edge's
+        // midpoint is a candidate too, after every front candidate.
+        int longest = 0;
+        double best = -1.0;
+        for (int e = 0; e < 6; ++e) {
+          const Vec3 d = m_.point(k[topo::kEdgeVertex[e][0]]) - m_.point(k[topo::kEdgeVertex[e][1]]);
+          if (dot(d, d) > best) {
+            best = dot(d, d);
+            longest = e;
+          }
+        }
+        const Index a = k[topo::kEdgeVertex[longest][0]], b = k[topo::kEdgeVertex[longest][1]];
+        if (!short_edge(a, b)) voids_.push_back({0.5 * (m_.point(a) + m_.point(b)), t, k});
+      }
     }
+    candidates_.insert(candidates_.end(), voids_.begin(), voids_.end());
+    voids_.clear();
   }
 
   /// The proximity test: false when a point lies within `r_point` of p, or a
@@ -551,6 +569,7 @@ class Refiner {
   const RefineOptions& o_;
   std::vector<double> h_;  ///< h at each point, evaluated when it entered the mesh
   std::vector<Candidate> candidates_;
+  std::vector<Candidate> voids_;  ///< collect's interior candidates, placed after the front's
   std::vector<std::uint32_t> stamp_;
   std::uint32_t epoch_ = 0;
   std::vector<Index> stack_;

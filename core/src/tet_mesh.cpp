@@ -155,7 +155,8 @@ void TetMesh::set_frozen(Index t, int f, bool on) {
   nf = static_cast<Flags>(on ? nf | nbit : nf & ~nbit);
 }
 
-bool TetMesh::edge_ring(Index t, int e, EdgeRing& r) const {
+bool TetMesh::edge_ring(Index t, int e, EdgeRing& r, int max_size) const {
+  const int limit = std::clamp(max_size, 1, EdgeRing::kMax);
   const Tet& k = tets_[t];
   r.a = k[topo::kEdgeVertex[e][0]];
   r.b = k[topo::kEdgeVertex[e][1]];
@@ -166,7 +167,7 @@ bool TetMesh::edge_ring(Index t, int e, EdgeRing& r) const {
   // Walk backwards (through the face opposite q) to the first tet of an open ring.
   r.closed = false;
   for (int step = 0;; ++step) {
-    if (step > EdgeRing::kMax) return false;
+    if (step > limit) return false;
     const Index n = adj_[cur][topo::local_vertex(tets_[cur], q)];
     if (n == kNoIndex) break;
     const Index u = face_tet(n);
@@ -185,7 +186,7 @@ bool TetMesh::edge_ring(Index t, int e, EdgeRing& r) const {
   const Index first = cur;
   r.size = 0;
   for (;;) {
-    if (r.size == EdgeRing::kMax) return false;
+    if (r.size == limit) return false;
     r.tets[r.size] = cur;
     r.ring[r.size] = p;
     ++r.size;

@@ -16,7 +16,10 @@
 //     tet slot order then face order, a candidate is placed on the face's inward
 //     normal through its centroid, at advance_ratio * h_f from it, with h_f the
 //     mean h of a, b, c: the apex of a regular tet of edge h_f when
-//     advance_ratio = sqrt(2/3). When a pass has no front candidate accepted,
+//     advance_ratio = sqrt(2/3). An active tet with no front face (the
+//     unfilled interior, e.g. behind boundary triangles much larger than h)
+//     offers the midpoint of its longest edge instead, after all the front
+//     candidates of the pass (void_midpoints). When a pass has no front candidate accepted,
 //     the next pass uses every face of every active tet (a fallback for active
 //     tets cut off from the front); the passes end when that too accepts none.
 //  3. Rejection and insertion, one candidate at a time in that order (departure
@@ -113,6 +116,11 @@ struct RefineOptions {
   /// Run step 2 once at the end of each pass, from every tet created during
   /// the pass that is still alive, instead of after each insertion.
   bool defer_min_max = true;
+  /// Front stage: an active tet with no front face (the unfilled interior)
+  /// offers the midpoint of its longest edge when that edge is long, after
+  /// every front candidate of the pass; the interior then fills in a few
+  /// passes instead of one layer per pass from a coarse boundary.
+  bool void_midpoints = true;
   /// With defer_min_max: after step 2, edges longer than this times the mean h
   /// of their ends are removed where a flip can do it without a dihedral angle
   /// above min_max_angle (flips.hpp remove_long_edge); 0: off.
