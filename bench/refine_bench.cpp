@@ -12,7 +12,8 @@
 //   usage: pdrmesh_bench_refine [CORPUS_DIR [NAME...]]
 //   environment: PDRMESH_BENCH_SIZES=dflt|d100 (one size only), PDRMESH_BENCH_VERBOSE
 //   (per-pass lines), PDRMESH_BENCH_NO_OPTIMIZE, PDRMESH_BENCH_NO_MIN_MAX,
-//   PDRMESH_BENCH_EACH_INSERTION (min-max step after each insertion), PDRMESH_BENCH_MIN_MAX_ANGLE=A
+//   PDRMESH_BENCH_EACH_INSERTION (min-max step after each insertion), PDRMESH_BENCH_MIN_MAX_ANGLE=A,
+//   PDRMESH_BENCH_SWEEPS=N (optimization sweeps)
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -79,7 +80,13 @@ void run(const std::string& dir, const std::string& name, bool fine) {
   }
   const std::clock_t c1 = std::clock();
   if (std::getenv("PDRMESH_BENCH_NO_OPTIMIZE") == nullptr) {
-    auto ostats = optimize(*mesh, &*field);
+    OptimizeOptions oo;
+    if (const char* v = std::getenv("PDRMESH_BENCH_SWEEPS")) oo.sweeps = std::atoi(v);
+    auto ostats = optimize(*mesh, &*field, oo);
+    if (verbose && ostats.ok())
+      fmt::print(stderr, "  optimize: {} sweeps, bad {} -> {}, {} flips, {} slivers removed, {} points inserted, {} moved\n",
+                 ostats->sweeps_run, ostats->bad_before, ostats->bad_after, ostats->flips, ostats->slivers_removed,
+                 ostats->points_inserted, ostats->points_moved);
     if (!ostats.ok()) {
       fmt::print("{:<13} optimize failed: {}\n", name, ostats.status().to_string());
       return;

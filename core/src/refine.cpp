@@ -107,6 +107,18 @@ class Refiner {
     return true;
   }
 
+  /// True when an edge of t is longer than twice split_ratio times the mean h of its ends.
+  bool in_void(Index t) const {
+    const Tet& k = m_.tet(t);
+    for (int e = 0; e < 6; ++e) {
+      const Index a = k[topo::kEdgeVertex[e][0]], b = k[topo::kEdgeVertex[e][1]];
+      const Vec3 d = m_.point(a) - m_.point(b);
+      const double limit = 2.0 * o_.split_ratio * 0.5 * (h_[a] + h_[b]);
+      if (dot(d, d) > limit * limit) return true;
+    }
+    return false;
+  }
+
   void deactivate() {
     for (Index t = 0; t < m_.num_slots(); ++t)
       if (m_.alive(t) && m_.active(t) && satisfied(t)) m_.set_active(t, false);
@@ -494,9 +506,14 @@ class Refiner {
   /// Deferred min-max step at the end of a pass: flips from every tet created
   /// since the last quality evaluation (cache still unknown), in slot order.
   std::size_t reconnect_pass(std::size_t inserted) {
+    // While points still go in, a tet of the unfilled interior (an edge over
+    // twice split_ratio * h) is left for later: the next passes split it
+    // anyway (its quality stays unknown, so the first pass that inserts
+    // nothing takes it up).
     queue_.clear();
     for (Index t = 0; t < m_.num_slots(); ++t)
-      if (m_.alive(t) && std::isnan(m_.cached_quality(t))) queue_.push_back(t);
+      if (m_.alive(t) && std::isnan(m_.cached_quality(t)) && (inserted == 0 || !in_void(t)))
+        queue_.push_back(t);
     seeds_ = queue_;
     const std::size_t budget = o_.max_flips_per_point * std::max<std::size_t>(inserted, 1);
     std::size_t flips = reconnect(budget, false);
