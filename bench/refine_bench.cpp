@@ -13,7 +13,8 @@
 //   environment: PDRMESH_BENCH_SIZES=dflt|d100 (one size only), PDRMESH_BENCH_VERBOSE
 //   (per-pass lines), PDRMESH_BENCH_NO_OPTIMIZE, PDRMESH_BENCH_NO_MIN_MAX,
 //   PDRMESH_BENCH_EACH_INSERTION (min-max step after each insertion), PDRMESH_BENCH_MIN_MAX_ANGLE=A,
-//   PDRMESH_BENCH_SWEEPS=N (optimization sweeps)
+//   PDRMESH_BENCH_SWEEPS=N (optimization sweeps), PDRMESH_BENCH_LONG_EDGE_RATIO=R,
+//   PDRMESH_BENCH_NO_VOID_MIDPOINTS
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -68,6 +69,8 @@ void run(const std::string& dir, const std::string& name, bool fine) {
   if (const char* v = std::getenv("PDRMESH_BENCH_MIN_MAX_ANGLE")) ro.min_max_angle = std::atof(v);
   if (std::getenv("PDRMESH_BENCH_NO_MIN_MAX") != nullptr) ro.min_max = false;
   if (std::getenv("PDRMESH_BENCH_EACH_INSERTION") != nullptr) ro.defer_min_max = false;
+  if (const char* v = std::getenv("PDRMESH_BENCH_LONG_EDGE_RATIO")) ro.long_edge_ratio = std::atof(v);
+  if (std::getenv("PDRMESH_BENCH_NO_VOID_MIDPOINTS") != nullptr) ro.void_midpoints = false;
   auto stats = refine(*mesh, *field, ro, [&](const RefinePassStats& p) {
     if (verbose)
       fmt::print(stderr, "  pass {:>3}: {:>8} candidates {:>8} accepted {:>8} inserted {:>8} flips {:>9} tets {:.3f}s\n",
