@@ -1,23 +1,32 @@
 // SPDX-License-Identifier: AGPL-3.0-or-later
 // pdrmesh_bench_refine: runs the serial pipeline's steps (TetGen initial mesh,
-// sizing field, refinement) on corpus surfaces at the default spacing and at
-// size = bounding-box diagonal / 100, validates each mesh and prints a table:
-// tets, refinement seconds and tets/s, the share of interior edges (no boundary
+// sizing field, refinement, optimization) on corpus surfaces at the default
+// spacing and at size = bounding-box diagonal / 100, validates each mesh and
+// prints a table: tets, refinement and optimization CPU seconds (one thread;
+// CPU time rather than wall time because the bench machine is shared), their
+// wall time together, tets per CPU second of refinement + optimization, the share of interior edges (no boundary
 // endpoint) with length in [0.6, 1.5] h(midpoint) (and the shares below/above),
 // dihedral extremes over all tets and over interior tets (no boundary vertex),
 // and the share of interior tets with every dihedral angle in [15, 150].
 // Not a test: it asserts nothing.
 //   usage: pdrmesh_bench_refine [CORPUS_DIR [NAME...]]
+//   environment: PDRMESH_BENCH_SIZES=dflt|d100 (one size only), PDRMESH_BENCH_VERBOSE
+//   (per-pass lines), PDRMESH_BENCH_NO_OPTIMIZE, PDRMESH_BENCH_NO_MIN_MAX,
+//   PDRMESH_BENCH_EACH_INSERTION (min-max step after each insertion), PDRMESH_BENCH_MIN_MAX_ANGLE=A,
+//   PDRMESH_BENCH_SWEEPS=N (optimization sweeps), PDRMESH_BENCH_LONG_EDGE_RATIO=R,
+//   PDRMESH_BENCH_NO_VOID_MIDPOINTS
 #include <fmt/format.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <ctime>
 #include <cstdlib>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "pdrmesh/optimize.hpp"
 #include "pdrmesh/quality.hpp"
 #include "pdrmesh/refine.hpp"
 #include "pdrmesh/sizing.hpp"
@@ -54,17 +63,40 @@ void run(const std::string& dir, const std::string& name, bool fine) {
     return;
   }
   const auto t0 = Clock::now();
+  const std::clock_t c0 = std::clock();
   const bool verbose = std::getenv("PDRMESH_BENCH_VERBOSE") != nullptr;
-  auto stats = refine(*mesh, *field, {}, [&](const RefinePassStats& p) {
+  RefineOptions ro;
+  if (const char* v = std::getenv("PDRMESH_BENCH_MIN_MAX_ANGLE")) ro.min_max_angle = std::atof(v);
+  if (std::getenv("PDRMESH_BENCH_NO_MIN_MAX") != nullptr) ro.min_max = false;
+  if (std::getenv("PDRMESH_BENCH_EACH_INSERTION") != nullptr) ro.defer_min_max = false;
+  if (const char* v = std::getenv("PDRMESH_BENCH_LONG_EDGE_RATIO")) ro.long_edge_ratio = std::atof(v);
+  if (std::getenv("PDRMESH_BENCH_NO_VOID_MIDPOINTS") != nullptr) ro.void_midpoints = false;
+  auto stats = refine(*mesh, *field, ro, [&](const RefinePassStats& p) {
     if (verbose)
       fmt::print(stderr, "  pass {:>3}: {:>8} candidates {:>8} accepted {:>8} inserted {:>8} flips {:>9} tets {:.3f}s\n",
                  p.pass, p.candidates, p.accepted, p.inserted, p.flips, p.tets, p.seconds);
   });
-  const double seconds = seconds_since(t0);
+  const double refine_cpu = double(std::clock() - c0) / CLOCKS_PER_SEC;
   if (!stats.ok()) {
     fmt::print("{:<13} refine failed: {}\n", name, stats.status().to_string());
     return;
   }
+  const std::clock_t c1 = std::clock();
+  if (std::getenv("PDRMESH_BENCH_NO_OPTIMIZE") == nullptr) {
+    OptimizeOptions oo;
+    if (const char* v = std::getenv("PDRMESH_BENCH_SWEEPS")) oo.sweeps = std::atoi(v);
+    auto ostats = optimize(*mesh, &*field, oo);
+    if (verbose && ostats.ok())
+      fmt::print(stderr, "  optimize: {} sweeps, bad {} -> {}, {} flips, {} slivers removed, {} points inserted, {} moved\n",
+                 ostats->sweeps_run, ostats->bad_before, ostats->bad_after, ostats->flips, ostats->slivers_removed,
+                 ostats->points_inserted, ostats->points_moved);
+    if (!ostats.ok()) {
+      fmt::print("{:<13} optimize failed: {}\n", name, ostats.status().to_string());
+      return;
+    }
+  }
+  const double optimize_cpu = double(std::clock() - c1) / CLOCKS_PER_SEC;
+  const double seconds = seconds_since(t0);
   const VolumeMesh out = mesh->to_volume_mesh();
   const ValidationReport report = validate_mesh(out, &*surface);
 
@@ -101,9 +133,10 @@ void run(const std::string& dir, const std::string& name, bool fine) {
     inner.max = std::max(inner.max, r.max);
   }
   const double n = edges.empty() ? 1.0 : double(edges.size());
-  fmt::print("{:<13} {:>5} {:>9} {:>4} {:>8.2f} {:>9.0f} {:>6.1f}% {:>5.1f}% {:>5.1f}% {:>6.1f} {:>6.1f} {:>6.1f} {:>6.1f} {:>6.1f}% {}\n",
-             name, fine ? "d/100" : "dflt", out.tets.size(), stats->passes.size(), seconds,
-             double(out.tets.size()) / seconds, 100.0 * double(good) / n, 100.0 * double(shorter) / n,
+  const double cpu = refine_cpu + optimize_cpu;
+  fmt::print("{:<13} {:>5} {:>9} {:>4} {:>6.2f} {:>6.2f} {:>6.2f} {:>9.0f} {:>6.1f}% {:>5.1f}% {:>5.1f}% {:>6.1f} {:>6.1f} {:>6.1f} {:>6.1f} {:>6.1f}% {}\n",
+             name, fine ? "d/100" : "dflt", out.tets.size(), stats->passes.size(), refine_cpu, optimize_cpu,
+             seconds, double(out.tets.size()) / cpu, 100.0 * double(good) / n, 100.0 * double(shorter) / n,
              100.0 * double(longer) / n, all.min, all.max, inner.min, inner.max,
              inner_tets ? 100.0 * double(inner_good) / double(inner_tets) : 0.0,
              report.ok() ? "valid" : "INVALID: " + (report.errors.empty() ? std::string() : report.errors[0]));
@@ -119,10 +152,12 @@ int main(int argc, char** argv) {
   if (names.empty())
     names = {"sphere966", "bunny_npm", "hinge", "elephant", "couplingdown",
              "knot2", "fandisk", "primitives13", "armadillo", "frame"};
-  fmt::print("{:<13} {:>5} {:>9} {:>4} {:>8} {:>9} {:>7} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>7} {}\n", "surface",
-             "size", "tets", "pass", "refine_s", "tets/s", "in[.6,1.5]", "<.6", ">1.5", "dmin", "dmax", "idmin",
+  fmt::print("{:<13} {:>5} {:>9} {:>4} {:>6} {:>6} {:>6} {:>9} {:>7} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>7} {}\n", "surface",
+             "size", "tets", "pass", "ref_s", "opt_s", "wall_s", "tets/cpu_s", "in[.6,1.5]", "<.6", ">1.5", "dmin", "dmax", "idmin",
              "idmax", "i[15,150]", "validate");
+  const char* sizes = std::getenv("PDRMESH_BENCH_SIZES");  // "dflt", "d100" or both (unset)
   for (const std::string& name : names)
-    for (bool fine : {false, true}) run(dir, name, fine);
+    for (bool fine : {false, true})
+      if (sizes == nullptr || std::string(sizes) == (fine ? "d100" : "dflt")) run(dir, name, fine);
   return 0;
 }

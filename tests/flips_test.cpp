@@ -203,6 +203,41 @@ TEST(EdgeRemoval, NonConvexRingKeepsOnlyValidTriangulations) {
   expect_done(m, remove_edge(m, 0, kEdgeAB), 6, vol, worst);
 }
 
+TEST(LongEdgeRemoval, AcceptsAWorseResultAboveTheFloor) {
+  // A short edge through a wide ring: remove_edge finds nothing better, but
+  // with a floor the 3-2 flip (which adds no edge) goes through.
+  const VolumeMesh v = ring_around(3, 1.0, -0.3, 0.3);
+  expect_edge_flip_declined(v, remove_edge, FlipOutcome::kNotBetter);
+  TetMesh m = build(v);
+  const double vol = total_volume(m);
+  ASSERT_EQ(remove_long_edge(m, 0, kEdgeAB, -0.999), FlipOutcome::kDone);
+  EXPECT_TRUE(m.check().ok()) << m.check().to_string();
+  EXPECT_EQ(m.num_tets(), 2u);
+  EXPECT_NEAR(total_volume(m), vol, 1e-12 * vol);
+  for (Index t : m.last_created()) EXPECT_GT(tet_quality(m, m.tet(t)), -0.999);
+}
+
+TEST(LongEdgeRemoval, DeclinesBelowTheFloor) {
+  // Nothing has a largest dihedral angle under 1e-3 degrees' cosine.
+  TetMesh m = build(ring_around(3, 1.0, -0.3, 0.3));
+  const VolumeMesh before = m.to_volume_mesh();
+  expect_declined(m, remove_long_edge(m, 0, kEdgeAB, std::cos(1e-3)), FlipOutcome::kNotBetter, before);
+}
+
+TEST(LongEdgeRemoval, NeverCreatesAnEdgeAsLongAsTheRemovedOne) {
+  // Four tets around a short edge: every triangulation of the square ring adds
+  // a diagonal of length 2 > 0.6.
+  TetMesh m = build(ring_around(4, 1.0, -0.3, 0.3));
+  const VolumeMesh before = m.to_volume_mesh();
+  expect_declined(m, remove_long_edge(m, 0, kEdgeAB, -0.999), FlipOutcome::kNotBetter, before);
+  // Around a long edge (6 > 2) it goes through.
+  TetMesh tall = build(ring_around(4, 1.0, -3, 3));
+  ASSERT_EQ(remove_long_edge(tall, 0, kEdgeAB, -0.999), FlipOutcome::kDone);
+  EXPECT_TRUE(tall.check().ok());
+  EXPECT_EQ(fixtures::find_edge(tall, 0, 1).first, kNoIndex);
+  EXPECT_EQ(remove_long_edge(tall, 0, kEdgeAB, std::nan("")), FlipOutcome::kNotApplicable);
+}
+
 TEST(FlipCriterion, QualityDependsOnTheVertexSetOnly) {
   const TetMesh m = build(fixtures::cube());
   const Tet& k = m.tet(0);

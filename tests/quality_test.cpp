@@ -3,7 +3,11 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdint>
+#include <vector>
 #include <numbers>
 
 namespace pdrmesh {
@@ -33,6 +37,29 @@ TEST(DihedralAngles, SliverHasAnglesNearZeroAndPi) {
   const auto r = dihedral_range({0, 0, 0}, {1, 0, 0}, {1, 1, 1e-3}, {0, 1, 0});
   EXPECT_LT(r.min, 1.0);
   EXPECT_GT(r.max, 179.0);
+}
+
+TEST(DihedralRange, EqualsTheExtremesOfTheSixAngles) {
+  // dihedral_range takes two acos instead of six: the same doubles, bit for
+  // bit, on positive, inverted, flat and degenerate tets.
+  std::uint64_t state = 12345;
+  const auto next = [&state] {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return static_cast<double>(state >> 11) / 9007199254740992.0 - 0.5;
+  };
+  std::vector<std::array<Vec3, 4>> tets;
+  for (int i = 0; i < 2000; ++i) tets.push_back({Vec3{next(), next(), next()}, Vec3{next(), next(), next()},
+                                                 Vec3{next(), next(), next()}, Vec3{next(), next(), next()}});
+  tets.push_back({kA, kB, kC, kD});
+  tets.push_back({Vec3{0, 0, 0}, Vec3{1, 0, 0}, Vec3{1, 1, 0}, Vec3{0, 1, 0}});  // flat
+  tets.push_back({Vec3{0, 0, 0}, Vec3{1, 0, 0}, Vec3{2, 0, 0}, Vec3{0, 1, 1}});  // a degenerate face
+  tets.push_back({Vec3{0, 0, 0}, Vec3{0, 0, 0}, Vec3{0, 0, 0}, Vec3{0, 0, 0}});  // a point
+  for (const auto& p : tets) {
+    const auto a = dihedral_angles(p[0], p[1], p[2], p[3]);
+    const AngleRange r = dihedral_range(p[0], p[1], p[2], p[3]);
+    EXPECT_EQ(r.min, *std::min_element(a.begin(), a.end()));
+    EXPECT_EQ(r.max, *std::max_element(a.begin(), a.end()));
+  }
 }
 
 TEST(VerdictShape, OneForRegularZeroForInverted) {

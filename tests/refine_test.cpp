@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "pdrmesh/pipeline.hpp"
+#include "pdrmesh/predicates.hpp"
 #include "pdrmesh/surface_io.hpp"
 #include "pdrmesh/validate.hpp"
 #include "test_fixtures.hpp"
@@ -114,6 +115,63 @@ TEST(Refine, IsDeterministic) {
   ASSERT_EQ(a.points.size(), b.points.size());
   ASSERT_EQ(a.tets, b.tets);
   EXPECT_EQ(std::memcmp(a.points.data(), b.points.data(), a.points.size() * sizeof(Vec3)), 0);
+}
+
+TEST(Refine, CavityInsertionKeepsTheMeshDelaunay) {
+  // With the Delaunay step alone (no min-max, no long-edge flips), Bowyer-Watson
+  // insertion into the Delaunay initial cube leaves every interior face locally
+  // Delaunay: the apex across it is not strictly inside the tet's circumsphere.
+  const SurfaceMesh surface = fixtures::unit_cube_surface();
+  const VolumeMesh initial = fixtures::unit_cube_mesh();
+  const SizingField field = uniform_field(surface, initial, 0.2);
+  TetMesh m = fixtures::build(initial);
+  RefineOptions o;
+  o.min_max = false;
+  o.long_edge_ratio = 0;
+  auto r = refine(m, field, o);
+  ASSERT_TRUE(r.ok()) << r.status().to_string();
+  ASSERT_GT(r->points_added, 50u);
+  ASSERT_TRUE(m.check().ok()) << m.check().to_string();
+  std::size_t faces = 0;
+  for (Index t = 0; t < m.num_slots(); ++t) {
+    if (!m.alive(t)) continue;
+    const Tet& k = m.tet(t);
+    for (int f = 0; f < 4; ++f) {
+      const Index n = m.neighbour(t, f);
+      if (n == kNoIndex) continue;
+      ++faces;
+      const Vec3& e = m.point(m.tet(face_tet(n))[face_local(n)]);
+      EXPECT_LE(exact::insphere(m.point(k[0]), m.point(k[1]), m.point(k[2]), m.point(k[3]), e), 0)
+          << "tet " << t << " face " << f;
+    }
+  }
+  EXPECT_GT(faces, 100u);
+  const ValidationReport report = validate_mesh(m.to_volume_mesh(), &surface);
+  EXPECT_TRUE(report.ok()) << format_validation(report);
+}
+
+TEST(Refine, InteriorFillsInFewPassesFromACoarseBoundary) {
+  // The cube's boundary triangles are ten times h: advancing one layer per
+  // pass from them takes many passes; the longest-edge midpoints of interior
+  // tets with no front face fill the inside at once.
+  const SurfaceMesh surface = fixtures::unit_cube_surface();
+  const VolumeMesh initial = fixtures::unit_cube_mesh();
+  const SizingField field = uniform_field(surface, initial, 0.1);
+  std::size_t passes[2] = {0, 0};
+  for (bool fill : {false, true}) {
+    TetMesh m = fixtures::build(initial);
+    RefineOptions o;
+    o.void_midpoints = fill;
+    auto r = refine(m, field, o);
+    ASSERT_TRUE(r.ok()) << r.status().to_string();
+    ASSERT_TRUE(m.check().ok()) << m.check().to_string();
+    passes[fill ? 1 : 0] = r->passes.size();
+    std::size_t edges = 0;
+    const VolumeMesh out = m.to_volume_mesh();
+    EXPECT_GE(interior_edge_share(out, boundary_points(out), 0.1, &edges), 0.9) << fill;
+  }
+  EXPECT_LT(2 * passes[1], passes[0]) << passes[1] << " passes with the interior midpoints, "
+                                      << passes[0] << " without";
 }
 
 /// Two unit cubes side by side along x, each cut like the Kuhn cube (their

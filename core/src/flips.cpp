@@ -42,7 +42,11 @@ double candidate_quality(const TetMesh& m, const Tet& k, double floor, bool* pru
   return q;
 }
 
-FlipOutcome remove_edge_of_size(TetMesh& m, Index t, int e, int required) {
+/// Edge removal (ring size `required`, 0: any). The new tets must all beat the
+/// old ones' worst quality, or, when `floor` is not NaN, beat min(floor, that
+/// worst) and create no edge as long as the removed one (remove_long_edge).
+FlipOutcome remove_edge_of_size(TetMesh& m, Index t, int e, int required,
+                                double floor = std::numeric_limits<double>::quiet_NaN()) {
   if (t >= m.num_slots() || !m.alive(t)) return FlipOutcome::kNotApplicable;
   // Cheap rejections first: t's own faces on the edge, and its hull faces.
   for (int s = 0; s < 2; ++s) {
@@ -51,7 +55,8 @@ FlipOutcome remove_edge_of_size(TetMesh& m, Index t, int e, int required) {
     if (m.frozen(t, f)) return FlipOutcome::kConstrained;
   }
   EdgeRing r;
-  if (!m.edge_ring(t, e, r) || !r.closed) return FlipOutcome::kNotApplicable;
+  if (!m.edge_ring(t, e, r, required != 0 ? required : kMaxRemovalRing) || !r.closed)
+    return FlipOutcome::kNotApplicable;
   const int n = r.size;
   if ((required != 0 && n != required) || n < 3 || n > kMaxRemovalRing)
     return FlipOutcome::kNotApplicable;
@@ -64,6 +69,19 @@ FlipOutcome remove_edge_of_size(TetMesh& m, Index t, int e, int required) {
     if (m.region(u) != m.region(r.tets[0])) return FlipOutcome::kConstrained;
     old_quality = std::min(old_quality, quality_of(m, u));
   }
+  const bool shorten = !std::isnan(floor);
+  double edge2 = std::numeric_limits<double>::infinity();
+  if (shorten) {
+    old_quality = std::min(old_quality, floor);
+    const Vec3 d = m.point(r.a) - m.point(r.b);
+    edge2 = dot(d, d);
+  }
+  // A diagonal (ring[i], ring[j]) that is not a side of the ring polygon is a new edge.
+  const auto too_long = [&](int i, int j) {
+    if (!shorten || j - i < 2 || (i == 0 && j == r.size - 1)) return false;
+    const Vec3 d = m.point(r.ring[i]) - m.point(r.ring[j]);
+    return dot(d, d) >= edge2;
+  };
 
   // Klincsek: best[i][j] = the best smallest quality over triangulations of the
   // sub-polygon ring[i..j]; triangle (i, k, j) yields the tets
@@ -84,6 +102,10 @@ FlipOutcome remove_edge_of_size(TetMesh& m, Index t, int e, int required) {
       for (int k = i + 1; k < j; ++k) {
         double v = std::min(best[i][k], best[k][j]);
         if (v <= best[i][j]) continue;  // cannot win; skip the predicates
+        if (too_long(i, k) || too_long(k, j) || too_long(i, j)) {
+          pruned = true;  // declined for its length: "not better", not "would invert"
+          continue;
+        }
         const double qb = candidate_quality(m, {p[i], p[k], p[j], b}, old_quality, &pruned);
         v = std::min(v, qb);
         if (v <= best[i][j]) continue;
@@ -212,6 +234,11 @@ FlipOutcome flip44(TetMesh& mesh, Index t, int e) { return remove_edge_of_size(m
 
 FlipOutcome remove_edge(TetMesh& mesh, Index t, int e) {
   return remove_edge_of_size(mesh, t, e, 0);
+}
+
+FlipOutcome remove_long_edge(TetMesh& mesh, Index t, int e, double floor) {
+  if (std::isnan(floor)) return FlipOutcome::kNotApplicable;
+  return remove_edge_of_size(mesh, t, e, 0, floor);
 }
 
 }  // namespace pdrmesh

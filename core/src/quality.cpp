@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <nlohmann/json.hpp>
@@ -43,9 +44,27 @@ std::array<double, 6> dihedral_angles(const Vec3& a, const Vec3& b, const Vec3& 
 }
 
 AngleRange dihedral_range(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
-  const auto angles = dihedral_angles(a, b, c, d);
-  const auto [lo, hi] = std::minmax_element(angles.begin(), angles.end());
-  return {*lo, *hi};
+  // The same values as the extremes of dihedral_angles, with two acos instead
+  // of six: the angle 180 - acos(cos) rises with the cosine of the normals.
+  const std::array<Vec3, 4> n{cross(c - b, d - b), cross(d - a, c - a), cross(b - a, d - a),
+                              cross(c - a, b - a)};
+  const std::array<double, 4> len{norm(n[0]), norm(n[1]), norm(n[2]), norm(n[3])};
+  static constexpr int kPair[6][2] = {{2, 3}, {1, 3}, {1, 2}, {0, 3}, {0, 2}, {0, 1}};
+  double lo = 2.0, hi = -2.0;
+  bool flat = false;  // a degenerate face: angle 0 (angle_between_normals)
+  for (const auto& [i, j] : kPair) {
+    const double l = len[i] * len[j];
+    if (l == 0.0) {
+      flat = true;
+      continue;
+    }
+    const double cosine = std::clamp(dot(n[i], n[j]) / l, -1.0, 1.0);
+    lo = std::min(lo, cosine);
+    hi = std::max(hi, cosine);
+  }
+  const auto angle = [](double cosine) { return 180.0 - std::acos(cosine) * kDegrees; };
+  if (hi < -1.0) return {0.0, 0.0};  // every face degenerate
+  return {flat ? 0.0 : angle(lo), angle(hi)};
 }
 
 double verdict_shape(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {

@@ -10,6 +10,8 @@
 #include <span>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 
 #include "pdrmesh/flips.hpp"
 #include "pdrmesh/insert.hpp"
@@ -79,6 +81,7 @@ class Refiner {
           m_.set_active(first.tet, false);
         i = j;
       }
+      if (o_.reconnect && o_.min_max && o_.defer_min_max) ps.flips += reconnect_pass(ps.inserted);
       ps.tets = m_.num_tets();
       ps.seconds = seconds_since(tp);
       stats.points_added += ps.inserted;
@@ -102,6 +105,18 @@ class Refiner {
     for (int e = 0; e < 6; ++e)
       if (!short_edge(k[topo::kEdgeVertex[e][0]], k[topo::kEdgeVertex[e][1]])) return false;
     return true;
+  }
+
+  /// True when an edge of t is longer than twice split_ratio times the mean h of its ends.
+  bool in_void(Index t) const {
+    const Tet& k = m_.tet(t);
+    for (int e = 0; e < 6; ++e) {
+      const Index a = k[topo::kEdgeVertex[e][0]], b = k[topo::kEdgeVertex[e][1]];
+      const Vec3 d = m_.point(a) - m_.point(b);
+      const double limit = 2.0 * o_.split_ratio * 0.5 * (h_[a] + h_[b]);
+      if (dot(d, d) > limit * limit) return true;
+    }
+    return false;
   }
 
   void deactivate() {
@@ -132,6 +147,7 @@ class Refiner {
         }
         continue;
       }
+      const std::size_t before = candidates_.size();
       for (int f = 0; f < 4; ++f) {
         const Index a = k[topo::kFaceVertex[f][0]], b = k[topo::kFaceVertex[f][1]],
                     c = k[topo::kFaceVertex[f][2]];
@@ -147,7 +163,24 @@ class Refiner {
         const Vec3 g = (1.0 / 3.0) * (pa + pb + pc);
         candidates_.push_back({g - (o_.advance_ratio * hf / ln) * normal, t, k});
       }
+      if (o_.void_midpoints && candidates_.size() == before) {
+        // No front face: a tet of the unfilled interior. Its longest edge's
+        // midpoint is a candidate too, after every front candidate.
+        int longest = 0;
+        double best = -1.0;
+        for (int e = 0; e < 6; ++e) {
+          const Vec3 d = m_.point(k[topo::kEdgeVertex[e][0]]) - m_.point(k[topo::kEdgeVertex[e][1]]);
+          if (dot(d, d) > best) {
+            best = dot(d, d);
+            longest = e;
+          }
+        }
+        const Index a = k[topo::kEdgeVertex[longest][0]], b = k[topo::kEdgeVertex[longest][1]];
+        if (!short_edge(a, b)) voids_.push_back({0.5 * (m_.point(a) + m_.point(b)), t, k});
+      }
     }
+    candidates_.insert(candidates_.end(), voids_.begin(), voids_.end());
+    voids_.clear();
   }
 
   /// The proximity test: false when a point lies within `r_point` of p, or a
@@ -218,6 +251,13 @@ class Refiner {
     if (!clear_around(l.tet, c.p, o_.reject_distance * h, o_.boundary_reject_distance * h))
       return false;
     ++ps.accepted;
+    if (o_.reconnect && o_.delaunay && cavity_insert(l, c.p, h)) {
+      ++ps.inserted;
+      queue_.assign(m_.last_created().begin(), m_.last_created().end());
+      last_tet_ = m_.last_created()[0];
+      if (o_.min_max && !o_.defer_min_max) ps.flips += reconnect();
+      return true;
+    }
     const InsertResult r = insert_at(m_, l, c.p);
     if (r.outcome != InsertOutcome::kDone) return false;
     ++ps.inserted;
@@ -225,8 +265,145 @@ class Refiner {
     last_tet_ = m_.last_created()[0];
     if (o_.reconnect) {
       if (o_.delaunay) ps.flips += delaunay_flips(r.point);
-      if (o_.min_max) ps.flips += reconnect();
+      if (o_.min_max && !o_.defer_min_max) ps.flips += reconnect();
     }
+    return true;
+  }
+
+  /// Fresh marks for the cavity search: stamp_ holds in_ for a tet in the
+  /// cavity, out_ for one tested and left out (clear_around's marks differ).
+  void next_epoch() {
+    if (stamp_.size() < m_.num_slots()) stamp_.resize(m_.num_slots(), 0);
+    if (epoch_ > 0xFFFFFFF0u) {  // about to wrap: reset the stamps
+      std::fill(stamp_.begin(), stamp_.end(), 0u);
+      epoch_ = 0;
+    }
+    in_ = ++epoch_;
+    out_ = ++epoch_;
+  }
+
+  /// True when face f of cavity tet t is on the cavity's boundary.
+  bool cavity_face(Index t, int f) const {
+    const Index n = m_.neighbour(t, f);
+    return n == kNoIndex || stamp_[face_tet(n)] != in_;
+  }
+
+  /// Constrained Bowyer-Watson insertion of p at location l (one cavity
+  /// replacement instead of a 1-4 split and tens of Lawson flips): the cavity
+  /// grows from the tets that contain p across unfrozen faces within one region
+  /// to every tet whose circumsphere holds p strictly (exact insphere); then
+  /// tets whose boundary faces p does not see strictly (exact orient3d) are
+  /// dropped, seeds excepted, until the cavity is star-shaped from p, and it is
+  /// re-tiled as the star of p over its boundary. False (nothing changed) when
+  /// a seed would have to go, a cavity vertex would vanish or the cavity grows
+  /// past kMaxCavity tets: the caller then splits and flips instead.
+  bool cavity_insert(const Location& l, const Vec3& p, double h) {
+    static constexpr std::size_t kMaxCavity = 1024;
+    next_epoch();
+    const std::uint32_t in = in_, out = out_;
+    cavity_.clear();
+    const auto add = [&](Index t) {
+      stamp_[t] = in;
+      cavity_.push_back(t);
+    };
+    switch (l.kind) {
+      case LocationKind::kInTet:
+        add(l.tet);
+        break;
+      case LocationKind::kOnFace:
+        if (m_.frozen(l.tet, l.local) || m_.neighbour(l.tet, l.local) == kNoIndex) return false;
+        add(l.tet);
+        add(face_tet(m_.neighbour(l.tet, l.local)));
+        break;
+      case LocationKind::kOnEdge: {
+        if (!m_.edge_ring(l.tet, l.local, ring_) || !ring_.closed) return false;
+        for (int i = 0; i < ring_.size; ++i) {
+          const Index u = ring_.tets[i];
+          if (m_.frozen(u, topo::local_vertex(m_.tet(u), ring_.ring[i]))) return false;
+          add(u);
+        }
+        break;
+      }
+      default:
+        return false;
+    }
+    const std::size_t seeds = cavity_.size();
+    for (std::size_t i = 1; i < seeds; ++i)
+      if (m_.region(cavity_[i]) != m_.region(cavity_[0])) return false;
+    const int region = m_.region(cavity_[0]);
+    const double reach = o_.delaunay_reach * h;
+    const double reach2 = reach * reach;
+    for (std::size_t i = 0; i < cavity_.size(); ++i) {
+      const Index t = cavity_[i];
+      for (int f = 0; f < 4; ++f) {
+        const Index n = m_.neighbour(t, f);
+        if (n == kNoIndex || m_.frozen(t, f)) continue;
+        const Index u = face_tet(n);
+        if (stamp_[u] == in || stamp_[u] == out) continue;
+        const Tet& k = m_.tet(u);
+        bool take = m_.region(u) == region;
+        if (take && reach2 < std::numeric_limits<double>::infinity()) {
+          const Vec3 d = m_.point(k[face_local(n)]) - p;
+          take = dot(d, d) <= reach2;
+        }
+        take = take && exact::insphere(m_.point(k[0]), m_.point(k[1]), m_.point(k[2]), m_.point(k[3]), p) > 0;
+        if (!take) {
+          stamp_[u] = out;
+          continue;
+        }
+        if (cavity_.size() == kMaxCavity) return false;
+        add(u);
+      }
+    }
+    // Star-shapedness: drop the tets with a boundary face that p does not see.
+    for (bool changed = true; changed;) {
+      changed = false;
+      for (std::size_t i = 0; i < cavity_.size(); ++i) {
+        const Index t = cavity_[i];
+        if (stamp_[t] != in) continue;
+        const Tet& k = m_.tet(t);
+        for (int f = 0; f < 4; ++f) {
+          if (!cavity_face(t, f)) continue;
+          if (exact::orient3d(m_.point(k[topo::kFaceVertex[f][0]]), m_.point(k[topo::kFaceVertex[f][1]]),
+                              m_.point(k[topo::kFaceVertex[f][2]]), p) < 0)
+            continue;
+          if (i < seeds) return false;
+          stamp_[t] = out;
+          changed = true;
+          break;
+        }
+      }
+    }
+    std::size_t kept = 0;
+    for (const Index t : cavity_)
+      if (stamp_[t] == in) cavity_[kept++] = t;
+    cavity_.resize(kept);
+    // The star over the boundary faces; every cavity vertex must stay in it.
+    fresh_.clear();
+    parent_.clear();
+    if (vstamp_.size() < m_.num_points()) vstamp_.resize(m_.num_points(), 0);
+    if (++vepoch_ == 0) {  // wrapped: reset the marks
+      std::fill(vstamp_.begin(), vstamp_.end(), 0u);
+      vepoch_ = 1;
+    }
+    for (std::size_t i = 0; i < cavity_.size(); ++i) {
+      const Index t = cavity_[i];
+      const Tet& k = m_.tet(t);
+      for (int f = 0; f < 4; ++f) {
+        if (!cavity_face(t, f)) continue;
+        const Index a = k[topo::kFaceVertex[f][0]], b = k[topo::kFaceVertex[f][1]], c = k[topo::kFaceVertex[f][2]];
+        vstamp_[a] = vstamp_[b] = vstamp_[c] = vepoch_;
+        fresh_.push_back({a, c, b, kNoIndex});
+        parent_.push_back(static_cast<Index>(i));
+      }
+    }
+    for (const Index t : cavity_)
+      for (const Index v : m_.tet(t))
+        if (vstamp_[v] != vepoch_) return false;
+    const Index q = m_.add_point(p);
+    h_.push_back(h);
+    for (Tet& k : fresh_) k[3] = q;
+    m_.replace_cavity(cavity_, fresh_, parent_);
     return true;
   }
 
@@ -326,9 +503,60 @@ class Refiner {
     return false;
   }
 
+  /// Deferred min-max step at the end of a pass: flips from every tet created
+  /// since the last quality evaluation (cache still unknown), in slot order.
+  std::size_t reconnect_pass(std::size_t inserted) {
+    // While points still go in, a tet of the unfilled interior (an edge over
+    // twice split_ratio * h) is left for later: the next passes split it
+    // anyway (its quality stays unknown, so the first pass that inserts
+    // nothing takes it up).
+    queue_.clear();
+    for (Index t = 0; t < m_.num_slots(); ++t)
+      if (m_.alive(t) && std::isnan(m_.cached_quality(t)) && (inserted == 0 || !in_void(t)))
+        queue_.push_back(t);
+    seeds_ = queue_;
+    const std::size_t budget = o_.max_flips_per_point * std::max<std::size_t>(inserted, 1);
+    std::size_t flips = reconnect(budget, false);
+    if (o_.long_edge_ratio > 0.0) flips += shorten_long_edges(budget);
+    return flips;
+  }
+
+  /// Removes edges longer than long_edge_ratio times the mean h of their ends
+  /// from the tets in seeds_ (and the tets those flips create), by
+  /// remove_long_edge with the floor min_max_angle: a flip may lower the local
+  /// worst angle but keeps it under min_max_angle (or no worse than before).
+  std::size_t shorten_long_edges(std::size_t budget) {
+    queue_ = seeds_;
+    const double floor = bad_cos_ >= -1.0 ? bad_cos_ : -1.0;
+    std::size_t flips = 0;
+    for (std::size_t head = 0; head < queue_.size() && flips < budget; ++head) {
+      const Index t = queue_[head];
+      if (!m_.alive(t)) continue;
+      const Tet k = m_.tet(t);
+      for (int e = 0; e < 6; ++e) {
+        const Index a = k[topo::kEdgeVertex[e][0]], b = k[topo::kEdgeVertex[e][1]];
+        const Vec3 d = m_.point(a) - m_.point(b);
+        const double limit = o_.long_edge_ratio * 0.5 * (h_[a] + h_[b]);
+        if (dot(d, d) <= limit * limit) continue;
+        if (remove_long_edge(m_, t, e, floor) != FlipOutcome::kDone) continue;
+        ++flips;
+        const auto created = m_.last_created();
+        queue_.insert(queue_.end(), created.begin(), created.end());
+        break;
+      }
+    }
+    if (!m_.last_created().empty()) last_tet_ = m_.last_created()[0];
+    return flips;
+  }
+
   /// Flips around the tets the last insertion created; returns the flips done.
-  std::size_t reconnect() {
-    if (!o_.delaunay) {
+  std::size_t reconnect() { return reconnect(o_.max_flips_per_point, true); }
+
+  /// Flips from the tets in queue_ (fill = true: first refill it with the
+  /// tets the last insertion created) until `budget` flips succeeded.
+  std::size_t reconnect(std::size_t budget, bool fill) {
+    if (!fill) {
+    } else if (!o_.delaunay) {
       queue_.assign(m_.last_created().begin(), m_.last_created().end());
     } else {  // the tets the Delaunay step left alive, in queue order
       std::size_t kept = 0;
@@ -337,7 +565,7 @@ class Refiner {
       queue_.resize(kept);
     }
     std::size_t flips = 0;
-    for (std::size_t head = 0; head < queue_.size() && flips < o_.max_flips_per_point; ++head) {
+    for (std::size_t head = 0; head < queue_.size() && flips < budget; ++head) {
       const Index t = queue_[head];
       if (!m_.alive(t)) continue;
       if (bad_cos_ >= -1.0 && !near_bad(t)) continue;
@@ -358,10 +586,18 @@ class Refiner {
   const RefineOptions& o_;
   std::vector<double> h_;  ///< h at each point, evaluated when it entered the mesh
   std::vector<Candidate> candidates_;
+  std::vector<Candidate> voids_;  ///< collect's interior candidates, placed after the front's
   std::vector<std::uint32_t> stamp_;
   std::uint32_t epoch_ = 0;
   std::vector<Index> stack_;
   std::vector<Index> queue_;
+  std::vector<Index> seeds_;
+  std::vector<Index> cavity_;
+  std::vector<Tet> fresh_;
+  std::vector<Index> parent_;
+  std::vector<std::uint32_t> vstamp_;  ///< cavity_insert's vertex marks
+  std::uint32_t vepoch_ = 0;
+  std::uint32_t in_ = 0, out_ = 0;
   EdgeRing ring_;
   Index last_tet_ = 0;
   double bad_cos_ = -2.0;  ///< cosine of min_max_angle; -2 when every tet is tried

@@ -60,4 +60,12 @@ FlipOutcome flip44(TetMesh& mesh, Index t, int e);
 /// smallest max_dihedral_cosine (dynamic programming over the ring polygon).
 FlipOutcome remove_edge(TetMesh& mesh, Index t, int e);
 
+/// Edge removal that shortens: like remove_edge, but accepted when every new
+/// tet's quality is above min(floor, the old tets' worst) (so a flip may lower
+/// the local worst as long as it stays above `floor`), and only over
+/// triangulations of the ring whose new edges are all strictly shorter than the
+/// removed one (so repeated use ends: the multiset of edge lengths falls).
+/// The refiner removes over-long edges with it. kNotApplicable for a NaN floor.
+FlipOutcome remove_long_edge(TetMesh& mesh, Index t, int e, double floor);
+
 }  // namespace pdrmesh

@@ -16,7 +16,10 @@
 //     tet slot order then face order, a candidate is placed on the face's inward
 //     normal through its centroid, at advance_ratio * h_f from it, with h_f the
 //     mean h of a, b, c: the apex of a regular tet of edge h_f when
-//     advance_ratio = sqrt(2/3). When a pass has no front candidate accepted,
+//     advance_ratio = sqrt(2/3). An active tet with no front face (the
+//     unfilled interior, e.g. behind boundary triangles much larger than h)
+//     offers the midpoint of its longest edge instead, after all the front
+//     candidates of the pass (void_midpoints). When a pass has no front candidate accepted,
 //     the next pass uses every face of every active tet (a fallback for active
 //     tets cut off from the front); the passes end when that too accepts none.
 //  3. Rejection and insertion, one candidate at a time in that order (departure
@@ -33,12 +36,26 @@
 //     is below the radius are crossed, frozen faces never): this finds every
 //     point that a straight segment inside the mesh joins to the candidate
 //     within the radius, and adapts to graded h without a global grid.
-//  4. Reconnection after each insertion: a FIFO queue of the tets it created;
-//     for each alive one, flip 2-3 across each of its faces, then edge removal
-//     (3-2, 4-4, up to kMaxRemovalRing tets) on each of its edges, under the
-//     min-max dihedral criterion (flips.hpp); the tets of a flip that succeeds
-//     join the queue. A tet is skipped when neither it nor a face neighbour
-//     has a dihedral angle above min_max_angle. No sweep over the mesh.
+//  4. Insertion with the Delaunay step: constrained Bowyer-Watson. The cavity
+//     grows from the tets that contain the candidate across unfrozen faces
+//     within one region to every tet whose circumsphere holds it strictly
+//     (exact insphere); tets with a boundary face the point does not see
+//     strictly (exact orient3d) are dropped until the cavity is star-shaped,
+//     and it is re-tiled as the point's star (one TetMesh::replace_cavity).
+//     When that cannot be done (a containing tet would be dropped, a cavity
+//     vertex would vanish, over 1024 tets), the point splits its tet, face or
+//     edge and Lawson's flips (2-3, 3-2) follow instead.
+//  5. Reconnection (min-max), by default once at the end of each pass
+//     (defer_min_max; else after each insertion): a FIFO queue of the tets
+//     created since the last quality evaluation (their cached quality is still
+//     unknown), in slot order; for each alive one, flip 2-3 across each face,
+//     then edge removal (3-2, 4-4, up to kMaxRemovalRing tets) on each edge,
+//     under the min-max dihedral criterion (flips.hpp); the tets of a flip that
+//     succeeds join the queue. A tet is skipped when neither it nor a face
+//     neighbour has a dihedral angle above min_max_angle. Then edges longer
+//     than long_edge_ratio * h are removed from the same tets where
+//     remove_long_edge allows it (no angle above min_max_angle, shorter new
+//     edges). No sweep over the mesh beyond the slot scan.
 //
 // Frozen faces are never split, flipped or crossed and no point is added on
 // them; hull faces get no point either. The result is a pure function of the
@@ -96,6 +113,18 @@ struct RefineOptions {
   /// final dihedral extremes as good; t alone (no neighbour test) left worse
   /// extremes on bunny_npm (3.3 / 175.6 degrees after optimization).
   double min_max_angle = 150.0;
+  /// Run step 2 once at the end of each pass, from every tet created during
+  /// the pass that is still alive, instead of after each insertion.
+  bool defer_min_max = true;
+  /// Front stage: an active tet with no front face (the unfilled interior)
+  /// offers the midpoint of its longest edge when that edge is long, after
+  /// every front candidate of the pass; the interior then fills in a few
+  /// passes instead of one layer per pass from a coarse boundary.
+  bool void_midpoints = true;
+  /// With defer_min_max: after step 2, edges longer than this times the mean h
+  /// of their ends are removed where a flip can do it without a dihedral angle
+  /// above min_max_angle (flips.hpp remove_long_edge); 0: off.
+  double long_edge_ratio = 1.2;
 };
 
 /// Checks the options (positive, finite distances and limits).

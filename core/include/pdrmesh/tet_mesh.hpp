@@ -117,9 +117,10 @@ class TetMesh {
   /// Freezes or thaws face f of t and the same face seen from its neighbour.
   void set_frozen(Index t, int f, bool on);
 
-  /// Collects the tets around edge e of tet t. False when the ring is longer
-  /// than EdgeRing::kMax (r is then unusable).
-  bool edge_ring(Index t, int e, EdgeRing& r) const;
+  /// Collects the tets around edge e of tet t. False when the ring holds more
+  /// than max_size (at most EdgeRing::kMax) tets (r is then unusable); a small
+  /// max_size stops the walk early.
+  bool edge_ring(Index t, int e, EdgeRing& r, int max_size = EdgeRing::kMax) const;
 
   // ---- low-level rewriting, for local operations (flips.cpp, insert.cpp)
   /// Replaces the tets `old_tets` (a connected cavity) by `new_tets`, which must
@@ -183,6 +184,7 @@ class TetMesh {
   std::vector<OuterFace> outer_;
   std::vector<int> old_regions_;
   std::vector<Index> created_;
+  std::vector<Index> bucket_;  ///< replace_cavity's face table: index into faces_, or kNoIndex
 };
 
 }  // namespace pdrmesh
