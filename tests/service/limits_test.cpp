@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: AGPL-3.0-or-later
-// Resource exhaustion on the client port: an upload that never ends or trickles
-// is cut, a user's open streams are capped, a surface whose header declares
-// billions of triangles is refused at once; each time another user goes on.
+// Protections of the client port: an upload that never ends or trickles is
+// cut, a user's open streams are capped, a surface whose header declares
+// billions of triangles is refused at once (each time another user goes on);
+// with TLS, plaintext and untrusted clients get nothing.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -12,6 +13,7 @@
 #include <thread>
 #include <vector>
 
+#include "certificates.hpp"
 #include "coordinator.hpp"
 #include "service_client.hpp"
 #include "service_fixture.hpp"
@@ -137,6 +139,31 @@ TEST_F(Limits, ASurfaceDeclaringBillionsOfTrianglesIsRefusedAtOnce) {
   EXPECT_NE(status.error_message().find("huge.stl"), std::string::npos) << status.error_message();
   EXPECT_LT(std::chrono::steady_clock::now() - t0, 5s);
   expect_bob_served();
+}
+
+TEST_F(Limits, TlsOnTheClientPortServesOnlyTlsClients) {
+  if (!make_certificates(dir_.path(), "server") || !make_certificates(dir_.path(), "other")) {
+    GTEST_SKIP() << "no openssl";
+  }
+  Options o = options(0);
+  o.tls_cert_file = dir_.path() / "server.pem";
+  o.tls_key_file = dir_.path() / "server.key";
+  auto c = Coordinator::BuildAndStart(o);
+  ASSERT_TRUE(c.ok()) << c.status().to_string();
+  const auto connect = [&](const std::string& ca) {
+    cli::ClientConfig config;
+    config.server = "127.0.0.1:" + std::to_string((*c)->port());
+    config.token = "tok-alice";
+    config.tls_ca_file = ca.empty() ? "" : (dir_.path() / ca).string();
+    config.timeout_s = 5;
+    std::unique_ptr<cli::ServiceClient> client;
+    EXPECT_TRUE(cli::ServiceClient::connect(config, client).ok());
+    return client;
+  };
+  v1::ListJobsResponse list;
+  EXPECT_TRUE(connect("server-ca.pem")->list(list).ok());
+  EXPECT_EQ(connect("")->list(list).error_code(), grpc::StatusCode::UNAVAILABLE);  // plaintext
+  EXPECT_EQ(connect("other-ca.pem")->list(list).error_code(), grpc::StatusCode::UNAVAILABLE);  // untrusted
 }
 
 }  // namespace

@@ -30,6 +30,7 @@
 #include "pdrmesh/validate.hpp"
 #include "coordinator.hpp"
 #include "process.hpp"
+#include "certificates.hpp"
 #include "temp_dir.hpp"
 #include "worker_pool.hpp"
 #include "worker_server.hpp"
@@ -700,23 +701,6 @@ TEST_F(Workers, CoordinatorTakesRegistrationsOnItsWorkerPort) {
   ASSERT_TRUE(c2.ok()) << c2.status().to_string();
   EXPECT_EQ((*c2)->remote_dispatch(), nullptr);
   EXPECT_EQ((*c2)->worker_port(), 0);
-}
-
-/// A CA and one certificate it signs for `names` (localhost and 127.0.0.1 by
-/// default; openssl CLI); false when openssl fails.
-bool make_certificates(const std::filesystem::path& dir, const std::string& name,
-                       const std::string& names = "DNS:localhost,IP:127.0.0.1") {
-  const std::string d = dir.string();
-  std::ofstream(dir / "san.ext") << "subjectAltName=" << names << "\n";
-  const std::string cmd = fmt::format(
-      "cd '{0}' && openssl req -x509 -newkey ec -pkeyopt ec_paramgen_curve:prime256v1 -nodes -keyout {1}-ca.key "
-      "-out {1}-ca.pem -days 2 -subj /CN={1}-ca && "
-      "openssl req -newkey ec -pkeyopt ec_paramgen_curve:prime256v1 -nodes -keyout {1}.key -out {1}.csr "
-      "-subj /CN=localhost && "
-      "openssl x509 -req -in {1}.csr -CA {1}-ca.pem -CAkey {1}-ca.key -CAcreateserial -out {1}.pem -days 2 "
-      "-extfile san.ext) >/dev/null 2>&1",
-      d, name);
-  return std::system(("(" + cmd).c_str()) == 0;
 }
 
 TEST_F(Workers, MutualTlsBetweenCoordinatorAndWorker) {
