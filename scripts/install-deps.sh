@@ -14,6 +14,7 @@ packages=(
   libcli11-dev nlohmann-json3-dev libsqlite3-dev
   libgtest-dev libgmock-dev
   python3-yaml                                # tests/deploy: the manifest check
+  clang-14 libclang-rt-14-dev                 # scripts/sanitize.sh: ASan/UBSan/TSan builds, libFuzzer
 )
 if [[ "${1:-}" == "--bench" ]]; then
   packages+=(tetgen gmsh time)

@@ -76,6 +76,10 @@ Result<JobOptions> JobOptions::from_json(std::string_view json) {
   PDR_TRY(number("growth", o.sizing.growth));
   if (auto it = j.find("depth"); it != j.end()) {
     if (!it->is_number_integer()) return invalid_input("job option depth must be an integer");
+    // Range first: get<int>() would wrap 4294967297 to 1 (found by fuzzing).
+    if (*it < -1 || *it > 10) {
+      return invalid_input(fmt::format("job option depth must be 0..10 (or unset), got {}", it->dump()));
+    }
     o.depth = it->get<int>();
   }
   if (auto it = j.find("kernel"); it != j.end()) {

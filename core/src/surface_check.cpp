@@ -792,7 +792,7 @@ class Checker {
     tbb::parallel_sort(pairs.begin(), pairs.end());
     const std::size_t keep = std::min(pairs.size(), opt_.max_defects_per_kind);
     for (std::size_t i = 0; i < keep; ++i) {
-      const auto [a, b] = pairs[i];
+      const Index a = pairs[i].first, b = pairs[i].second;  // not a structured binding: clang 14 cannot capture one
       sink_.add(DefectKind::kSelfIntersection, [&] {
         const Vec3 w = intersection_witness(s_.points, s_.triangles[a], s_.triangles[b]);
         return Defect{{},

@@ -268,7 +268,10 @@ Result<VolumeMesh> read_meshb(std::string_view data, const std::string& name) {
     PDR_TRY(in.seek(b.data, what));
     PDR_TRY(in.integer(count, version >= 4 ? 8 : 4, what));
     if (count < 0) return in.error(fmt::format("negative {} {}", what, count));
-    return in.fits(static_cast<std::uint64_t>(count), record_bytes, b.end - in.pos(), what);
+    // A block whose next-keyword position lies inside its own count leaves nothing (b.end - pos
+    // wrapped around and let a 45-byte file allocate gigabytes: found by fuzzing).
+    const std::uint64_t available = in.pos() <= b.end ? b.end - in.pos() : 0;
+    return in.fits(static_cast<std::uint64_t>(count), record_bytes, available, what);
   };
 
   if (blocks[kKwDimension].present) {

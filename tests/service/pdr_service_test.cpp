@@ -414,7 +414,8 @@ TEST(JobOptions, RoundTripsThroughJsonAndRefusesOutOfRangeValuesByName) {
       {R"({"hmin": 2, "hmax": 1})", "hmin"}, {R"({"depth": 11})", "depth"},
       {R"({"depth": 1.5})", "depth"},        {R"({"kernel": "x"})", "kernel"},
       {R"({"optimize": 1})", "optimize"},    {R"({"time_limit_s": 0})", "time_limit_s"},
-      {R"({"max_volume": "big"})", "max_volume"}};
+      {R"({"max_volume": "big"})", "max_volume"},
+      {R"({"depth": 4294967297})", "depth"}};  // would wrap to 1 (found by fuzzing)
   for (const auto& [json, name] : bad) {
     const auto r = JobOptions::from_json(json);
     ASSERT_FALSE(r.ok()) << json;

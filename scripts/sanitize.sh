@@ -1,0 +1,54 @@
+#!/usr/bin/env bash
+# SPDX-License-Identifier: AGPL-3.0-or-later
+# The sanitizer and fuzz stage of scripts/test.sh (run after the normal build and ctest):
+#  1. build-asan: clang-14, AddressSanitizer + UndefinedBehaviorSanitizer (UBSan stops at the
+#     first report) and the libFuzzer targets; the ctest suite there (ASAN_CTEST_EXCLUDE: what is
+#     left out, see below), including the replay of tests/fuzz/regressions; then every fuzz target
+#     for FUZZ_SECONDS (default 10) each.
+#  2. build-tsan (only with PDRMESH_TSAN=1, see below): clang-14, ThreadSanitizer; pdrmesh_thread_tests (tests/scheduler_test.cpp and
+#     tests/pdr_test.cpp): the lock table, the coloured and dynamic schedulers running leaves on
+#     several threads, and the engine's parallel runs and merge (TSAN_FILTER overrides). The gRPC
+#     service tests are not run under TSan: gRPC and protobuf from Debian are not instrumented.
+# Any sanitizer report fails the stage. Set PDRMESH_SANITIZERS=0 to skip it (scripts/test.sh).
+set -euo pipefail
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+jobs=$(nproc)
+clang=(-DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14)
+t0=$SECONDS
+tsan_filter="LockTable*:ColourClasses*:RunLeaves*:Pdr.ByteIdenticalFor1And2And4Workers"
+tsan_filter+=":Pdr.TetgenKernelByteIdenticalFor1And4Workers:Pdr.Progress*:Pdr.RejectsALyingKernel"
+
+# Reports go to stderr of the process that has them; a TetGen child (tetgen_adapter.cpp) writes
+# its stderr to its log, dies with exitcode 1 and its parent fails the test with that log.
+# detect_leaks=1: a leak at exit fails a test process. The TetGen child ends with _exit(), which
+# skips the leak check, so memory TetGen owns at that point is never reported (it is a child
+# about to vanish). Suppressions are for third-party code only, each with its reason.
+sup=$root/tests/sanitizers
+export ASAN_OPTIONS="detect_leaks=1:halt_on_error=1:detect_stack_use_after_return=0:strict_string_checks=1"
+export LSAN_OPTIONS="suppressions=$sup/lsan.supp:print_suppressions=0"
+export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1:suppressions=$sup/ubsan.supp"
+export TSAN_OPTIONS="halt_on_error=1:second_deadlock_stack=1:suppressions=$sup/tsan.supp"
+
+echo "sanitize: ASan+UBSan build (build-asan)"
+cmake -S "$root" -B "$root/build-asan" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo "${clang[@]}" \
+  -DPDRMESH_SANITIZE=address,undefined -DPDRMESH_FUZZ=ON >/dev/null
+cmake --build "$root/build-asan" --parallel "$jobs"
+echo "sanitize: ASan+UBSan ctest ($((SECONDS - t0)) s so far)"
+(cd "$root/build-asan" && ctest --output-on-failure --parallel "$jobs" --timeout 900 \
+  ${ASAN_CTEST_EXCLUDE:+-E "$ASAN_CTEST_EXCLUDE"})
+echo "sanitize: fuzzing, ${FUZZ_SECONDS:-10} s per target ($((SECONDS - t0)) s so far)"
+FUZZ_BUILD_DIR=$root/build-asan "$root/tests/fuzz/run.sh" "${FUZZ_SECONDS:-10}"
+
+# Opt-in (PDRMESH_TSAN=1): Debian's oneTBB is not instrumented, so TSan cannot see the
+# synchronisation of TBB's task hand-off and reports ~190 races inside TBB tasks and TBB headers
+# (measured 2026-11-21). Until an instrumented TBB is available this stage would only fail.
+if [[ ${PDRMESH_TSAN:-0} != 1 ]]; then
+  echo "sanitize: TSan stage skipped (PDRMESH_TSAN=1 runs it); done in $((SECONDS - t0)) s"
+  exit 0
+fi
+echo "sanitize: TSan build (build-tsan, the threaded tests only; $((SECONDS - t0)) s so far)"
+cmake -S "$root" -B "$root/build-tsan" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo "${clang[@]}" \
+  -DPDRMESH_SANITIZE=thread >/dev/null
+cmake --build "$root/build-tsan" --parallel "$jobs" --target pdrmesh_thread_tests
+"$root/build-tsan/tests/pdrmesh_thread_tests" --gtest_brief=1 --gtest_filter="${TSAN_FILTER:-$tsan_filter}"
+echo "sanitize: done in $((SECONDS - t0)) s"
