@@ -21,7 +21,7 @@ for b in "$pdrmesh" "$coordinator"; do [[ -x $b ]] || { echo "missing $b: build 
 tmp=$(mktemp -d)
 worker_pids=()
 cleanup() {
-  for p in "${worker_pids[@]}"; do kill "$p" 2> /dev/null || true; done
+  stop_workers
   stop_coordinator
   rm -rf "$tmp"
 }
@@ -34,14 +34,9 @@ for u in "${users[@]}"; do echo "$u tok-$u"; done > "$tmp/tokens"
 limits=(--max-queued-jobs "$jobs" --max-running-jobs "$jobs" --threads 4)
 
 if [[ -x $worker ]]; then
-  head -c 32 /dev/urandom | base64 > "$tmp/cluster.token"
+  new_cluster_token
   start_coordinator "$tmp/data" "${limits[@]}" --worker-listen 127.0.0.1:0 --cluster-token-file "$tmp/cluster.token"
-  wport=$(sed -n 's/^workers on //p' "$tmp/coordinator.out")
-  for i in 1 2; do
-    "$worker" --coordinator "$wport" --cluster-token-file "$tmp/cluster.token" --log-level warn \
-      > "$tmp/worker$i.out" 2>> "$tmp/worker$i.err" &
-    worker_pids+=($!)
-  done
+  start_workers 2
   dispatch="2 workers (pdrmesh-worker) on loopback"
 else
   start_coordinator "$tmp/data" "${limits[@]}"

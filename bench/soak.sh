@@ -25,7 +25,7 @@ every=${SOAK_EVERY:-20}
 tmp=$(mktemp -d)
 worker_pids=()
 cleanup() {
-  for p in "${worker_pids[@]}"; do kill "$p" 2> /dev/null || true; done
+  stop_workers
   stop_coordinator
   rm -rf "$tmp"
 }
@@ -34,14 +34,9 @@ source "$root/tests/cli/coordinator_lib.sh"
 unset PDRMESH_CONFIG PDRMESH_TOKEN_FILE
 export XDG_CONFIG_HOME=$tmp/config PDRMESH_TOKEN=tok-soak
 echo "soak tok-soak" > "$tmp/tokens"
-head -c 32 /dev/urandom | base64 > "$tmp/cluster.token"
+new_cluster_token
 start_coordinator "$tmp/data" --worker-listen 127.0.0.1:0 --cluster-token-file "$tmp/cluster.token"
-wport=$(sed -n 's/^workers on //p' "$tmp/coordinator.out")
-for i in 1 2; do
-  "$worker" --coordinator "$wport" --threads 1 --cluster-token-file "$tmp/cluster.token" --log-level warn \
-    > "$tmp/worker$i.out" 2>> "$tmp/worker$i.err" &
-  worker_pids+=($!)
-done
+start_workers 2 --threads 1
 names=(coordinator worker1 worker2)
 pids=("$coord_pid" "${worker_pids[@]}")
 rss_kb() { awk '/^VmRSS:/ {print $2}' "/proc/$1/status"; }

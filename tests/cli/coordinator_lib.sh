@@ -1,5 +1,5 @@
-# Sourced by the service CLI tests and bench/load.sh: start and stop a real
-# pdrmesh-coordinator on loopback. Needs $tmp (a scratch directory) and
+# Sourced by the service CLI tests, bench/load.sh and bench/soak.sh: start and stop a real
+# pdrmesh-coordinator (and workers) on loopback. Needs $tmp (a scratch directory) and
 # $coordinator (the binary).
 
 # service_test_setup "$@" (the test's arguments PDRMESH COORDINATOR SURFACE
@@ -40,6 +40,26 @@ stop_coordinator() {
     wait "$coord_pid" 2> /dev/null || true
     coord_pid=
   fi
+}
+
+# start_workers N [FLAGS...]: N pdrmesh-worker daemons ($worker) in the background, registering with
+# the coordinator that start_coordinator started with --worker-listen 127.0.0.1:0 and
+# --cluster-token-file $tmp/cluster.token (new_cluster_token writes it); their pids go to worker_pids.
+new_cluster_token() { head -c 32 /dev/urandom | base64 > "$tmp/cluster.token"; }
+start_workers() {
+  local n=$1 wport i; shift
+  wport=$(sed -n 's/^workers on //p' "$tmp/coordinator.out")
+  for ((i = 1; i <= n; ++i)); do
+    "$worker" --coordinator "$wport" --cluster-token-file "$tmp/cluster.token" --log-level warn "$@" \
+      > "$tmp/worker$i.out" 2>> "$tmp/worker$i.err" &
+    worker_pids+=($!)
+  done
+}
+stop_workers() {
+  local p
+  for p in "${worker_pids[@]}"; do kill "$p" 2> /dev/null || true; done
+  for p in "${worker_pids[@]}"; do wait "$p" 2> /dev/null || true; done
+  worker_pids=()
 }
 
 # json_field FIELD: prints FIELD of the JSON object on stdin (dots for nesting).
