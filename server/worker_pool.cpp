@@ -570,6 +570,8 @@ class RemoteKernel final : public LeafKernel {
     std::set<std::string> tried;
     std::vector<std::string> errors;
     const int max_attempts = pool_->options().max_attempts;
+    constexpr int kMaxUnreachable = 64;  // workers skipped as unreachable, per leaf
+    int unreachable = 0;
     for (int attempt = 1; attempt <= max_attempts; ++attempt) {
       if (pool_->total_slots() == 0 && !warned_idle_.exchange(true)) {
         spdlog::warn("job {}: no worker available; its leaves wait for one", job_.job_id);
@@ -618,6 +620,7 @@ class RemoteKernel final : public LeafKernel {
           return Status(a.status.code(), fmt::format("job {} leaf {}: worker {} refused the task: {}", job_.job_id,
                                                      in.leaf, address, a.status.message()));
         case Outcome::kRetry:
+        case Outcome::kUnreachable:
         case Outcome::kSizingUnknown: break;
       }
       if (job_.keep_going && !job_.keep_going()) {
@@ -626,16 +629,22 @@ class RemoteKernel final : public LeafKernel {
       }
       ++counters_->retried;
       spdlog::warn("job {} leaf {}: attempt {} on worker {} failed: {}{}", job_.job_id, in.leaf, attempt, address,
-                   a.error, attempt < max_attempts ? "; giving the leaf to another worker" : "");
+                   a.error,
+                   attempt < max_attempts || a.outcome == Outcome::kUnreachable ? "; giving the leaf to another worker"
+                                                                                 : "");
       errors.push_back(fmt::format("{} ({})", address, a.error));
       lease.release(a.error);
+      if (a.outcome == Outcome::kUnreachable && unreachable++ < kMaxUnreachable) --attempt;
     }
     return io_error(fmt::format("job {} leaf {}: no valid result after {} attempts; workers tried: {}", job_.job_id,
                                 in.leaf, max_attempts, fmt::join(errors, "; ")));
   }
 
  private:
-  enum class Outcome { kOk, kSizingUnknown, kRetry, kFatal, kKernelError };
+  // kUnreachable: the channel never connected (the worker is gone, or not yet
+  // known to be): another worker is tried without spending one of the leaf's
+  // attempts, which bound the workers that received the task and failed.
+  enum class Outcome { kOk, kSizingUnknown, kRetry, kUnreachable, kFatal, kKernelError };
   struct Attempt {
     Outcome outcome = Outcome::kRetry;
     std::string bytes;  ///< kOk: the encoded output
@@ -732,6 +741,10 @@ class RemoteKernel final : public LeafKernel {
       a.status = resource_exhausted(describe(st));
     } else {
       a.error = describe(st);
+      if (st.error_code() == grpc::StatusCode::UNAVAILABLE &&
+          st.error_message().find("failed to connect") != std::string::npos) {
+        a.outcome = Outcome::kUnreachable;
+      }
     }
     return a;
   }
