@@ -18,17 +18,8 @@ worker=$build/worker/pdrmesh-worker
 for b in "$pdrmesh" "$coordinator"; do [[ -x $b ]] || { echo "missing $b: build first"; exit 1; }; done
 [[ -f $surface ]] || { echo "missing $surface"; exit 1; }
 
-tmp=$(mktemp -d)
-worker_pids=()
-cleanup() {
-  stop_workers
-  stop_coordinator
-  rm -rf "$tmp"
-}
-trap cleanup EXIT
 source "$root/tests/cli/coordinator_lib.sh"
-unset PDRMESH_CONFIG PDRMESH_TOKEN PDRMESH_TOKEN_FILE
-export XDG_CONFIG_HOME=$tmp/config
+bench_setup
 users=(ana ben cho dev)
 for u in "${users[@]}"; do echo "$u tok-$u"; done > "$tmp/tokens"
 limits=(--max-queued-jobs "$jobs" --max-running-jobs "$jobs" --threads 4)

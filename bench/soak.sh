@@ -22,17 +22,9 @@ for b in "$pdrmesh" "$coordinator" "$worker"; do [[ -x $b ]] || { echo "missing 
 [[ -f $surface ]] || { echo "missing $surface"; exit 1; }
 every=${SOAK_EVERY:-20}
 
-tmp=$(mktemp -d)
-worker_pids=()
-cleanup() {
-  stop_workers
-  stop_coordinator
-  rm -rf "$tmp"
-}
-trap cleanup EXIT
 source "$root/tests/cli/coordinator_lib.sh"
-unset PDRMESH_CONFIG PDRMESH_TOKEN_FILE
-export XDG_CONFIG_HOME=$tmp/config PDRMESH_TOKEN=tok-soak
+bench_setup
+export PDRMESH_TOKEN=tok-soak
 echo "soak tok-soak" > "$tmp/tokens"
 new_cluster_token
 start_coordinator "$tmp/data" --worker-listen 127.0.0.1:0 --cluster-token-file "$tmp/cluster.token"

@@ -16,6 +16,17 @@ service_test_setup() {
   export XDG_CONFIG_HOME=$tmp/config
 }
 
+# bench_setup: for the bench scripts: sets tmp (removed, with the workers and the coordinator
+# stopped, on exit) and an empty worker_pids; no client config or token from the caller's
+# environment leaks in.
+bench_setup() {
+  tmp=$(mktemp -d)
+  worker_pids=()
+  trap 'stop_workers; stop_coordinator; rm -rf "$tmp"' EXIT
+  unset PDRMESH_CONFIG PDRMESH_TOKEN PDRMESH_TOKEN_FILE
+  export XDG_CONFIG_HOME=$tmp/config
+}
+
 # start_coordinator DATA_DIR [FLAGS...]: starts it in the background with the
 # tokens file $tmp/tokens; sets coord_pid and PDRMESH_SERVER (exported).
 start_coordinator() {
