@@ -28,7 +28,7 @@ namespace v1 = pdrmesh::v1;
 
 constexpr auto kMonitorTick = std::chrono::milliseconds(100);
 constexpr auto kWaitPoll = std::chrono::milliseconds(50);
-/// Largest leaf result a coordinator takes.
+/// Largest leaf result a coordinator takes, whatever its leaf (see also leaf_output_byte_limit).
 constexpr std::uint64_t kMaxOutputBytes = std::uint64_t{1} << 32;
 
 Clock::duration seconds(double s) {
@@ -566,6 +566,7 @@ class RemoteKernel final : public LeafKernel {
   Result<LeafTaskOutput> run(const LeafTaskInput& in, const SizingField& sizing) const override {
     const Blob blob = sizing_blob(sizing);
     const std::string input = in.encode();
+    const std::uint64_t max_output = std::min(kMaxOutputBytes, leaf_output_byte_limit(in, sizing));
     const std::uint64_t seq = ++seq_;
     std::set<std::string> tried;
     std::vector<std::string> errors;
@@ -591,12 +592,12 @@ class RemoteKernel final : public LeafKernel {
       header.set_input_bytes(input.size());
       header.set_sizing_digest(blob.digest);
       ++counters_->attempts;
-      Attempt a = call(lease.entry(), header, input, nullptr);
+      Attempt a = call(lease.entry(), header, input, nullptr, max_output);
       if (a.outcome == Outcome::kSizingUnknown) {
         ++counters_->sizing_resends;
         spdlog::debug("job {} leaf {}: worker {} lacks the sizing field, sending it", job_.job_id, in.leaf, address);
         header.set_sizing_bytes(blob.bytes->size());
-        a = call(lease.entry(), header, input, blob.bytes.get());
+        a = call(lease.entry(), header, input, blob.bytes.get(), max_output);
         if (a.outcome == Outcome::kSizingUnknown) a.outcome = Outcome::kRetry;
       }
       switch (a.outcome) {
@@ -672,8 +673,9 @@ class RemoteKernel final : public LeafKernel {
     return blob_;
   }
 
+  /// One attempt; a result announced above max_output bytes is refused unread.
   Attempt call(WorkerPool::Entry& entry, const v1::LeafTaskHeader& header, std::string_view input,
-               const std::string* sizing) const {
+               const std::string* sizing, std::uint64_t max_output) const {
     grpc::ClientContext context;
     worker::add_cluster_token(context, pool_->options().cluster_token);
     context.set_deadline(deadline_in(pool_->options().leaf_deadline_s));
@@ -703,8 +705,9 @@ class RemoteKernel final : public LeafKernel {
       if (!have_header) {
         if (!response.has_header()) {
           protocol_error = "the answer does not start with a result header";
-        } else if (response.header().output_bytes() > kMaxOutputBytes) {
-          protocol_error = fmt::format("result of {} bytes announced", response.header().output_bytes());
+        } else if (response.header().output_bytes() > max_output) {
+          protocol_error = fmt::format("result of {} bytes announced, over the {} this leaf can hold",
+                                       response.header().output_bytes(), max_output);
         }
         result = response.header();
         have_header = true;

@@ -7,6 +7,8 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
@@ -322,6 +324,68 @@ TEST(Pdr, RejectsALyingKernel) {
   Result<VolumeMesh> m = run_pdr(fixtures::unit_cube_surface(), uniform_sizing(0.2), kernel, depth2(2), nullptr);
   ASSERT_FALSE(m.ok());
   EXPECT_NE(m.status().message().find("leaf 3 result rejected"), std::string::npos) << m.status().to_string();
+}
+
+/// Adds `extra` unused new points to every result (an inflated answer).
+class InflatingKernel final : public LeafKernel {
+ public:
+  explicit InflatingKernel(std::size_t extra) : extra_(extra) {}
+  Result<LeafTaskOutput> run(const LeafTaskInput& in, const SizingField& h) const override {
+    Result<LeafTaskOutput> r = inner_.run(in, h);
+    if (r.ok()) r->new_points.resize(r->new_points.size() + extra_, in.points.front());
+    return r;
+  }
+  std::string_view name() const override { return "inflating"; }
+
+ private:
+  std::size_t extra_;
+  NativeLeafKernel inner_{barycenter_hook(5)};
+};
+
+TEST(Pdr, RejectsAResultLargerThanItsLeafCanHold) {
+  // h = 0.25 over a depth-2 cube: a leaf's limit is a few tens of kilobytes.
+  const InflatingKernel kernel(100000);
+  Result<VolumeMesh> m = run_pdr(fixtures::unit_cube_surface(), uniform_sizing(0.25), kernel, depth2(), nullptr);
+  ASSERT_FALSE(m.ok());
+  EXPECT_EQ(m.status().code(), StatusCode::kInvalidInput);
+  EXPECT_NE(m.status().message().find("its leaf can hold"), std::string::npos) << m.status().to_string();
+}
+
+/// The native kernel, recording the largest result size / leaf_output_byte_limit.
+class MeasuringKernel final : public LeafKernel {
+ public:
+  Result<LeafTaskOutput> run(const LeafTaskInput& in, const SizingField& h) const override {
+    Result<LeafTaskOutput> r = inner_->run(in, h);
+    if (r.ok()) {
+      const double ratio =
+          static_cast<double>(r->encode().size()) / static_cast<double>(leaf_output_byte_limit(in, h));
+      const std::lock_guard lock(mutex_);
+      worst_ = std::max(worst_, ratio);
+    }
+    return r;
+  }
+  std::string_view name() const override { return "native"; }
+  double worst() const { return worst_; }
+
+ private:
+  std::unique_ptr<LeafKernel> inner_ = make_leaf_kernel("native").value();
+  mutable std::mutex mutex_;
+  mutable double worst_ = 0;
+};
+
+TEST(Pdr, HonestResultsStayFarBelowTheirLeafsByteLimit) {
+  // The limit is a bound an honest kernel never nears: on sphere966's graded
+  // field, every round's results stay under a tenth of it.
+  const Sphere* sp = sphere();
+  if (sp == nullptr) GTEST_SKIP() << "sphere966.mesh not readable";
+  const MeasuringKernel kernel;
+  PdrOptions o = depth2(2);
+  o.initial_volume_divisor = PdrOptions{}.initial_volume_divisor;
+  Result<VolumeMesh> m = run_pdr(sp->surface, *sp->sizing, kernel, o, nullptr);
+  ASSERT_TRUE(m.ok()) << m.status().to_string();
+  expect_valid(*m, sp->surface);
+  EXPECT_GT(kernel.worst(), 0);
+  EXPECT_LT(kernel.worst(), 0.1);
 }
 
 TEST(Pdr, InterfaceRoundRefinesMore) {

@@ -487,5 +487,38 @@ TEST(SizingField, QueriesStayWithinBoundarySpacingRange) {
   }
 }
 
+TEST(SizingField, LowerBoundHoldsOverItsBoxAndFollowsTheField) {
+  // lower_bound(box) <= h(x) for every x of the box inside the mesh, and it is
+  // local: small near the fine corner of a graded grid, large near the coarse one.
+  SurfaceMesh s;
+  VolumeMesh m;
+  graded_kuhn(8, s, m);
+  for (const double g : {1.05, 1.3}) {
+    const auto f = build_ok(s, m, growth(g));
+    std::mt19937_64 rng(20261121);
+    std::uniform_real_distribution<double> u(0, 1);
+    for (int b = 0; b < 40; ++b) {
+      Box box;
+      box.add(random_in(rng, unit_box(0)));
+      box.add(random_in(rng, Box{box.lo - Vec3{0.2, 0.2, 0.2}, box.lo + Vec3{0.2, 0.2, 0.2}}));
+      for (int a = 0; a < 3; ++a) box.lo[a] = std::max(box.lo[a], 0.0), box.hi[a] = std::min(box.hi[a], 1.0);
+      const double lo = f.lower_bound(box);
+      ASSERT_GT(lo, 0);
+      for (int i = 0; i < 200; ++i) ASSERT_LE(lo, f.at(random_in(rng, box))) << "box " << b << " growth " << g;
+      for (const Vec3& corner : {box.lo, box.hi}) ASSERT_LE(lo, f.at(corner));
+    }
+    const double fine = f.lower_bound(Box{{0, 0, 0}, {0.1, 0.1, 0.1}});
+    const double coarse = f.lower_bound(Box{{0.9, 0.9, 0.9}, {1, 1, 1}});
+    EXPECT_GT(coarse, 4 * fine) << "growth " << g;
+    EXPECT_LE(f.lower_bound(unit_box(0)), fine);
+  }
+  SizingOptions o;
+  o.size = 0.25;
+  const auto uniform = build_ok(s, m, o);
+  EXPECT_LE(uniform.lower_bound(unit_box(0)), 0.25);
+  EXPECT_GT(uniform.lower_bound(unit_box(0)), 0.25 * (1 - 1e-6));
+  EXPECT_TRUE(std::isnan(uniform.lower_bound(Box{})));
+}
+
 }  // namespace
 }  // namespace pdrmesh

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <numbers>
 #include <utility>
 
 #include "byte_codec.hpp"
@@ -263,6 +264,22 @@ Status validate_leaf_output(const LeafTaskInput& in, const LeafTaskOutput& out) 
                             missing.size(), missing.empty() ? "-" : tri_str(missing[0])));
   }
   return {};
+}
+
+std::uint64_t leaf_output_byte_limit(const LeafTaskInput& in, const SizingField& sizing) {
+  constexpr double kCap = 4611686018427387904.0;  // 2^62
+  Box box;
+  for (const Vec3& p : in.points) box.add(p);
+  const double h = sizing.lower_bound(box);
+  if (!(h > 0)) return static_cast<std::uint64_t>(kCap);
+  const double r = 0.2 * h;
+  double volume = 1;
+  for (int a = 0; a < 3; ++a) volume *= box.hi[a] - box.lo[a] + 2 * r;
+  const double new_points = volume / (4.0 / 3.0 * std::numbers::pi * r * r * r);
+  const double points = static_cast<double>(in.points.size()) + new_points;
+  // Header and counts, then 3 doubles a new point, 4 u32 a tet, a u32 and 3 doubles a move.
+  const double bytes = 64 + 24 * new_points + 16 * 12 * points + 28 * static_cast<double>(in.points.size());
+  return static_cast<std::uint64_t>(std::min(std::ceil(bytes), kCap));
 }
 
 Result<TetMesh> leaf_tet_mesh(const LeafTaskInput& in) {

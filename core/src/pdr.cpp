@@ -453,6 +453,11 @@ Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const
       r.status = Status(out.status().code(), fmt::format("leaf {}: {}", l, out.status().message()));
       return r;
     }
+    if (const std::uint64_t limit = leaf_output_byte_limit(in, sizing); bytes->size() > limit) {
+      r.status = invalid_input(
+          fmt::format("leaf {} result rejected: {} bytes, over the {} its leaf can hold", l, bytes->size(), limit));
+      return r;
+    }
     r.status = validate_leaf_output(in, *out);
     r.output = std::move(*out);
     r.point_ids = std::move(in.point_ids);

@@ -477,6 +477,61 @@ double SizingField::at(const Vec3& x) const {
   return combine(interpolate_in(n, y), y);
 }
 
+double SizingField::lower_bound(const Box& box) const {
+  if (box.empty()) return kNaN;
+  constexpr double kBelow = 1 - 1e-9;  // at() rounds a convex combination: stay under it
+  if (uniform_) return kBelow * uniform_value_;
+  auto meets = [&](const Box& b) {
+    for (int a = 0; a < 3; ++a)
+      if (b.hi[a] < box.lo[a] || b.lo[a] > box.hi[a]) return false;
+    return true;
+  };
+  auto box_box_dist = [&](const Box& b) {
+    double d2 = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double d = std::max({0.0, b.lo[a] - box.hi[a], box.lo[a] - b.hi[a]});
+      d2 += d * d;
+    }
+    return std::sqrt(d2);
+  };
+  // The interpolant at x is a convex combination of the values of a tet holding x.
+  double interpolated = hi_;
+  Index stack[kStack];
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const sizing_detail::TreeNode& node = bvh_[stack[--top]];
+    if (!meets(node.box)) continue;
+    if (node.left != kNoIndex) {
+      stack[top++] = node.right;
+      stack[top++] = node.left;
+      continue;
+    }
+    for (std::uint32_t s = node.begin; s < node.end; ++s) {
+      if (!meets(bvh_box_[s])) continue;
+      for (Index v : tets_[bvh_item_[s]]) interpolated = std::min(interpolated, values_[v]);
+    }
+  }
+  // The growth limit: the same branch and bound as growth_limit(), from a box.
+  const double gm1 = growth_ - 1;
+  double best = interpolated;
+  top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const Index n = stack[--top];
+    const sizing_detail::TreeNode& node = kd_[n];
+    if (kd_h_min_[n] + gm1 * box_box_dist(node.box) >= best) continue;
+    if (node.left != kNoIndex) {
+      stack[top++] = node.right;
+      stack[top++] = node.left;
+      continue;
+    }
+    for (std::uint32_t i = node.begin; i < node.end; ++i)
+      best = std::min(best, kd_h_[i] + gm1 * box_box_dist(Box{kd_xyz_[i], kd_xyz_[i]}));
+  }
+  return kBelow * std::max(lo_, best);
+}
+
 double SizingField::at_point(Index i) const {
   if (i >= point_count_) return kNaN;
   if (uniform_) return uniform_value_;

@@ -185,7 +185,8 @@ struct RawResult {
 /// A misbehaving worker (in this process): answers every leaf in one bad way.
 class FakeWorker final : public v1::WorkerService::Service {
  public:
-  enum class Mode { kGarbage, kInvalidMesh, kCutStream, kKernelError };
+  /// kOversized announces 2 GiB (under the absolute 4 GiB cap, far over what the leaf can hold).
+  enum class Mode { kGarbage, kInvalidMesh, kCutStream, kKernelError, kOversized };
   FakeWorker(Mode mode, unsigned threads) : mode_(mode), threads_(threads) {
     grpc::ServerBuilder builder;
     builder.AddListeningPort("127.0.0.1:0", grpc::InsecureServerCredentials(), &port_);
@@ -214,7 +215,7 @@ class FakeWorker final : public v1::WorkerService::Service {
       out = empty.encode();
     }
     v1::RefineLeafResponse response;
-    response.mutable_header()->set_output_bytes(out.size());
+    response.mutable_header()->set_output_bytes(mode_ == Mode::kOversized ? std::uint64_t{1} << 31 : out.size());
     if (mode_ == Mode::kKernelError) {
       response.mutable_header()->mutable_error()->set_code(std::string(to_string(StatusCode::kInvalidInput)));
       response.mutable_header()->mutable_error()->set_message("this leaf cannot be refined");
@@ -617,7 +618,7 @@ TEST_F(Workers, BadResultsGoToAnotherWorkerAndKernelErrorsDoNot) {
   std::unique_ptr<test::Process> good;
   const std::string good_address = start_worker(good, {"--threads", "1"});
   using Mode = FakeWorker::Mode;
-  for (const Mode mode : {Mode::kGarbage, Mode::kInvalidMesh, Mode::kCutStream}) {
+  for (const Mode mode : {Mode::kGarbage, Mode::kInvalidMesh, Mode::kCutStream, Mode::kOversized}) {
     FakeWorker bad(mode, 8);  // the most free slots: tried first
     WorkerPoolOptions o = pool_options({bad.address(), good_address});
     o.failure_backoff_s = 60;
@@ -633,6 +634,9 @@ TEST_F(Workers, BadResultsGoToAnotherWorkerAndKernelErrorsDoNot) {
       EXPECT_FALSE(w.available);  // left out for a while
       EXPECT_EQ(w.failures, 1U);
       EXPECT_NE(w.last_error.find("result"), std::string::npos) << w.last_error;
+      if (mode == Mode::kOversized) {
+        EXPECT_NE(w.last_error.find("this leaf can hold"), std::string::npos) << w.last_error;
+      }
     }
   }
   {  // Only bad workers: the attempts run out, and the error names the leaf and every worker tried.

@@ -81,6 +81,18 @@ struct LeafTaskOutput {
 /// invalid_input naming the leaf and the first problem otherwise.
 Status validate_leaf_output(const LeafTaskInput& in, const LeafTaskOutput& out);
 
+/// The most bytes an honest result for `in` can take: a remote worker's result
+/// announced above it is refused before it is received, and the engine refuses
+/// a local one above it too (same rule on both paths, so the same bytes).
+/// h_lo = sizing.lower_bound(box of the leaf's points). New points are taken to
+/// keep at least 0.4 h_lo apart (the refiner rejects closer than 0.6 h and the
+/// optimization's insertions than 0.5 h), so at most V / (4/3 pi (0.2 h_lo)^3)
+/// fit in the leaf's box grown by 0.2 h_lo (volume V); tets are taken as at most
+/// 12 per point (a Delaunay-like mesh has 6 to 7); every input point may move.
+/// About 40 times what a leaf refined to a uniform h_lo holds; never above
+/// 2^62. Does not depend on the kernel or on which worker runs it.
+std::uint64_t leaf_output_byte_limit(const LeafTaskInput& in, const SizingField& sizing);
+
 /// The leaf as a TetMesh: points and global-id-free local numbering (point i
 /// has id i, new points get ids from points.size() on), frozen faces as its
 /// frozen boundary with their ids.

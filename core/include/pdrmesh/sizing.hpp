@@ -114,6 +114,14 @@ class SizingField {
   /// h(x). Thread-safe, deterministic, allocation-free.
   double at(const Vec3& x) const;
 
+  /// A lower bound of h over the points of `box` inside the background mesh
+  /// (what a leaf's refined points can ask for): the least background value of
+  /// the background tets whose bounding box meets `box`, and the least
+  /// s(p) + (G - 1) dist(p, box) over boundary points, clamped like h; a
+  /// relative 1e-9 below, so that no rounding of at() falls under it. Costs a
+  /// walk over the background tets near `box`. NaN for an empty box.
+  double lower_bound(const Box& box) const;
+
   /// h at background point i: clamp(min(value_i, g(p_i))), equal bit for bit to
   /// at(points[i]) for every point used by a tet. NaN when i is out of range.
   double at_point(Index background_point) const;
