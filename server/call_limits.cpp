@@ -2,6 +2,8 @@
 // CallWatchdog and StreamCounter (see call_limits.hpp).
 #include "call_limits.hpp"
 
+#include <algorithm>
+
 #include <grpcpp/server_context.h>
 
 namespace pdrmesh::server {
@@ -64,11 +66,21 @@ void CallWatchdog::loop() {
   }
 }
 
-StreamCounter::Slot StreamCounter::try_open(const std::string& user) {
+int stream_limit_for_threads(int max_server_threads) {
+  return std::max(1, max_server_threads - std::max(2, max_server_threads / 4));
+}
+
+StreamCounter::Slot StreamCounter::try_open(const std::string& user, Full* why) {
   std::lock_guard lock(mu_);
-  int& n = open_[user];
-  if (n >= max_) return {};
-  ++n;
+  auto [it, added] = open_.try_emplace(user, 0);
+  const bool user_full = it->second >= max_;
+  if (user_full || total_ >= max_total_) {
+    if (added) open_.erase(it);
+    if (why != nullptr) *why = user_full ? Full::kUser : Full::kServer;
+    return {};
+  }
+  ++it->second;
+  ++total_;
   return Slot(this, user);
 }
 
@@ -76,6 +88,7 @@ void StreamCounter::Slot::release() noexcept {
   if (counter_ == nullptr) return;
   std::lock_guard lock(counter_->mu_);
   if (--counter_->open_[user_] == 0) counter_->open_.erase(user_);
+  --counter_->total_;
   counter_ = nullptr;
 }
 

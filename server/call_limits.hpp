@@ -5,8 +5,12 @@
 //    ends, a client that sends one byte a second), whatever deadline the
 //    client set or did not set;
 //  * StreamCounter caps the streaming calls (uploads, watches, downloads) one
-//    user has open at once, so that one user cannot take every server thread.
-// The server's total threads are capped by a grpc::ResourceQuota (coordinator.cpp).
+//    user has open at once, so that one user cannot take every server thread,
+//    and those of all users together, so that streams leave threads for the
+//    short calls (get, list, cancel, delete).
+// The server's total threads are capped by a grpc::ResourceQuota (coordinator.cpp);
+// a call beyond it waits in gRPC's queue for a thread, so the stream cap is set
+// below it (stream_limit_for_threads) and refuses streams with a status instead.
 #pragma once
 
 #include <chrono>
@@ -63,9 +67,13 @@ class CallWatchdog {
   std::thread thread_;
 };
 
+/// Streams of all users together on a server of `max_server_threads`: three
+/// quarters of them (at least 1), the rest kept for short calls.
+int stream_limit_for_threads(int max_server_threads);
+
 class StreamCounter {
  public:
-  explicit StreamCounter(int max_per_user) : max_(max_per_user) {}
+  StreamCounter(int max_per_user, int max_total) : max_(max_per_user), max_total_(max_total) {}
 
   /// One open stream of a user; released when destroyed.
   class Slot {
@@ -90,14 +98,20 @@ class StreamCounter {
     StreamCounter* counter_ = nullptr;
     std::string user_;
   };
-  /// A slot, or an empty one when `user` has max_per_user streams open.
-  Slot try_open(const std::string& user);
+  /// Why try_open refused.
+  enum class Full { kUser, kServer };
+  /// A slot, or an empty one (and *why) when `user` has max_per_user streams
+  /// open or all users together max_total.
+  Slot try_open(const std::string& user, Full* why = nullptr);
   int max_per_user() const { return max_; }
+  int max_total() const { return max_total_; }
 
  private:
   std::mutex mu_;
   std::map<std::string, int> open_;
+  int total_ = 0;
   int max_;
+  int max_total_;
 };
 
 }  // namespace pdrmesh::server

@@ -128,7 +128,8 @@ Result<std::unique_ptr<Coordinator>> Coordinator::BuildAndStart(const Options& o
     ssl.pem_key_cert_pairs.push_back({key, cert});
     creds = grpc::SslServerCredentials(ssl);
   }
-  c->service_ = std::make_unique<JobServiceImpl>(*c->manager_, c->tokens_, c->stopping_, options.max_watch_s);
+  c->service_ = std::make_unique<JobServiceImpl>(*c->manager_, c->tokens_, c->stopping_, options.max_watch_s,
+                                                 stream_limit_for_threads(options.max_server_threads));
   grpc::ServerBuilder builder;
   grpc::ResourceQuota quota("pdrmesh-client-port");
   quota.SetMaxThreads(options.max_server_threads);

@@ -42,7 +42,9 @@ struct Options {
   /// Server-side limit on one WatchJob stream, seconds.
   double max_watch_s = 24 * 3600;
   /// Threads serving client calls at most (grpc::ResourceQuota); calls beyond
-  /// them get RESOURCE_EXHAUSTED.
+  /// them wait for a thread. Streaming calls of all users together are held
+  /// to three quarters of them (stream_limit_for_threads), further ones get
+  /// RESOURCE_EXHAUSTED, so short calls always find a thread.
   int max_server_threads = 256;
   /// Leaves refined at once in this process when there are no workers
   /// (LocalLeafDispatch); 0: the hardware concurrency.

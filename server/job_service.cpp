@@ -116,8 +116,15 @@ grpc::Status JobServiceImpl::authenticate(const grpc::ServerContext& context, st
 }
 
 grpc::Status JobServiceImpl::open_stream(const std::string& user, StreamCounter::Slot& slot) {
-  slot = streams_.try_open(user);
+  StreamCounter::Full why = StreamCounter::Full::kUser;
+  slot = streams_.try_open(user, &why);
   if (slot) return grpc::Status::OK;
+  if (why == StreamCounter::Full::kServer) {
+    return {grpc::StatusCode::RESOURCE_EXHAUSTED,
+            fmt::format("the server has {} streams (uploads, watches, downloads) open, its limit (three quarters "
+                        "of --max-server-threads); try again later",
+                        streams_.max_total())};
+  }
   return {grpc::StatusCode::RESOURCE_EXHAUSTED,
           fmt::format("user {} has {} streams (uploads, watches, downloads) open, the limit (--max-open-streams); "
                       "close one first",

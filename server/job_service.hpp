@@ -35,13 +35,14 @@ Result<JobOptions> from_proto(const v1::MeshOptions& in, JobOptions defaults);
 
 class JobServiceImpl final : public v1::JobService::Service {
  public:
+  /// max_streams: streaming calls of all users together (stream_limit_for_threads).
   JobServiceImpl(JobManager& manager, const TokenTable& tokens, const std::atomic<bool>& stopping,
-                 double max_watch_s)
+                 double max_watch_s, int max_streams)
       : manager_(manager),
         tokens_(tokens),
         stopping_(stopping),
         max_watch_s_(max_watch_s),
-        streams_(manager.config().limits.max_open_streams) {}
+        streams_(manager.config().limits.max_open_streams, max_streams) {}
 
   grpc::Status SubmitJob(grpc::ServerContext* context, grpc::ServerReader<v1::SubmitRequest>* reader,
                          v1::Job* response) override;

@@ -39,7 +39,8 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   app.add_option("--max-server-threads", o.max_server_threads,
-                 "threads serving client calls at most (further calls get RESOURCE_EXHAUSTED)")
+                 "threads serving client calls at most; streams (uploads, watches, downloads) of all users "
+                 "together get three quarters of them, further ones RESOURCE_EXHAUSTED")
       ->check(CLI::Range(4, 100000))
       ->capture_default_str();
   app.add_option("--threads", o.runner_threads, "jobs run at once in total")

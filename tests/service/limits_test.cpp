@@ -7,12 +7,15 @@
 
 #include <chrono>
 #include <cstdint>
+#include <filesystem>
+#include <iterator>
 #include <fstream>
 #include <memory>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include "call_limits.hpp"
 #include "certificates.hpp"
 #include "coordinator.hpp"
 #include "service_client.hpp"
@@ -116,6 +119,100 @@ TEST_F(Limits, AUsersOpenStreamsAreCappedAndOthersGoOn) {
     contexts[i]->TryCancel();
     (void)watches[i]->Finish();
   }
+}
+
+/// Threads of this process (the coordinator runs in it).
+std::size_t thread_count() {
+  return static_cast<std::size_t>(std::distance(std::filesystem::directory_iterator("/proc/self/task"),
+                                                std::filesystem::directory_iterator{}));
+}
+
+TEST_F(Limits, TwoHundredStreamsStayWithinTheThreadCapAndJobsGoOn) {
+  // 20 users open 10 uploads each (within their own --max-open-streams) and
+  // hold them: the server's threads stop at --max-server-threads, the streams
+  // beyond three quarters of it get RESOURCE_EXHAUSTED at once (bob's second
+  // upload too), and short calls still find a thread: bob follows his first
+  // job to the end meanwhile.
+  constexpr int kUsers = 20, kPerUser = 10, kThreads = 48;
+  const int max_streams = stream_limit_for_threads(kThreads);
+  ASSERT_LT(max_streams, kThreads);
+  {
+    std::ofstream tokens(dir_.path() / "tokens");
+    tokens << "bob tok-bob\n";
+    for (int u = 0; u < kUsers; ++u) tokens << "user" << u << " tok-" << u << "\n";
+  }
+  Options o = options(1);
+  o.max_server_threads = kThreads;
+  auto c = Coordinator::BuildAndStart(o, nullptr);
+  ASSERT_TRUE(c.ok()) << c.status().to_string();
+  coordinator_ = std::move(c).value();
+  auto bob = client("tok-bob");
+  v1::MeshOptions slower;  // some 100,000 tets: a few seconds, so it runs through the flood
+  slower.set_size(0.8);
+  v1::Job job;
+  ASSERT_TRUE(bob->submit(kSphere, slower, job).ok());
+  const std::size_t before = thread_count();
+  const auto flood_ms =
+      std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch())
+          .count();
+
+  auto s = stub();
+  struct Upload {
+    std::unique_ptr<grpc::ClientContext> context = std::make_unique<grpc::ClientContext>();
+    v1::Job response;
+    std::unique_ptr<grpc::ClientWriter<v1::SubmitRequest>> writer;
+  };
+  std::vector<Upload> uploads(kUsers * kPerUser);
+  v1::SubmitRequest header;
+  header.mutable_header()->set_file_name("held.stl");
+  header.mutable_header()->set_total_bytes(1000);
+  for (std::size_t i = 0; i < uploads.size(); ++i) {
+    Upload& u = uploads[i];
+    u.context->AddMetadata("authorization", "Bearer tok-" + std::to_string(i % kUsers));
+    u.writer = s->SubmitJob(u.context.get(), &u.response);
+    (void)u.writer->Write(header);
+  }
+  std::this_thread::sleep_for(1s);  // let the server take or refuse each
+  const std::size_t during = thread_count();
+  // The cap, plus gRPC's own pollers and timers and the client side's threads.
+  EXPECT_LE(during, before + kThreads + 16) << "before " << before;
+
+  v1::Job refused_job;
+  const grpc::Status full = bob->submit(kSphere, v1::MeshOptions{}, refused_job);
+  EXPECT_EQ(full.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << "an upload is a stream too";
+  v1::Job got;
+  for (int i = 0; i < 600 && got.state() != v1::JOB_STATE_SUCCEEDED && got.state() != v1::JOB_STATE_FAILED; ++i) {
+    ASSERT_TRUE(bob->get(job.id(), got).ok());
+    std::this_thread::sleep_for(100ms);
+  }
+  EXPECT_EQ(got.state(), v1::JOB_STATE_SUCCEEDED) << got.error();
+  EXPECT_GT(got.finished_unix_ms(), flood_ms) << "the job should have run on during the flood";
+
+  // A refused upload was closed by the server: a further write fails and
+  // Finish gives its status. A held one is still open: cancel it.
+  v1::SubmitRequest chunk;
+  chunk.set_chunk("s");
+  int refused = 0, held = 0, refused_by_us = 0;
+  for (Upload& u : uploads) {
+    if (u.writer->Write(chunk)) {
+      ++held;
+      u.context->TryCancel();
+      (void)u.writer->Finish();
+      continue;
+    }
+    const grpc::Status status = u.writer->Finish();
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << status.error_message();
+    // Ours (the stream cap) or gRPC's own when a burst finds no thread free.
+    const bool ours = status.error_message().find("--max-server-threads") != std::string::npos;
+    EXPECT_TRUE(ours || status.error_message() == "Server Threadpool Exhausted") << status.error_message();
+    ++refused;
+    refused_by_us += ours ? 1 : 0;
+  }
+  std::printf("threads %zu -> %zu; %d uploads held, %d refused (%d by the stream cap)\n", before, during, held,
+              refused, refused_by_us);
+  EXPECT_LE(held, max_streams);
+  EXPECT_GE(refused, kUsers * kPerUser - max_streams);
+  EXPECT_TRUE(bob->fetch(job.id(), dir_.path() / "bob.vtu").ok());
 }
 
 TEST_F(Limits, ASurfaceDeclaringBillionsOfTrianglesIsRefusedAtOnce) {
