@@ -340,13 +340,15 @@ class Optimizer {
   }
 
   /// The measure of every tet (link face, x) in link_ order into `out`; false
-  /// (out unusable) when one is not positive (exact).
-  bool star_measures(const Vec3& x, std::vector<double>& out) const {
+  /// (out unusable) when one is not positive (exact), or measures below `floor`.
+  bool star_measures(const Vec3& x, std::vector<double>& out,
+                     double floor = -std::numeric_limits<double>::infinity()) const {
     out.clear();
     for (const Tri& f : link_) {
       const std::array<Vec3, 4> p{m_.point(f[0]), m_.point(f[1]), m_.point(f[2]), x};
-      if (exact::orient3d(p[0], p[1], p[2], p[3]) <= 0) return false;
-      out.push_back(measure(p));
+      const double q = measure(p);
+      if (q < floor || exact::orient3d(p[0], p[1], p[2], p[3]) <= 0) return false;
+      out.push_back(q);
     }
     return true;
   }
@@ -364,7 +366,8 @@ class Optimizer {
   /// tet better, or as good and the next worse one better, ...). Leaves x's
   /// profile in profile_new_.
   bool smoothing_accepts(const Vec3& x) {
-    if (!star_measures(x, measures_new_)) return false;
+    // A tet below the old worst puts the profile below the old one: stop early.
+    if (!star_measures(x, measures_new_, profile_old_.front())) return false;
     to_profile(measures_new_, profile_new_);
     return profile_old_ < profile_new_;
   }
