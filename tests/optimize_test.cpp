@@ -318,6 +318,42 @@ TEST(Optimize, SmoothingNeverLowersAStarsWorstTet) {
   expect_valid(m, nullptr);
 }
 
+/// Tets with no hull point and a dihedral angle outside [lo, hi] degrees.
+std::size_t interior_bad(const TetMesh& m, const std::vector<char>& on_hull, double lo, double hi) {
+  std::size_t n = 0;
+  for (Index t = 0; t < m.num_slots(); ++t) {
+    if (!m.alive(t)) continue;
+    const Tet& k = m.tet(t);
+    bool hull = false;
+    for (Index v : k) hull = hull || (v < on_hull.size() && on_hull[v]);
+    const AngleRange a = dihedral_range(m.point(k[0]), m.point(k[1]), m.point(k[2]), m.point(k[3]));
+    if (!hull && (a.min < lo || a.max > hi)) ++n;
+  }
+  return n;
+}
+
+TEST(Optimize, PolishingRoundsWorkOnTheInteriorAlone) {
+  // One sweep towards strict targets leaves work: the polishing rounds
+  // follow, touch no hull point, and leave fewer interior bad tets.
+  const VolumeMesh v = jittered_grid(5, 0.45);
+  const auto on_hull = hull_points(v);
+  TetMesh m = fixtures::build(v);
+  OptimizeOptions o;
+  o.sweeps = 1;
+  o.target_min_dihedral = 35;
+  o.target_max_dihedral = 110;
+  const std::size_t before = interior_bad(m, on_hull, 35, 110);
+  const double volume = fixtures::total_volume(m);
+  auto st = optimize(m, nullptr, o);
+  ASSERT_TRUE(st.ok());
+  EXPECT_GE(st->polish_rounds, 1);
+  EXPECT_GT(before, 0u);
+  EXPECT_LT(interior_bad(m, on_hull, 35, 110), before);
+  expect_hull_points_kept(m, v);
+  EXPECT_NEAR(fixtures::total_volume(m), volume, 1e-12 * volume);
+  expect_valid(m, nullptr);
+}
+
 /// The serial pipeline at the default spacing: every tet with no boundary vertex
 /// has its dihedral angles within the default targets [15, 150]. (Not asserted
 /// on sphere966, whose interior minimum moved between 11.7 and 15.5 degrees

@@ -68,6 +68,8 @@ constexpr int kSmoothPasses = 4;
 /// the first may try per sweep.
 constexpr double kSmoothRetries = 0.02;
 constexpr std::size_t kSmoothRetriesMin = 2000;  ///< ... but at least this many
+/// Most polishing rounds after the sweeps (see optimize()).
+constexpr int kPolishRounds = 4;
 /// Line-search steps towards each smoothing target: 1, 1/2, ..., 1/64.
 constexpr int kLineSteps = 7;
 
@@ -144,7 +146,10 @@ class Optimizer {
   std::size_t smooth() {
     const Index np = m_.num_points();
     std::vector<Index> one_tet(np, kNoIndex);
-    std::vector<char> fixed(np, 0), wanted(np, 0);
+    fixed_.assign(np, 0);
+    std::vector<char>& fixed = fixed_;
+    std::vector<char> wanted(np, 0);
+    std::vector<Index> bad;
     for (Index t = 0; t < m_.num_slots(); ++t) {
       if (!m_.alive(t)) continue;
       const Tet& k = m_.tet(t);
@@ -155,9 +160,11 @@ class Optimizer {
         if (n == kNoIndex || m_.frozen(t, f) || m_.region(face_tet(n)) != m_.region(t))
           for (int j = 0; j < 3; ++j) fixed[k[topo::kFaceVertex[f][j]]] = 1;
       }
-      if (badness(t) != Badness::kGood)
-        for (int i = 0; i < 4; ++i) wanted[k[i]] = 1;
+      if (badness(t) != Badness::kGood) bad.push_back(t);
     }
+    if (interior_only_) bad = interior(bad);
+    for (Index t : bad)
+      for (Index v : m_.tet(t)) wanted[v] = 1;
     std::vector<Index> todo, next;
     for (Index v = 0; v < np; ++v)
       if (wanted[v] && !fixed[v] && one_tet[v] != kNoIndex) todo.push_back(v);
@@ -194,6 +201,21 @@ class Optimizer {
     st_.points_moved += moved;
     return moved;
   }
+
+  /// The tets of `tets` with no fixed point (as the last smooth() found them;
+  /// points added since are free).
+  std::vector<Index> interior(const std::vector<Index>& tets) const {
+    std::vector<Index> out;
+    for (Index t : tets) {
+      bool free = true;
+      for (Index v : m_.tet(t)) free = free && (v >= fixed_.size() || fixed_[v] == 0);
+      if (free) out.push_back(t);
+    }
+    return out;
+  }
+
+  /// Restricts smooth() to the vertices of bad tets with no fixed point.
+  void set_interior_only(bool on) { interior_only_ = on; }
 
   void start_sweep() {
     flips_this_sweep_ = 0;
@@ -472,6 +494,8 @@ class Optimizer {
   std::vector<Tri> link_;  ///< faces of the star being optimised, turned towards its apex
   std::vector<Index> link_points_;
   std::vector<double> measures_old_, measures_new_;  ///< smoothing scratch
+  std::vector<char> fixed_;     ///< per point, set by smooth(): on a frozen, hull or region face
+  bool interior_only_ = false;  ///< see set_interior_only
   std::vector<double> profile_old_, profile_new_, profile_best_;
   std::size_t flips_this_sweep_ = 0;
   std::size_t flip_budget_ = 0;
@@ -519,6 +543,7 @@ Result<OptimizeStats> optimize(TetMesh& mesh, const SizingField* sizing,
   st.max_dihedral_before = before.max;
   std::vector<Index> bad = opt.bad_tets();
   st.bad_before = bad.size();
+  bool settled = false;  // a sweep changed nothing
   for (int sweep = 0; sweep < options.sweeps && !bad.empty(); ++sweep) {
     ++st.sweeps_run;
     opt.start_sweep();
@@ -526,7 +551,28 @@ Result<OptimizeStats> optimize(TetMesh& mesh, const SizingField* sizing,
     changes += opt.insert_into_slivers();
     if (options.smooth) changes += opt.smooth();
     bad = opt.bad_tets();
-    if (changes == 0) break;
+    if (changes == 0) {
+      settled = true;
+      break;
+    }
+  }
+  // Polishing rounds: reconnection and smoothing of the bad tets with no fixed
+  // point alone, while their number falls (their work is small; the full sweeps
+  // spend theirs on tets next to the boundary, many beyond repair).
+  if (options.smooth && st.sweeps_run > 0 && !settled) {
+    std::size_t inner = opt.interior(bad).size();
+    for (int round = 0; round < kPolishRounds && inner > 0; ++round) {
+      ++st.polish_rounds;
+      opt.start_sweep();
+      opt.reconnect(opt.interior(bad));
+      opt.set_interior_only(true);
+      opt.smooth();
+      opt.set_interior_only(false);
+      bad = opt.bad_tets();
+      const std::size_t now = opt.interior(bad).size();
+      if (now >= inner) break;
+      inner = now;
+    }
   }
   st.bad_after = bad.size();
   const AngleRange after = mesh_range(mesh);

@@ -19,7 +19,12 @@
 // (the plain smallest sine, which this replaced, saw only the 18).
 //
 // One sweep = reconnection, sliver removal, smoothing, in that order; sweeps
-// stop early when one changes nothing.
+// stop early when one changes nothing. When the sweeps end with changes still
+// coming, up to four polishing rounds follow (with smoothing on): reconnection
+// seeded with the bad tets that have no fixed point (see 3.), then smoothing of
+// their vertices alone, while the number of such tets falls. They finish the
+// interior cheaply where the sweeps spend their work on tets next to the
+// boundary, many beyond repair next to needle triangles.
 //
 //  1. Reconnection. A FIFO work queue, seeded with the bad tets in slot order.
 //     For a bad tet: edge removal (flips.hpp remove_edge: 3-2, 4-4 and larger
@@ -87,7 +92,7 @@ struct OptimizeOptions {
   /// Degrees: a tet whose largest dihedral angle is above this is bad.
   double target_max_dihedral = 150;
   /// Rounds of (reconnection, sliver removal, smoothing); fewer when a round
-  /// changes nothing. 0 only measures.
+  /// changes nothing; then the polishing rounds (above). 0 only measures.
   int sweeps = 4;
   /// Run the smoothing step.
   bool smooth = true;
@@ -111,6 +116,7 @@ struct OptimizeStats {
   std::size_t bad_before = 0;       ///< bad tets before / after
   std::size_t bad_after = 0;
   int sweeps_run = 0;
+  int polish_rounds = 0;  ///< polishing rounds run after the sweeps
   double min_dihedral_before = 0, min_dihedral_after = 0;  ///< degrees, over all alive tets
   double max_dihedral_before = 0, max_dihedral_after = 0;
   double seconds = 0;  ///< wall time, measured only for reporting
