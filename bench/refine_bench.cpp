@@ -14,7 +14,8 @@
 //   (per-pass lines), PDRMESH_BENCH_NO_OPTIMIZE, PDRMESH_BENCH_NO_MIN_MAX,
 //   PDRMESH_BENCH_EACH_INSERTION (min-max step after each insertion), PDRMESH_BENCH_MIN_MAX_ANGLE=A,
 //   PDRMESH_BENCH_SWEEPS=N (optimization sweeps), PDRMESH_BENCH_LONG_EDGE_RATIO=R,
-//   PDRMESH_BENCH_NO_VOID_MIDPOINTS
+//   PDRMESH_BENCH_NO_VOID_MIDPOINTS, PDRMESH_BENCH_DUMP_BAD (stderr: up to 40 interior tets outside
+//   [15, 150] with their edge lengths over h and their vertices' stars)
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -131,6 +132,37 @@ void run(const std::string& dir, const std::string& name, bool fine) {
     if (r.min >= 15 && r.max <= 150) ++inner_good;
     inner.min = std::min(inner.min, r.min);
     inner.max = std::max(inner.max, r.max);
+  }
+  if (std::getenv("PDRMESH_BENCH_DUMP_BAD") != nullptr) {
+    std::vector<std::vector<Index>> vt(out.points.size());
+    for (Index t = 0; t < out.tets.size(); ++t)
+      for (Index v : out.tets[t]) vt[v].push_back(t);
+    int shown = 0;
+    for (Index t = 0; t < out.tets.size() && shown < 40; ++t) {
+      const Tet& k = out.tets[t];
+      if (on_boundary[k[0]] || on_boundary[k[1]] || on_boundary[k[2]] || on_boundary[k[3]]) continue;
+      const auto r = dihedral_range(out.points[k[0]], out.points[k[1]], out.points[k[2]], out.points[k[3]]);
+      if (r.min >= 15 && r.max <= 150) continue;
+      ++shown;
+      const Vec3 c = 0.25 * (out.points[k[0]] + out.points[k[1]] + out.points[k[2]] + out.points[k[3]]);
+      const double h = field->at(c);
+      std::string el;
+      for (int e = 0; e < 6; ++e)
+        el += fmt::format(" {:.2f}", norm(out.points[k[topo::kEdgeVertex[e][0]]] - out.points[k[topo::kEdgeVertex[e][1]]]) / h);
+      std::string st;
+      for (Index v : k) {
+        double wmin = 180, wmax = 0; int bnd = 0, bad = 0; double hv = field->at(out.points[v]);
+        for (Index u : vt[v]) {
+          const Tet& q = out.tets[u];
+          const auto rr = dihedral_range(out.points[q[0]], out.points[q[1]], out.points[q[2]], out.points[q[3]]);
+          wmin = std::min(wmin, rr.min); wmax = std::max(wmax, rr.max);
+          if (on_boundary[q[0]] || on_boundary[q[1]] || on_boundary[q[2]] || on_boundary[q[3]]) ++bnd;
+          if (rr.min < 15 || rr.max > 150) ++bad;
+        }
+        st += fmt::format(" [v{} h{:.3g} star {} bnd {} bad {} worst {:.1f}/{:.1f}]", v, hv/h, vt[v].size(), bnd, bad, wmin, wmax);
+      }
+      fmt::print(stderr, "  bad {} {:.1f}/{:.1f} h={:.4g} L/h:{} {}\n", t, r.min, r.max, h, el, st);
+    }
   }
   const double n = edges.empty() ? 1.0 : double(edges.size());
   const double cpu = refine_cpu + optimize_cpu;

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "pdrmesh/insert.hpp"
+#include "pdrmesh/pipeline.hpp"
 #include "pdrmesh/predicates.hpp"
 #include "pdrmesh/quality.hpp"
 #include "pdrmesh/sizing.hpp"
@@ -52,6 +53,15 @@ std::vector<char> hull_points(const VolumeMesh& m) {
   for (const Tri& f : m.boundary)
     for (Index v : f) on[v] = 1;
   return on;
+}
+
+/// Every hull point of the input `v` is where it was.
+void expect_hull_points_kept(const TetMesh& m, const VolumeMesh& v) {
+  const auto on_hull = hull_points(v);
+  for (Index i = 0; i < v.points.size(); ++i)
+    if (on_hull[i]) {
+      EXPECT_EQ(m.point(i), v.points[i]) << "boundary point " << i << " moved";
+    }
 }
 
 bool all_positive(const VolumeMesh& m) {
@@ -250,6 +260,126 @@ TEST(Optimize, SmoothingRepairsMisplacedPoint) {
   expect_valid(m, nullptr);
 }
 
+/// Largest dihedral angle over the alive tets.
+double max_dihedral(const TetMesh& m) {
+  double hi = 0;
+  for (Index t = 0; t < m.num_slots(); ++t) {
+    if (!m.alive(t)) continue;
+    const Tet& k = m.tet(t);
+    hi = std::max(hi, dihedral_range(m.point(k[0]), m.point(k[1]), m.point(k[2]), m.point(k[3])).max);
+  }
+  return hi;
+}
+
+TEST(Optimize, SmoothingAimsAtTheTargetAngles) {
+  // Kuhn tets have dihedral angles of 45, 60 and 90 degrees. With targets
+  // [30, 100] a point pushed towards a neighbour makes obtuse tets (over 100
+  // degrees) whose smallest angles stay well above 30: smoothing must aim at
+  // the large angles (the plain smallest sine of a dihedral angle, which the
+  // measure replaced, ranks a 105-degree angle as better than a 45-degree one).
+  VolumeMesh v = kuhn_grid(3);
+  const Index p = 1 + 4 * (1 + 4 * 1);
+  v.points[p] = {1.2, 1.2, 1.2};  // 35.3 to 105.8 degrees around it
+  ASSERT_TRUE(all_positive(v));
+  TetMesh m = fixtures::build(v);
+  OptimizeOptions o;
+  o.target_min_dihedral = 30;
+  o.target_max_dihedral = 100;
+  o.reconnect = false;  // smoothing alone
+  ASSERT_GT(max_dihedral(m), 100.0);
+  ASSERT_GT(min_dihedral(m), 30.0);
+  auto st = optimize(m, nullptr, o);
+  ASSERT_TRUE(st.ok());
+  EXPECT_GT(st->bad_before, 0u);
+  EXPECT_EQ(st->bad_after, 0u);
+  EXPECT_GE(st->points_moved, 1u);
+  EXPECT_LE(max_dihedral(m), 100.0);
+  EXPECT_GE(min_dihedral(m), 30.0);
+  EXPECT_NEAR(fixtures::total_volume(m), 27.0, 1e-12);
+  expect_valid(m, nullptr);
+}
+
+TEST(Optimize, SmoothingNeverLowersAStarsWorstTet) {
+  // Every accepted move raises its star's clipped profile lexicographically,
+  // so the worst tet over all stays at least as good: with reconnection off
+  // the smallest measure (here, the smallest dihedral angle over tets of the
+  // jittered grid's interior points) never falls, and the boundary stays.
+  const VolumeMesh v = jittered_grid(4, 0.45);
+  TetMesh m = fixtures::build(v);
+  OptimizeOptions o;
+  o.reconnect = false;
+  o.insert_points = false;
+  auto st = optimize(m, nullptr, o);
+  ASSERT_TRUE(st.ok());
+  EXPECT_GT(st->points_moved, 0u);
+  EXPECT_GE(st->min_dihedral_after, st->min_dihedral_before);
+  EXPECT_LT(st->bad_after, st->bad_before);
+  expect_hull_points_kept(m, v);
+  expect_valid(m, nullptr);
+}
+
+/// Tets with no hull point and a dihedral angle outside [lo, hi] degrees.
+std::size_t interior_bad(const TetMesh& m, const std::vector<char>& on_hull, double lo, double hi) {
+  std::size_t n = 0;
+  for (Index t = 0; t < m.num_slots(); ++t) {
+    if (!m.alive(t)) continue;
+    const Tet& k = m.tet(t);
+    bool hull = false;
+    for (Index v : k) hull = hull || (v < on_hull.size() && on_hull[v]);
+    const AngleRange a = dihedral_range(m.point(k[0]), m.point(k[1]), m.point(k[2]), m.point(k[3]));
+    if (!hull && (a.min < lo || a.max > hi)) ++n;
+  }
+  return n;
+}
+
+TEST(Optimize, PolishingRoundsWorkOnTheInteriorAlone) {
+  // One sweep towards strict targets leaves work: the polishing rounds
+  // follow, touch no hull point, and leave fewer interior bad tets.
+  const VolumeMesh v = jittered_grid(5, 0.45);
+  const auto on_hull = hull_points(v);
+  TetMesh m = fixtures::build(v);
+  OptimizeOptions o;
+  o.sweeps = 1;
+  o.target_min_dihedral = 35;
+  o.target_max_dihedral = 110;
+  const std::size_t before = interior_bad(m, on_hull, 35, 110);
+  const double volume = fixtures::total_volume(m);
+  auto st = optimize(m, nullptr, o);
+  ASSERT_TRUE(st.ok());
+  EXPECT_GE(st->polish_rounds, 1);
+  EXPECT_GT(before, 0u);
+  EXPECT_LT(interior_bad(m, on_hull, 35, 110), before);
+  expect_hull_points_kept(m, v);
+  EXPECT_NEAR(fixtures::total_volume(m), volume, 1e-12 * volume);
+  expect_valid(m, nullptr);
+}
+
+/// The serial pipeline at the default spacing: every tet with no boundary vertex
+/// has its dihedral angles within the default targets [15, 150]. (Not asserted
+/// on sphere966, whose interior minimum moved between 11.7 and 15.5 degrees
+/// with small changes of the optimization: see README.)
+void expect_interior_within_targets(const char* name) {
+  auto surface = read_surface(std::string(PDRMESH_CORPUS_DIR) + "/" + name + ".stl");
+  ASSERT_TRUE(surface.ok()) << surface.status().to_string();
+  auto r = mesh_serial(*surface, SerialOptions{});
+  ASSERT_TRUE(r.ok()) << r.status().to_string();
+  const VolumeMesh& out = r->mesh;
+  const auto on_boundary = hull_points(out);
+  std::size_t interior = 0;
+  for (const Tet& k : out.tets) {
+    if (on_boundary[k[0]] || on_boundary[k[1]] || on_boundary[k[2]] || on_boundary[k[3]]) continue;
+    ++interior;
+    const AngleRange a = dihedral_range(out.points[k[0]], out.points[k[1]], out.points[k[2]], out.points[k[3]]);
+    EXPECT_GE(a.min, 15.0) << name << ": interior tet " << k[0] << " " << k[1] << " " << k[2] << " " << k[3];
+    EXPECT_LE(a.max, 150.0) << name << ": interior tet " << k[0] << " " << k[1] << " " << k[2] << " " << k[3];
+  }
+  EXPECT_GT(interior, 1000u);
+  const ValidationReport report = validate_mesh(out, &*surface);
+  EXPECT_TRUE(report.ok()) << format_validation(report);
+}
+
+TEST(Optimize, ElephantInteriorWithinTargets) { expect_interior_within_targets("elephant"); }
+
 TEST(Optimize, BoundaryAndFrozenFacesStayAndVolumeIsKept) {
   const VolumeMesh v = jittered_grid(4, 0.45);
   TetMesh m = fixtures::build(v);
@@ -265,10 +395,7 @@ TEST(Optimize, BoundaryAndFrozenFacesStayAndVolumeIsKept) {
   EXPECT_GT(st->points_moved, 0u);
   EXPECT_GT(st->min_dihedral_after, st->min_dihedral_before);
   EXPECT_LT(st->max_dihedral_after, st->max_dihedral_before);
-  for (Index i = 0; i < v.points.size(); ++i)
-    if (on_hull[i]) {
-      EXPECT_EQ(m.point(i), v.points[i]) << "boundary point " << i << " moved";
-    }
+  expect_hull_points_kept(m, v);
   EXPECT_EQ(frozen_faces(m), frozen);
   EXPECT_NEAR(fixtures::total_volume(m), volume, 1e-12 * volume);
   expect_valid(m, nullptr);

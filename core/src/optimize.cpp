@@ -26,31 +26,66 @@ std::array<Vec3, 4> corners(const TetMesh& m, const Tet& k) {
   return {m.point(k[0]), m.point(k[1]), m.point(k[2]), m.point(k[3])};
 }
 
-/// Smallest sine of the six dihedral angles of (p0, p1, p2, p3): sin = 6V * l_e
-/// / (|n1| |n2|), with n1, n2 the unnormalised normals of the two faces on edge
-/// e. Small both for angles near 0 and near 180 degrees; negative when the tet
-/// is inverted (the sign of V), 0 when a face is degenerate.
-double min_sine(const std::array<Vec3, 4>& p) {
+/// Smallest scaled sine of the six dihedral angles of (p0, p1, p2, p3): sin =
+/// 6V * l_e / (|n1| |n2|), with n1, n2 the unnormalised outward normals of the
+/// two faces on edge e, times `acute` for an angle up to 90 degrees and
+/// `obtuse` above (the angle is obtuse when n1.n2 > 0). With acute =
+/// 1/sin(target_min_dihedral) and obtuse = 1/sin(180 - target_max_dihedral) it
+/// is >= 1 exactly for a tet within the targets (up to rounding), and it is
+/// small both for angles near 0 and near 180 degrees; negative when the tet is
+/// inverted (the sign of V), 0 when a face is degenerate.
+double min_sine(const std::array<Vec3, 4>& p, double acute, double obtuse) {
   const double v6 = dot(cross(p[1] - p[0], p[2] - p[0]), p[3] - p[0]);
+  std::array<Vec3, 4> normal;
   std::array<double, 4> n{};
   for (int f = 0; f < 4; ++f) {
     const Vec3& a = p[topo::kFaceVertex[f][0]];
-    n[f] = norm(cross(p[topo::kFaceVertex[f][1]] - a, p[topo::kFaceVertex[f][2]] - a));
+    normal[f] = cross(p[topo::kFaceVertex[f][1]] - a, p[topo::kFaceVertex[f][2]] - a);
+    n[f] = norm(normal[f]);
   }
   double lowest = std::numeric_limits<double>::infinity();
   for (int e = 0; e < 6; ++e) {
-    const double den = n[topo::edge_face(e, 0)] * n[topo::edge_face(e, 1)];
+    const int f0 = topo::edge_face(e, 0), f1 = topo::edge_face(e, 1);
+    const double den = n[f0] * n[f1];
     if (!(den > 0.0)) return 0.0;
     const double l = norm(p[topo::kEdgeVertex[e][1]] - p[topo::kEdgeVertex[e][0]]);
-    lowest = std::min(lowest, v6 * l / den);
+    const double scale = dot(normal[f0], normal[f1]) > 0.0 ? obtuse : acute;
+    lowest = std::min(lowest, scale * v6 * l / den);
   }
   return lowest;
 }
 
+/// 1 / sin(angle in degrees), capped for angles near 0 or 180 (a target of 0
+/// or 180 degrees then weighs like one of about 0.06 degrees).
+double inverse_sine(double degrees) {
+  const double s = std::sin(degrees * (3.14159265358979323846 / 180.0));
+  return s > 1e-3 ? 1.0 / s : 1e3;
+}
+
+/// Smoothing passes per sweep (each over the vertices the previous one left bad).
+constexpr int kSmoothPasses = 4;
+/// Share of the tets (as a count of vertices) that the smoothing passes after
+/// the first may try per sweep.
+constexpr double kSmoothRetries = 0.02;
+constexpr std::size_t kSmoothRetriesMin = 2000;  ///< ... but at least this many
+/// Most polishing rounds after the sweeps (see optimize()).
+constexpr int kPolishRounds = 4;
+/// Line-search steps towards each smoothing target: 1, 1/2, ..., 1/64.
+constexpr int kLineSteps = 7;
+
 class Optimizer {
  public:
   Optimizer(TetMesh& mesh, const SizingField* sizing, const OptimizeOptions& o, OptimizeStats& st)
-      : m_(mesh), sizing_(sizing), o_(o), st_(st) {}
+      : m_(mesh),
+        sizing_(sizing),
+        o_(o),
+        st_(st),
+        acute_(inverse_sine(o.target_min_dihedral)),
+        obtuse_(inverse_sine(180.0 - o.target_max_dihedral)) {}
+
+  /// The quality that smoothing and insertion raise: min_sine scaled to the
+  /// targets (>= 1 for a good tet).
+  double measure(const std::array<Vec3, 4>& p) const { return min_sine(p, acute_, obtuse_); }
 
   Badness badness(Index t) const {
     const auto p = corners(m_, m_.tet(t));
@@ -111,7 +146,10 @@ class Optimizer {
   std::size_t smooth() {
     const Index np = m_.num_points();
     std::vector<Index> one_tet(np, kNoIndex);
-    std::vector<char> fixed(np, 0), wanted(np, 0);
+    fixed_.assign(np, 0);
+    std::vector<char>& fixed = fixed_;
+    std::vector<char> wanted(np, 0);
+    std::vector<Index> bad;
     for (Index t = 0; t < m_.num_slots(); ++t) {
       if (!m_.alive(t)) continue;
       const Tet& k = m_.tet(t);
@@ -122,15 +160,62 @@ class Optimizer {
         if (n == kNoIndex || m_.frozen(t, f) || m_.region(face_tet(n)) != m_.region(t))
           for (int j = 0; j < 3; ++j) fixed[k[topo::kFaceVertex[f][j]]] = 1;
       }
-      if (badness(t) != Badness::kGood)
-        for (int i = 0; i < 4; ++i) wanted[k[i]] = 1;
+      if (badness(t) != Badness::kGood) bad.push_back(t);
     }
-    std::size_t moved = 0;
+    if (interior_only_) bad = interior(bad);
+    for (Index t : bad)
+      for (Index v : m_.tet(t)) wanted[v] = 1;
+    std::vector<Index> todo, next;
     for (Index v = 0; v < np; ++v)
-      if (wanted[v] && !fixed[v] && one_tet[v] != kNoIndex && smooth_vertex(v, one_tet[v])) ++moved;
+      if (wanted[v] && !fixed[v] && one_tet[v] != kNoIndex) todo.push_back(v);
+    // Passes over the free vertices of bad tets, ascending; the next pass takes
+    // the free vertices of the bad tets left in the stars of the points just
+    // moved (the topology does not change here, so one_tet stays valid).
+    // Passes after the first together try at most max(kSmoothRetriesMin,
+    // kSmoothRetries * tets) vertices (where most tets are beyond repair, as next to needle
+    // triangles, they would otherwise take the time of many sweeps).
+    std::size_t moved = 0;
+    std::size_t retries =
+        std::max(kSmoothRetriesMin, static_cast<std::size_t>(kSmoothRetries * m_.num_tets()));
+    for (int pass = 0; pass < kSmoothPasses && !todo.empty(); ++pass) {
+      std::size_t moved_now = 0;
+      next.clear();
+      for (Index v : todo) {
+        if (pass > 0) {
+          if (retries == 0) break;
+          --retries;
+        }
+        if (!smooth_vertex(v, one_tet[v])) continue;
+        ++moved_now;
+        for (const auto& s : star_)
+          if (badness(s.first) != Badness::kGood)
+            for (Index u : m_.tet(s.first))
+              if (!fixed[u]) next.push_back(u);
+      }
+      moved += moved_now;
+      if (moved_now == 0) break;
+      std::sort(next.begin(), next.end());
+      next.erase(std::unique(next.begin(), next.end()), next.end());
+      std::swap(todo, next);
+    }
     st_.points_moved += moved;
     return moved;
   }
+
+  /// The tets of `tets` with no fixed point (as the last smooth() found them;
+  /// points added since are free).
+  std::vector<Index> interior(const std::vector<Index>& tets) const {
+    std::vector<Index> out;
+    for (Index t : tets) {
+      bool free = true;
+      for (Index v : m_.tet(t)) free = free && (v >= fixed_.size() || fixed_[v] == 0);
+      if (free) out.push_back(t);
+    }
+    return out;
+  }
+
+  /// Restricts smooth() to the vertices of bad tets with no fixed point.
+  void set_interior_only(bool on) { interior_only_ = on; }
 
   void start_sweep() {
     flips_this_sweep_ = 0;
@@ -190,23 +275,28 @@ class Optimizer {
     }
   }
 
-  /// Worst min_sine of the tets (link face, x); -inf when one is not positive.
+  /// Worst measure of the tets (link face, x); -inf when one is not positive.
   double star_quality(const Vec3& x) const {
     double worst = std::numeric_limits<double>::infinity();
     for (const Tri& f : link_) {
       const std::array<Vec3, 4> p{m_.point(f[0]), m_.point(f[1]), m_.point(f[2]), x};
       if (exact::orient3d(p[0], p[1], p[2], p[3]) <= 0)
         return -std::numeric_limits<double>::infinity();
-      worst = std::min(worst, min_sine(p));
+      worst = std::min(worst, measure(p));
     }
     return worst;
   }
 
   /// Best position for the apex of the tets over link_ (star_quality), starting
   /// from `old` and moving towards the candidate targets with a line search
-  /// (steps 1, 1/2, 1/4, 1/8; the first step that beats q0 is taken per target).
+  /// (kLineSteps steps 1, 1/2, 1/4, ...; the first step that beats q0 is taken
+  /// per target).
   /// Returns the best quality found, > q0 only when `best` improves.
-  double best_position(const Vec3& old, double q0, Vec3& best) {
+  /// With `profile`, a position counts as better when its star_profile is
+  /// lexicographically greater (the first differing quality higher) than the
+  /// one in profile_old_ (and than the best so far); the return value is then
+  /// the best profile's worst quality.
+  double best_position(const Vec3& old, double q0, Vec3& best, bool profile = false) {
     // Target 1: the mean of the link's vertices (each once).
     link_points_.clear();
     for (const Tri& f : link_) link_points_.insert(link_points_.end(), f.begin(), f.end());
@@ -227,12 +317,37 @@ class Optimizer {
     }
     ideal = (1.0 / static_cast<double>(link_.size())) * ideal;
 
+    // Target 3: the apex that would make the star's worst tet regular.
+    Vec3 worst_ideal = old;
+    double worst_q = std::numeric_limits<double>::infinity();
+    for (const Tri& f : link_) {
+      const Vec3 &a = m_.point(f[0]), &b = m_.point(f[1]), &c = m_.point(f[2]);
+      const double q = measure({a, b, c, old});
+      if (!(q < worst_q)) continue;
+      worst_q = q;
+      const Vec3 n = cross(b - a, c - a);
+      const double ln = norm(n);
+      const double edge = (norm(b - a) + norm(c - b) + norm(a - c)) / 3.0;
+      const Vec3 g = (1.0 / 3.0) * (a + b + c);
+      worst_ideal = ln > 0.0 ? g + (std::sqrt(2.0 / 3.0) * edge / ln) * n : g;
+    }
+
     double best_q = q0;
     best = old;
-    for (const Vec3& target : {laplace, ideal}) {
+    if (profile) profile_best_ = profile_old_;
+    for (const Vec3& target : {laplace, ideal, worst_ideal}) {
       double step = 1.0;
-      for (int i = 0; i < 4; ++i, step *= 0.5) {
+      for (int i = 0; i < kLineSteps; ++i, step *= 0.5) {
         const Vec3 x = old + step * (target - old);
+        if (profile) {
+          if (!smoothing_accepts(x)) continue;
+          if (profile_best_ < profile_new_) {
+            std::swap(profile_best_, profile_new_);
+            best_q = profile_best_.front();
+            best = x;
+          }
+          break;
+        }
         const double q = star_quality(x);
         if (q > q0) {
           if (q > best_q) {
@@ -246,6 +361,39 @@ class Optimizer {
     return best_q;
   }
 
+  /// The measure of every tet (link face, x) in link_ order into `out`; false
+  /// (out unusable) when one is not positive (exact), or measures below `floor`.
+  bool star_measures(const Vec3& x, std::vector<double>& out,
+                     double floor = -std::numeric_limits<double>::infinity()) const {
+    out.clear();
+    for (const Tri& f : link_) {
+      const std::array<Vec3, 4> p{m_.point(f[0]), m_.point(f[1]), m_.point(f[2]), x};
+      const double q = measure(p);
+      if (q < floor || exact::orient3d(p[0], p[1], p[2], p[3]) <= 0) return false;
+      out.push_back(q);
+    }
+    return true;
+  }
+
+  /// The smoothing profile of a star from its measures: each clipped at 1 (a
+  /// tet within the targets counts as good, however good), ascending.
+  static void to_profile(const std::vector<double>& measures, std::vector<double>& out) {
+    out.resize(measures.size());
+    for (std::size_t i = 0; i < measures.size(); ++i) out[i] = std::min(measures[i], 1.0);
+    std::sort(out.begin(), out.end());
+  }
+
+  /// Whether apex position x beats the old one for smoothing: every tet
+  /// positive and the profile lexicographically above profile_old_ (the worst
+  /// tet better, or as good and the next worse one better, ...). Leaves x's
+  /// profile in profile_new_.
+  bool smoothing_accepts(const Vec3& x) {
+    // A tet below the old worst puts the profile below the old one: stop early.
+    if (!star_measures(x, measures_new_, profile_old_.front())) return false;
+    to_profile(measures_new_, profile_new_);
+    return profile_old_ < profile_new_;
+  }
+
   bool smooth_vertex(Index v, Index start) {
     gather_star(v, start);
     link_.clear();
@@ -255,8 +403,16 @@ class Optimizer {
     }
     const Vec3 old = m_.point(v);
     Vec3 best;
-    const double q0 = star_quality(old);
-    if (!(best_position(old, q0, best) > q0)) return false;
+    if (!star_measures(old, measures_old_)) return false;
+    to_profile(measures_old_, profile_old_);
+    if (profile_old_.front() >= 1.0) return false;  // the star is good already
+    // Targets and line search as best_position, but compared by the star's
+    // profile (smoothing_accepts): a move may improve a bad tet while the
+    // star's worst tet, which v cannot help (e.g. a tet on the boundary), stays
+    // as it is; tets within the targets count as equal.
+    const double q0 = profile_old_.front();
+    (void)best_position(old, q0, best, /*profile=*/true);
+    if (best == old) return false;
     m_.set_point(v, best);
     for (const auto& s : star_) m_.invalidate_quality(s.first);
     return true;
@@ -264,7 +420,7 @@ class Optimizer {
 
   /// Replaces the sliver t and its four face neighbours by the star of a new
   /// point over the cavity's boundary, when the new tets are all positive, beat
-  /// the cavity's worst min_sine, and the point keeps its distance.
+  /// the cavity's worst measure, and the point keeps its distance.
   bool insert_into(Index t) {
     if ((m_.flags(t) & TetMesh::kFrozenMask) != 0) return false;
     std::array<Index, 5> cavity{t, 0, 0, 0, 0};
@@ -274,7 +430,7 @@ class Optimizer {
       cavity[static_cast<std::size_t>(f + 1)] = face_tet(n);
     }
     double q_old = std::numeric_limits<double>::infinity();
-    for (Index u : cavity) q_old = std::min(q_old, min_sine(corners(m_, m_.tet(u))));
+    for (Index u : cavity) q_old = std::min(q_old, measure(corners(m_, m_.tet(u))));
     // The cavity's boundary: the neighbours' faces away from t, less the faces
     // two neighbours share (seen once each way), which must not be frozen.
     link_.clear();
@@ -332,10 +488,15 @@ class Optimizer {
   const SizingField* sizing_;
   const OptimizeOptions& o_;
   OptimizeStats& st_;
+  const double acute_, obtuse_;  ///< measure()'s scales
   std::vector<Index> queue_;
   std::vector<std::pair<Index, int>> star_;
   std::vector<Tri> link_;  ///< faces of the star being optimised, turned towards its apex
   std::vector<Index> link_points_;
+  std::vector<double> measures_old_, measures_new_;  ///< smoothing scratch
+  std::vector<char> fixed_;     ///< per point, set by smooth(): on a frozen, hull or region face
+  bool interior_only_ = false;  ///< see set_interior_only
+  std::vector<double> profile_old_, profile_new_, profile_best_;
   std::size_t flips_this_sweep_ = 0;
   std::size_t flip_budget_ = 0;
 };
@@ -382,6 +543,7 @@ Result<OptimizeStats> optimize(TetMesh& mesh, const SizingField* sizing,
   st.max_dihedral_before = before.max;
   std::vector<Index> bad = opt.bad_tets();
   st.bad_before = bad.size();
+  bool settled = false;  // a sweep changed nothing
   for (int sweep = 0; sweep < options.sweeps && !bad.empty(); ++sweep) {
     ++st.sweeps_run;
     opt.start_sweep();
@@ -389,7 +551,28 @@ Result<OptimizeStats> optimize(TetMesh& mesh, const SizingField* sizing,
     changes += opt.insert_into_slivers();
     if (options.smooth) changes += opt.smooth();
     bad = opt.bad_tets();
-    if (changes == 0) break;
+    if (changes == 0) {
+      settled = true;
+      break;
+    }
+  }
+  // Polishing rounds: reconnection and smoothing of the bad tets with no fixed
+  // point alone, while their number falls (their work is small; the full sweeps
+  // spend theirs on tets next to the boundary, many beyond repair).
+  if (options.smooth && st.sweeps_run > 0 && !settled) {
+    std::size_t inner = opt.interior(bad).size();
+    for (int round = 0; round < kPolishRounds && inner > 0; ++round) {
+      ++st.polish_rounds;
+      opt.start_sweep();
+      opt.reconnect(opt.interior(bad));
+      opt.set_interior_only(true);
+      opt.smooth();
+      opt.set_interior_only(false);
+      bad = opt.bad_tets();
+      const std::size_t now = opt.interior(bad).size();
+      if (now >= inner) break;
+      inner = now;
+    }
   }
   st.bad_after = bad.size();
   const AngleRange after = mesh_range(mesh);

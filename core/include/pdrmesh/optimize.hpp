@@ -11,8 +11,20 @@
 // near 180 degrees). A cap (one large angle) or a needle/wedge (small angles
 // only) is bad but not a sliver.
 //
+// Insertion and smoothing raise a tet's measure: the smallest over its six
+// dihedral angles of sin(angle) / sin(target_min_dihedral) for an angle up to
+// 90 degrees and sin(angle) / sin(180 - target_max_dihedral) above, so that a
+// tet is within the targets exactly when its measure is >= 1 (up to rounding),
+// and a 154-degree cap with an 18-degree angle counts as bad for its 154 degrees
+// (the plain smallest sine, which this replaced, saw only the 18).
+//
 // One sweep = reconnection, sliver removal, smoothing, in that order; sweeps
-// stop early when one changes nothing.
+// stop early when one changes nothing. When the sweeps end with changes still
+// coming, up to four polishing rounds follow (with smoothing on): reconnection
+// seeded with the bad tets that have no fixed point (see 3.), then smoothing of
+// their vertices alone, while the number of such tets falls. They finish the
+// interior cheaply where the sweeps spend their work on tets next to the
+// boundary, many beyond repair next to needle triangles.
 //
 //  1. Reconnection. A FIFO work queue, seeded with the bad tets in slot order.
 //     For a bad tet: edge removal (flips.hpp remove_edge: 3-2, 4-4 and larger
@@ -30,24 +42,31 @@
 //     and the cavity is re-tiled as the star of one new point over its outer
 //     faces. The point starts at the sliver's centroid and moves towards the
 //     smoothing targets below over the new star; the operation is done only
-//     when every new tet is positive (exact::orient3d), the star's worst quality
-//     (smallest dihedral sine) strictly beats the cavity's, and the point lies
+//     when every new tet is positive (exact::orient3d), the star's worst measure
+//     strictly beats the cavity's, and the point lies
 //     at least insert_min_distance * h(point) from every cavity vertex. The new
 //     tets then go through the reconnection queue. Without sizing (null), no
 //     point is ever inserted. (A sliver whose cavity has no such point, e.g.
 //     two of its edges on the hull, stays: see tests/optimize_test.cpp.)
 //  3. Smoothing. A point is fixed when it lies on a frozen face, a hull face or
 //     a face between two regions; every other point is free. Each free vertex of
-//     a bad tet (ascending index) is moved towards two targets, the mean of its
-//     star's other vertices (Laplacian) and the mean over its star's tets of the
-//     position that would make that tet regular over its opposite face, with a
-//     line search back to the old position (steps 1, 1/2, 1/4, 1/8). A move is
-//     accepted only when every tet of the star stays positive by exact::orient3d
-//     with the new coordinates and the star's worst quality (smallest sine of a
-//     dihedral angle, which is small for both near-0 and near-180 angles) rises
-//     strictly; the better of the two targets wins. The star is gathered by a
-//     walk through adjacency from one incident tet (a vertex -> tet map built
-//     per smoothing pass). Moved points have their tets' quality cache reset.
+//     a bad tet (ascending index) is moved towards three targets, the mean of its
+//     star's other vertices (Laplacian), the mean over its star's tets of the
+//     position that would make that tet regular over its opposite face, and
+//     that position for the star's worst tet alone, with a line search back to
+//     the old position (steps 1, 1/2, ..., 1/64). A move is accepted only when
+//     every tet of the star stays positive by exact::orient3d with the new
+//     coordinates and the star's profile rises: the measures of its tets, each
+//     clipped at 1 (within the targets), ascending, compared lexicographically.
+//     So a move may improve a bad tet while a worse one that the point cannot
+//     help (a tet on a needle triangle of the boundary) stays as it is; the
+//     worst tet of a star never gets worse. The best of the targets wins. Up to
+//     four passes per sweep: the next takes the free vertices of the bad tets in
+//     the stars of the points just moved, and the passes after the first try
+//     at most max(2000, 0.02 * tets) vertices together (a time bound where most
+//     bad tets are beyond repair). The star is gathered by a walk through
+//     adjacency from one incident tet (a vertex -> tet map built per smoothing
+//     step). Moved points have their tets' quality cache reset.
 //
 // Guarantees: frozen faces keep their vertices and coordinates (flips and
 // insertion refuse them; their points are fixed); hull faces and region
@@ -73,7 +92,7 @@ struct OptimizeOptions {
   /// Degrees: a tet whose largest dihedral angle is above this is bad.
   double target_max_dihedral = 150;
   /// Rounds of (reconnection, sliver removal, smoothing); fewer when a round
-  /// changes nothing. 0 only measures.
+  /// changes nothing; then the polishing rounds (above). 0 only measures.
   int sweeps = 4;
   /// Run the smoothing step.
   bool smooth = true;
@@ -97,6 +116,7 @@ struct OptimizeStats {
   std::size_t bad_before = 0;       ///< bad tets before / after
   std::size_t bad_after = 0;
   int sweeps_run = 0;
+  int polish_rounds = 0;  ///< polishing rounds run after the sweeps
   double min_dihedral_before = 0, min_dihedral_after = 0;  ///< degrees, over all alive tets
   double max_dihedral_before = 0, max_dihedral_after = 0;
   double seconds = 0;  ///< wall time, measured only for reporting
