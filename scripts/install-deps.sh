@@ -15,6 +15,7 @@ packages=(
   libgtest-dev libgmock-dev
   python3-yaml                                # tests/deploy: the manifest check
   clang-14 libclang-rt-14-dev                 # scripts/sanitize.sh: ASan/UBSan/TSan builds, libFuzzer
+  curl dpkg-dev xz-utils                      # scripts/tsan-tbb.sh: oneTBB's Debian source, built with TSan
 )
 if [[ "${1:-}" == "--bench" ]]; then
   packages+=(tetgen gmsh time)
