@@ -3,6 +3,9 @@
 #include "pdrmesh/optimize.hpp"
 
 #include <fmt/format.h>
+#include <oneapi/tbb/blocked_range.h>
+#include <oneapi/tbb/parallel_for.h>
+#include <oneapi/tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <array>
@@ -60,10 +63,22 @@ class Optimizer {
     return small || large ? Badness::kBad : Badness::kGood;
   }
 
+  /// Per slot: 1 for a live bad tet (computed in parallel).
+  std::vector<unsigned char> bad_flags() const {
+    std::vector<unsigned char> is_bad(m_.num_slots(), 0);
+    tbb::parallel_for(tbb::blocked_range<Index>(0, m_.num_slots(), 4096), [&](const tbb::blocked_range<Index>& r) {
+      for (Index t = r.begin(); t < r.end(); ++t) is_bad[t] = m_.alive(t) && badness(t) != Badness::kGood ? 1 : 0;
+    });
+    return is_bad;
+  }
+
+  /// Bad live tets in slot order (the scan runs in parallel; the list does not
+  /// depend on the thread count).
   std::vector<Index> bad_tets() const {
+    const std::vector<unsigned char> is_bad = bad_flags();
     std::vector<Index> out;
     for (Index t = 0; t < m_.num_slots(); ++t)
-      if (m_.alive(t) && badness(t) != Badness::kGood) out.push_back(t);
+      if (is_bad[t] != 0) out.push_back(t);
     return out;
   }
 
@@ -112,6 +127,7 @@ class Optimizer {
     const Index np = m_.num_points();
     std::vector<Index> one_tet(np, kNoIndex);
     std::vector<char> fixed(np, 0), wanted(np, 0);
+    const std::vector<unsigned char> bad = bad_flags();
     for (Index t = 0; t < m_.num_slots(); ++t) {
       if (!m_.alive(t)) continue;
       const Tet& k = m_.tet(t);
@@ -122,7 +138,7 @@ class Optimizer {
         if (n == kNoIndex || m_.frozen(t, f) || m_.region(face_tet(n)) != m_.region(t))
           for (int j = 0; j < 3; ++j) fixed[k[topo::kFaceVertex[f][j]]] = 1;
       }
-      if (badness(t) != Badness::kGood)
+      if (bad[t] != 0)
         for (int i = 0; i < 4; ++i) wanted[k[i]] = 1;
     }
     std::size_t moved = 0;
@@ -340,16 +356,22 @@ class Optimizer {
   std::size_t flip_budget_ = 0;
 };
 
+/// Smallest and largest dihedral angle of the live tets (a parallel min/max:
+/// exact whatever the order).
 AngleRange mesh_range(const TetMesh& m) {
-  AngleRange r{180.0, 0.0};
-  for (Index t = 0; t < m.num_slots(); ++t) {
-    if (!m.alive(t)) continue;
-    const auto p = corners(m, m.tet(t));
-    const AngleRange a = dihedral_range(p[0], p[1], p[2], p[3]);
-    r.min = std::min(r.min, a.min);
-    r.max = std::max(r.max, a.max);
-  }
-  return r;
+  return tbb::parallel_reduce(
+      tbb::blocked_range<Index>(0, m.num_slots(), 4096), AngleRange{180.0, 0.0},
+      [&](const tbb::blocked_range<Index>& range, AngleRange r) {
+        for (Index t = range.begin(); t < range.end(); ++t) {
+          if (!m.alive(t)) continue;
+          const auto p = corners(m, m.tet(t));
+          const AngleRange a = dihedral_range(p[0], p[1], p[2], p[3]);
+          r.min = std::min(r.min, a.min);
+          r.max = std::max(r.max, a.max);
+        }
+        return r;
+      },
+      [](AngleRange a, AngleRange b) { return AngleRange{std::min(a.min, b.min), std::max(a.max, b.max)}; });
 }
 
 }  // namespace
