@@ -16,6 +16,7 @@
 #include <utility>
 
 #include <oneapi/tbb/parallel_for.h>
+#include <oneapi/tbb/parallel_sort.h>
 
 #include "pdrmesh/leaf_kernels.hpp"
 #include "pdrmesh/tetgen_adapter.hpp"
@@ -40,7 +41,7 @@ std::vector<Index> face_neighbours(const VolumeMesh& m) {
   faces.reserve(4 * m.tets.size());
   for (Index t = 0; t < m.tets.size(); ++t)
     for (int f = 0; f < 4; ++f) faces.push_back({topo::sorted_key(topo::face_of(m.tets[t], f)), 4 * t + Index(f)});
-  std::sort(faces.begin(), faces.end());
+  tbb::parallel_sort(faces.begin(), faces.end());  // a total order: std::sort's result
   std::vector<Index> nbr(faces.size(), kNoIndex);
   for (std::size_t i = 0; i + 1 < faces.size(); ++i) {
     if (faces[i].key == faces[i + 1].key) {
