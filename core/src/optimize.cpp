@@ -23,6 +23,11 @@
 namespace pdrmesh {
 namespace {
 
+/// Full-mesh scans run in parallel from this many tet slots (the merged mesh);
+/// below (a leaf task's mesh, already on one of the run's worker threads) they
+/// stay on the calling thread, so that leaf tasks do not wake more threads.
+constexpr Index kParallelTets = Index{1} << 17;
+
 enum class Badness { kGood, kBad, kSliver };
 
 std::array<Vec3, 4> corners(const TetMesh& m, const Tet& k) {
@@ -66,9 +71,15 @@ class Optimizer {
   /// Per slot: 1 for a live bad tet (computed in parallel).
   std::vector<unsigned char> bad_flags() const {
     std::vector<unsigned char> is_bad(m_.num_slots(), 0);
-    tbb::parallel_for(tbb::blocked_range<Index>(0, m_.num_slots(), 4096), [&](const tbb::blocked_range<Index>& r) {
+    const auto scan = [&](const tbb::blocked_range<Index>& r) {
       for (Index t = r.begin(); t < r.end(); ++t) is_bad[t] = m_.alive(t) && badness(t) != Badness::kGood ? 1 : 0;
-    });
+    };
+    const tbb::blocked_range<Index> all(0, m_.num_slots(), 4096);
+    if (m_.num_slots() < kParallelTets) {
+      scan(all);  // a leaf task's mesh: its worker thread is already one of the run's threads
+    } else {
+      tbb::parallel_for(all, scan);
+    }
     return is_bad;
   }
 
@@ -359,19 +370,21 @@ class Optimizer {
 /// Smallest and largest dihedral angle of the live tets (a parallel min/max:
 /// exact whatever the order).
 AngleRange mesh_range(const TetMesh& m) {
-  return tbb::parallel_reduce(
-      tbb::blocked_range<Index>(0, m.num_slots(), 4096), AngleRange{180.0, 0.0},
-      [&](const tbb::blocked_range<Index>& range, AngleRange r) {
-        for (Index t = range.begin(); t < range.end(); ++t) {
-          if (!m.alive(t)) continue;
-          const auto p = corners(m, m.tet(t));
-          const AngleRange a = dihedral_range(p[0], p[1], p[2], p[3]);
-          r.min = std::min(r.min, a.min);
-          r.max = std::max(r.max, a.max);
-        }
-        return r;
-      },
-      [](AngleRange a, AngleRange b) { return AngleRange{std::min(a.min, b.min), std::max(a.max, b.max)}; });
+  const auto scan = [&](const tbb::blocked_range<Index>& range, AngleRange r) {
+    for (Index t = range.begin(); t < range.end(); ++t) {
+      if (!m.alive(t)) continue;
+      const auto p = corners(m, m.tet(t));
+      const AngleRange a = dihedral_range(p[0], p[1], p[2], p[3]);
+      r.min = std::min(r.min, a.min);
+      r.max = std::max(r.max, a.max);
+    }
+    return r;
+  };
+  const tbb::blocked_range<Index> all(0, m.num_slots(), 4096);
+  if (m.num_slots() < kParallelTets) return scan(all, AngleRange{180.0, 0.0});
+  return tbb::parallel_reduce(all, AngleRange{180.0, 0.0}, scan, [](AngleRange a, AngleRange b) {
+    return AngleRange{std::min(a.min, b.min), std::max(a.max, b.max)};
+  });
 }
 
 }  // namespace
