@@ -138,7 +138,6 @@ class Optimizer {
     const Index np = m_.num_points();
     std::vector<Index> one_tet(np, kNoIndex);
     std::vector<char> fixed(np, 0), wanted(np, 0);
-    const std::vector<unsigned char> bad = bad_flags();
     for (Index t = 0; t < m_.num_slots(); ++t) {
       if (!m_.alive(t)) continue;
       const Tet& k = m_.tet(t);
@@ -149,7 +148,7 @@ class Optimizer {
         if (n == kNoIndex || m_.frozen(t, f) || m_.region(face_tet(n)) != m_.region(t))
           for (int j = 0; j < 3; ++j) fixed[k[topo::kFaceVertex[f][j]]] = 1;
       }
-      if (bad[t] != 0)
+      if (badness(t) != Badness::kGood)
         for (int i = 0; i < 4; ++i) wanted[k[i]] = 1;
     }
     std::size_t moved = 0;
