@@ -51,7 +51,8 @@ int main(int argc, char** argv) {
   fmt::print("profile {}: depth {}{}, {} final tets, {} rounds, {} leaf tasks, {:.2f} s of tasks, {:.2f} s serial "
              "(of {:.2f} s)\n",
              argv[1], profile->depth, deeper > 0 ? fmt::format(" replayed at depth {}", profile->depth + deeper) : "",
-             profile->final_tets, rounds.size(), leaves, profile->task_busy, serial, profile->total);
+             profile->final_tets, rounds.size(), leaves, profile->task_busy, serial,
+             profile->wall > 0 ? profile->wall : profile->total);
   fmt::print("{:>6} {:>12} {:>12} {:>10} {:>12} {:>12}\n", "P", "leaf_span_s", "leaf_speedup", "leaf_eff",
              "run_s", "run_speedup");
   for (std::size_t p = 1; p <= 1024; p *= 2) {

@@ -45,9 +45,10 @@ echo "sanitize: ASan+UBSan ctest ($((SECONDS - t0)) s so far)"
 # cli.run.primitives13.d2.tetgen; glibc's malloc, in the normal build, is fork-safe). That is the
 # service tests (a coordinator forks TetGen beside its gRPC threads), the corpus-wide CLI runs (also
 # minutes each under ASan), the namespace test, and the unit tests that run the TetGen leaf kernel
-# on several threads. ASAN_CTEST_LABEL_EXCLUDE= ASAN_CTEST_EXCLUDE= runs everything (it may hang).
+# on several threads or make the initial mesh beside the sizing (mesh_parallel with 2+ workers).
+# ASAN_CTEST_LABEL_EXCLUDE= ASAN_CTEST_EXCLUDE= runs everything (it may hang).
 label_exclude=${ASAN_CTEST_LABEL_EXCLUDE-corpus|netns|service}
-test_exclude=${ASAN_CTEST_EXCLUDE-Pdr\.(TetgenKernel|BothKernels|ATetgenCrash)}
+test_exclude=${ASAN_CTEST_EXCLUDE-Pdr\.(TetgenKernel|BothKernels|ATetgenCrash|MeshParallel)}
 (cd "$root/build-asan" && ctest --output-on-failure --parallel "$jobs" --timeout 900 \
   ${label_exclude:+-LE "$label_exclude"} ${test_exclude:+-E "$test_exclude"})
 echo "sanitize: fuzzing, ${FUZZ_SECONDS:-10} s per target ($((SECONDS - t0)) s so far)"

@@ -61,6 +61,31 @@ TEST(PdrProfile, JsonRoundTrips) {
   EXPECT_DOUBLE_EQ(serial_seconds(short_run), 0.0);
 }
 
+TEST(PdrProfile, WholeRunPhasesRoundTripAndSetTheSerialShare) {
+  PdrProfile p = sample_profile();
+  p.read = 0.5;
+  p.sizing = 2;
+  p.validation = 3;
+  p.wall = 58;  // the engine's 50 s and 8 s around it
+  Result<PdrProfile> back = profile_from_json(profile_to_json(p, 2));
+  ASSERT_TRUE(back.ok()) << back.status().to_string();
+  EXPECT_EQ(back->read, 0.5);
+  EXPECT_EQ(back->validation, 3.0);
+  EXPECT_EQ(back->wall, 58.0);
+  EXPECT_DOUBLE_EQ(serial_seconds(*back), 18.0);  // the wall less the rounds' 40 s
+  // A file without the whole-run phases (written before they existed) still reads.
+  std::string old = profile_to_json(sample_profile(), 2);
+  for (const char* name : {"\"read\":", "\"wall\":"}) {
+    const std::size_t at = old.find(name);
+    ASSERT_NE(at, std::string::npos) << name;
+    old.erase(at, old.find(',', at) + 1 - at);
+  }
+  Result<PdrProfile> older = profile_from_json(old);
+  ASSERT_TRUE(older.ok()) << older.status().to_string();
+  EXPECT_EQ(older->wall, 0.0);
+  EXPECT_DOUBLE_EQ(serial_seconds(*older), 10.0);
+}
+
 TEST(PdrProfile, RejectsBadFiles) {
   EXPECT_FALSE(profile_from_json("not json").ok());
   EXPECT_FALSE(profile_from_json("{\"version\": 2}").ok());

@@ -15,6 +15,7 @@
 
 #include "pdr_fixtures.hpp"
 #include "pdrmesh/leaf_kernels.hpp"
+#include "pdrmesh/pipeline.hpp"
 #include "pdrmesh/predicates.hpp"
 #include "pdrmesh/surface_io.hpp"
 #include "pdrmesh/tetgen_adapter.hpp"
@@ -467,6 +468,54 @@ TEST(Pdr, ProgressCanStopTheRun) {
   ASSERT_FALSE(m.ok());
   EXPECT_EQ(m.status().code(), StatusCode::kCancelled) << m.status().to_string();
   EXPECT_EQ(calls_after_stop, 0u);
+}
+
+TEST(Pdr, ACallerMadeInitialMeshGivesRunPdrsResult) {
+  const Sphere* sp = sphere();
+  if (sp == nullptr) GTEST_SKIP() << "sphere966.mesh not readable";
+  const NativeLeafKernel kernel(barycenter_hook(20));
+  const PdrOptions o = depth2(2);
+  Result<VolumeMesh> whole = run_pdr(sp->surface, *sp->sizing, kernel, o, nullptr);
+  ASSERT_TRUE(whole.ok()) << whole.status().to_string();
+  Result<PdrPlan> plan = plan_pdr(sp->surface, surface_spacing(sp->surface, *sp->sizing), o);
+  ASSERT_TRUE(plan.ok()) << plan.status().to_string();
+  EXPECT_EQ(plan->depth, 2);
+  Result<VolumeMesh> initial = tetrahedralize(sp->surface, plan->tetgen);
+  ASSERT_TRUE(initial.ok());
+  PdrProfile profile;
+  Result<VolumeMesh> split = run_pdr(sp->surface, *sp->sizing, kernel, o, &profile, *plan, std::move(*initial), 1.5);
+  ASSERT_TRUE(split.ok()) << split.status().to_string();
+  EXPECT_EQ(split->points, whole->points);
+  EXPECT_EQ(split->tets, whole->tets);
+  EXPECT_EQ(split->tet_regions, whole->tet_regions);
+  EXPECT_EQ(profile.initial, 1.5);
+  EXPECT_GE(profile.total, 1.5);
+}
+
+TEST(Pdr, MeshParallelIsByteIdenticalWithTheInitialMeshBesideTheSizing) {
+  // 1 worker: sizing, then the initial mesh; 2 and 4: both at once (the plan
+  // from SizingField::surface_values). The bytes must not change.
+  const Sphere* sp = sphere();
+  if (sp == nullptr) GTEST_SKIP() << "sphere966.mesh not readable";
+  const NativeLeafKernel kernel(barycenter_hook(20));
+  ParallelOptions o;
+  o.pdr = depth2();
+  o.optimize.reset();
+  std::string ref;
+  for (std::size_t w : {1u, 2u, 4u}) {
+    o.pdr.workers = w;
+    Result<ParallelResult> r = mesh_parallel(sp->surface, o, &kernel);
+    ASSERT_TRUE(r.ok()) << r.status().to_string();
+    if (w == 1) {
+      expect_valid(r->mesh, sp->surface);
+      EXPECT_EQ(r->profile.overlapped, 0.0);
+      ref = meshb_bytes(r->mesh, "pdr_mp1");
+      continue;
+    }
+    EXPECT_GT(r->profile.overlapped, 0.0) << w;  // the two ran side by side
+    EXPECT_GT(r->profile.background, 0.0) << w;
+    EXPECT_EQ(meshb_bytes(r->mesh, "pdr_mp" + std::to_string(w)), ref) << w;
+  }
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <cmath>
 #include <chrono>
 #include <cstdio>
 #include <fstream>
@@ -382,6 +383,32 @@ TEST(SizingField, ParallelQueriesMatchSerial) {
   for (std::size_t i = 0; i < xs.size(); ++i) serial[i] = f.at(xs[i]);
   tbb::parallel_for(std::size_t(0), xs.size(), [&](std::size_t i) { parallel[i] = f.at(xs[i]); });
   for (std::size_t i = 0; i < xs.size(); ++i) ASSERT_EQ(bits(serial[i]), bits(parallel[i])) << i;
+}
+
+// ---------------------------------------------------------------- surface values
+
+TEST(SizingField, SurfaceValuesMatchTheBuiltFieldBitForBit) {
+  const Sphere* sp = sphere();
+  if (sp == nullptr) GTEST_SKIP() << "sphere966.mesh not readable or not star-shaped";
+  SizingOptions clamped;
+  clamped.hmin = 0.9;
+  clamped.hmax = 1.1;
+  SizingOptions uniform;
+  uniform.size = 0.7;
+  for (const SizingOptions& o : {growth(1.2), growth(1.02), clamped, uniform}) {
+    const SizingField f = build_ok(sp->surface, sp->background, o);
+    const Result<std::vector<double>> h = SizingField::surface_values(sp->surface, o);
+    ASSERT_TRUE(h.ok()) << h.status().to_string();
+    ASSERT_EQ(h->size(), sp->surface.points.size());
+    for (Index i = 0; i < sp->surface.points.size(); ++i)
+      EXPECT_EQ(bits((*h)[i]), bits(f.at(sp->surface.points[i]))) << "point " << i;
+  }
+  SurfaceMesh extra = sp->surface;  // a point no triangle uses gets NaN
+  extra.points.push_back({100, 100, 100});
+  const Result<std::vector<double>> h = SizingField::surface_values(extra, {});
+  ASSERT_TRUE(h.ok());
+  EXPECT_TRUE(std::isnan(h->back()));
+  EXPECT_FALSE(std::isnan(h->front()));
 }
 
 // ---------------------------------------------------------------- errors

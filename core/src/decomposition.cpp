@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include <fmt/format.h>
+#include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/parallel_sort.h>
 
 namespace pdrmesh {
@@ -121,11 +122,11 @@ Result<Decomposition> decompose_impl(const VolumeMesh& mesh, int depth, const Bo
 
   // Leaf assignment by barycenter.
   std::vector<LeafId> grid_of_tet(nt);
-  for (std::size_t t = 0; t < nt; ++t) {
+  tbb::parallel_for(std::size_t{0}, nt, [&](std::size_t t) {
     grid_of_tet[t] = leaf_of_point(d.box, depth, tet_barycenter(mesh, static_cast<Index>(t)));
-  }
+  });
   d.leaves = grid_of_tet;
-  std::sort(d.leaves.begin(), d.leaves.end());
+  tbb::parallel_sort(d.leaves.begin(), d.leaves.end());
   d.leaves.erase(std::unique(d.leaves.begin(), d.leaves.end()), d.leaves.end());
   const std::size_t nl = d.leaves.size();
   auto index_of = [&](LeafId id) -> Index {
@@ -134,11 +135,13 @@ Result<Decomposition> decompose_impl(const VolumeMesh& mesh, int depth, const Bo
   };
   d.tet_leaf.resize(nt);
   d.leaf_tets.assign(nl, {});
-  for (std::size_t t = 0; t < nt; ++t) {
-    const Index l = index_of(grid_of_tet[t]);
-    d.tet_leaf[t] = l;
-    d.leaf_tets[l].push_back(static_cast<Index>(t));
+  tbb::parallel_for(std::size_t{0}, nt, [&](std::size_t t) { d.tet_leaf[t] = index_of(grid_of_tet[t]); });
+  {
+    std::vector<std::size_t> count(nl, 0);
+    for (Index l : d.tet_leaf) ++count[l];
+    for (std::size_t l = 0; l < nl; ++l) d.leaf_tets[l].reserve(count[l]);
   }
+  for (std::size_t t = 0; t < nt; ++t) d.leaf_tets[d.tet_leaf[t]].push_back(static_cast<Index>(t));
 
   d.n1 = grid_n1(d.leaves, depth);
   // N2: n1 of the n1 members, less {L} and n1 (stamp[x] == l: x seen for l).

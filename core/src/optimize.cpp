@@ -3,6 +3,9 @@
 #include "pdrmesh/optimize.hpp"
 
 #include <fmt/format.h>
+#include <oneapi/tbb/blocked_range.h>
+#include <oneapi/tbb/parallel_for.h>
+#include <oneapi/tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <array>
@@ -19,6 +22,11 @@
 
 namespace pdrmesh {
 namespace {
+
+/// Full-mesh scans run in parallel from this many tet slots (the merged mesh);
+/// below (a leaf task's mesh, already on one of the run's worker threads) they
+/// stay on the calling thread, so that leaf tasks do not wake more threads.
+constexpr Index kParallelTets = Index{1} << 17;
 
 enum class Badness { kGood, kBad, kSliver };
 
@@ -95,10 +103,28 @@ class Optimizer {
     return small || large ? Badness::kBad : Badness::kGood;
   }
 
+  /// Per slot: 1 for a live bad tet (computed in parallel).
+  std::vector<unsigned char> bad_flags() const {
+    std::vector<unsigned char> is_bad(m_.num_slots(), 0);
+    const auto scan = [&](const tbb::blocked_range<Index>& r) {
+      for (Index t = r.begin(); t < r.end(); ++t) is_bad[t] = m_.alive(t) && badness(t) != Badness::kGood ? 1 : 0;
+    };
+    const tbb::blocked_range<Index> all(0, m_.num_slots(), 4096);
+    if (m_.num_slots() < kParallelTets) {
+      scan(all);  // a leaf task's mesh: its worker thread is already one of the run's threads
+    } else {
+      tbb::parallel_for(all, scan);
+    }
+    return is_bad;
+  }
+
+  /// Bad live tets in slot order (the scan runs in parallel; the list does not
+  /// depend on the thread count).
   std::vector<Index> bad_tets() const {
+    const std::vector<unsigned char> is_bad = bad_flags();
     std::vector<Index> out;
     for (Index t = 0; t < m_.num_slots(); ++t)
-      if (m_.alive(t) && badness(t) != Badness::kGood) out.push_back(t);
+      if (is_bad[t] != 0) out.push_back(t);
     return out;
   }
 
@@ -501,16 +527,24 @@ class Optimizer {
   std::size_t flip_budget_ = 0;
 };
 
+/// Smallest and largest dihedral angle of the live tets (a parallel min/max:
+/// exact whatever the order).
 AngleRange mesh_range(const TetMesh& m) {
-  AngleRange r{180.0, 0.0};
-  for (Index t = 0; t < m.num_slots(); ++t) {
-    if (!m.alive(t)) continue;
-    const auto p = corners(m, m.tet(t));
-    const AngleRange a = dihedral_range(p[0], p[1], p[2], p[3]);
-    r.min = std::min(r.min, a.min);
-    r.max = std::max(r.max, a.max);
-  }
-  return r;
+  const auto scan = [&](const tbb::blocked_range<Index>& range, AngleRange r) {
+    for (Index t = range.begin(); t < range.end(); ++t) {
+      if (!m.alive(t)) continue;
+      const auto p = corners(m, m.tet(t));
+      const AngleRange a = dihedral_range(p[0], p[1], p[2], p[3]);
+      r.min = std::min(r.min, a.min);
+      r.max = std::max(r.max, a.max);
+    }
+    return r;
+  };
+  const tbb::blocked_range<Index> all(0, m.num_slots(), 4096);
+  if (m.num_slots() < kParallelTets) return scan(all, AngleRange{180.0, 0.0});
+  return tbb::parallel_reduce(all, AngleRange{180.0, 0.0}, scan, [](AngleRange a, AngleRange b) {
+    return AngleRange{std::min(a.min, b.min), std::max(a.max, b.max)};
+  });
 }
 
 }  // namespace

@@ -16,6 +16,7 @@
 #include <utility>
 
 #include <oneapi/tbb/parallel_for.h>
+#include <oneapi/tbb/parallel_sort.h>
 
 #include "pdrmesh/leaf_kernels.hpp"
 #include "pdrmesh/tetgen_adapter.hpp"
@@ -40,7 +41,7 @@ std::vector<Index> face_neighbours(const VolumeMesh& m) {
   faces.reserve(4 * m.tets.size());
   for (Index t = 0; t < m.tets.size(); ++t)
     for (int f = 0; f < 4; ++f) faces.push_back({topo::sorted_key(topo::face_of(m.tets[t], f)), 4 * t + Index(f)});
-  std::sort(faces.begin(), faces.end());
+  tbb::parallel_sort(faces.begin(), faces.end());  // a total order: std::sort's result
   std::vector<Index> nbr(faces.size(), kNoIndex);
   for (std::size_t i = 0; i + 1 < faces.size(); ++i) {
     if (faces[i].key == faces[i + 1].key) {
@@ -538,12 +539,13 @@ void remove_unused_points(VolumeMesh& m) {
 
 }  // namespace
 
-Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing, const LeafKernel& kernel,
-                           const PdrOptions& options, PdrProfile* profile) {
-  const auto t_total = Clock::now();
-  PdrProfile local;
-  PdrProfile& prof = profile ? *profile : local;
-  prof = PdrProfile{};
+double surface_spacing(const SurfaceMesh& surface, const SizingField& sizing) {
+  double sum_h = 0;
+  for (const Vec3& p : surface.points) sum_h += sizing.at(p);
+  return sum_h / static_cast<double>(surface.points.size());
+}
+
+Result<PdrPlan> plan_pdr(const SurfaceMesh& surface, double surface_h, const PdrOptions& options) {
   if (options.depth > kMaxDepth) {
     return invalid_input(fmt::format("octree depth {} is outside [0, {}] (or -1)", options.depth, kMaxDepth));
   }
@@ -555,38 +557,58 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
   }
   const Box bb = surface.bounds();
   const double side = std::max({bb.hi[0] - bb.lo[0], bb.hi[1] - bb.lo[1], bb.hi[2] - bb.lo[2]});
-  int depth = options.depth;
-  double sum_h = 0;
-  for (const Vec3& p : surface.points) sum_h += sizing.at(p);
-  const double surface_h = sum_h / static_cast<double>(surface.points.size());
-  if (depth < 0) {
+  PdrPlan plan;
+  plan.surface_h = surface_h;
+  plan.depth = options.depth;
+  if (plan.depth < 0) {
     const double estimate = enclosed_volume(surface) / regular_tet_volume(surface_h);
     const double capped = std::isfinite(estimate) ? std::clamp(estimate, 0.0, 1e15) : 0.0;
-    depth = default_depth(static_cast<std::size_t>(capped), options.final_tets_per_leaf);
+    plan.depth = default_depth(static_cast<std::size_t>(capped), options.final_tets_per_leaf);
   }
-  prof.depth = depth;
-
-  const auto report = [&](std::string_view phase, std::size_t tets) {
-    return !options.progress || options.progress({phase, 0, 0, tets});
-  };
-  if (!report("initial mesh", 0)) return cancelled("stopped before the initial mesh");
-  auto t0 = Clock::now();
-  TetgenOptions tg;
-  const double leaf_side = side / static_cast<double>(1 << depth);
+  TetgenOptions& tg = plan.tetgen;
+  const double leaf_side = side / static_cast<double>(1 << plan.depth);
   tg.max_volume = std::max(leaf_side * leaf_side * leaf_side / options.initial_volume_divisor,
                            options.initial_min_volume_factor * regular_tet_volume(surface_h));
   tg.time_limit_s = options.tetgen_time_limit_s;
   tg.radius_edge = options.initial_radius_edge;
   if (!(*tg.max_volume > 0) || !std::isfinite(*tg.max_volume)) tg.max_volume.reset();
-  Result<VolumeMesh> initial = tetrahedralize(surface, tg);
+  return plan;
+}
+
+Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing, const LeafKernel& kernel,
+                           const PdrOptions& options, PdrProfile* profile) {
+  const auto t0 = Clock::now();
+  if (surface.points.empty() || surface.triangles.empty()) {
+    return invalid_input(fmt::format("{}: the surface is empty", surface.name));
+  }
+  PDR_ASSIGN_OR_RETURN(const PdrPlan plan, plan_pdr(surface, surface_spacing(surface, sizing), options));
+  if (options.progress && !options.progress({"initial mesh", 0, 0, 0})) {
+    return cancelled("stopped before the initial mesh");
+  }
+  Result<VolumeMesh> initial = tetrahedralize(surface, plan.tetgen);
   if (!initial.ok()) return initial.status();
-  prof.initial = seconds_since(t0);
-  prof.initial_tets = initial->tets.size();
-  VolumeMesh cur = std::move(*initial);
+  return run_pdr(surface, sizing, kernel, options, profile, plan, std::move(*initial), seconds_since(t0));
+}
+
+Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing, const LeafKernel& kernel,
+                           const PdrOptions& options, PdrProfile* profile, const PdrPlan& plan, VolumeMesh initial,
+                           double initial_s) {
+  const auto t_total = Clock::now();
+  PdrProfile local;
+  PdrProfile& prof = profile ? *profile : local;
+  prof = PdrProfile{};
+  const int depth = plan.depth;
+  prof.depth = depth;
+  const auto report = [&](std::string_view phase, std::size_t tets) {
+    return !options.progress || options.progress({phase, 0, 0, tets});
+  };
+  prof.initial = initial_s;
+  prof.initial_tets = initial.tets.size();
+  VolumeMesh cur = std::move(initial);
   const FaceIdTable boundary(cur.boundary, cur.boundary_ids);
   const bool fixups = options.fixups.value_or(kernel.needs_manifold_hull());
 
-  t0 = Clock::now();
+  auto t0 = Clock::now();
   PDR_ASSIGN_OR_RETURN(Decomposition d1, decompose(cur, depth));  // checks the initial mesh's faces
   prof.decomposition = seconds_since(t0);
   const Box box1 = d1.box;
@@ -669,7 +691,9 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
       // leave the slivers there. Afterwards each tet gets the leaf of the last
       // round's grid that holds its barycenter.
       cur.tet_regions.clear();
+      const auto tg = Clock::now();
       PDR_TRY(options.optimize(cur));
+      prof.global_optimization = seconds_since(tg);
       cur.tet_regions.resize(cur.tets.size());
       for (Index t = 0; t < cur.tets.size(); ++t)
         cur.tet_regions[t] = static_cast<int>(leaf_of_point(last_box, depth, tet_barycenter(cur, t)));
@@ -677,7 +701,7 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
     prof.optimization = seconds_since(t0);
   }
   prof.final_tets = cur.tets.size();
-  prof.total = seconds_since(t_total);
+  prof.total = initial_s + seconds_since(t_total);
   return cur;
 }
 

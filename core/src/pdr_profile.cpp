@@ -36,6 +36,23 @@ auto phase_fields(P& p) {
   });
 }
 
+/// Phases added later (around the engine); optional when read, for older files.
+template <class P>
+auto outer_phase_fields(P& p) {
+  return std::to_array<std::pair<const char*, decltype(&p.total)>>({
+      {"global_optimization", &p.global_optimization},
+      {"read", &p.read},
+      {"surface_check", &p.surface_check},
+      {"background", &p.background},
+      {"sizing", &p.sizing},
+      {"overlapped", &p.overlapped},
+      {"validation", &p.validation},
+      {"write", &p.write},
+      {"quality", &p.quality},
+      {"wall", &p.wall},
+  });
+}
+
 }  // namespace
 
 std::string profile_to_json(const PdrProfile& p, std::size_t workers) {
@@ -48,6 +65,7 @@ std::string profile_to_json(const PdrProfile& p, std::size_t workers) {
   j["failed_leaves"] = p.failed_leaves;
   json phases = json::object();
   for (const auto& [name, field] : phase_fields(p)) phases[name] = *field;
+  for (const auto& [name, field] : outer_phase_fields(p)) phases[name] = *field;
   j["phases"] = std::move(phases);
   json rounds = json::array();
   for (const RoundRecord& r : p.rounds) {
@@ -70,6 +88,7 @@ Result<PdrProfile> profile_from_json(std::string_view text) {
     p.failed_leaves = j.value("failed_leaves", std::size_t{0});
     const json& phases = j.at("phases");
     for (const auto& [name, field] : phase_fields(p)) *field = phases.at(name).get<double>();
+    for (const auto& [name, field] : outer_phase_fields(p)) *field = phases.value(name, 0.0);
     for (const json& r : j.at("rounds")) {
       RoundRecord rec;
       rec.name = r.at("name").get<std::string>();
@@ -101,7 +120,7 @@ Result<PdrProfile> profile_from_json(std::string_view text) {
 double serial_seconds(const PdrProfile& p) {
   double rounds = 0;
   for (const RoundRecord& r : p.rounds) rounds += r.wall_s;
-  return std::max(0.0, p.total - rounds);
+  return std::max(0.0, (p.wall > 0 ? p.wall : p.total) - rounds);
 }
 
 Result<RoundRecord> refine_round(const RoundRecord& r, int k) {

@@ -2,10 +2,15 @@
 // The serial meshing pipeline (see pipeline.hpp).
 #include "pdrmesh/pipeline.hpp"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <optional>
+#include <thread>
 #include <utility>
 
 #include "pdrmesh/leaf_kernels.hpp"
+#include "pdrmesh/pdr.hpp"
 #include "pdrmesh/tet_mesh.hpp"
 
 namespace pdrmesh {
@@ -58,10 +63,62 @@ Result<ParallelResult> mesh_parallel(const SurfaceMesh& surface, const ParallelO
     kernel = native.get();
   }
   ParallelResult out;
-  auto t = Clock::now();
-  PDR_ASSIGN_OR_RETURN(const VolumeMesh background, tetrahedralize(surface));
-  PDR_ASSIGN_OR_RETURN(const SizingField sizing, SizingField::build(surface, background, options.sizing));
-  out.seconds_sizing = seconds_since(t);
+  std::optional<SizingField> sizing_slot;
+  double background_s = 0, build_s = 0;
+  const auto make_sizing = [&]() -> Status {
+    auto t = Clock::now();
+    PDR_ASSIGN_OR_RETURN(const VolumeMesh background, tetrahedralize(surface));
+    background_s = seconds_since(t);
+    t = Clock::now();
+    PDR_ASSIGN_OR_RETURN(SizingField field, SizingField::build(surface, background, options.sizing));
+    build_s = seconds_since(t);
+    sizing_slot.emplace(std::move(field));
+    return {};
+  };
+  // With 2 or more workers the initial mesh is made beside the background mesh
+  // and the sizing field: its plan needs only h at the surface points, which
+  // the surface alone gives (SizingField::surface_values). Checked against the
+  // built field afterwards; on any difference the initial mesh is made again
+  // from the field's own plan, so the result is always run_pdr's.
+  std::optional<PdrPlan> plan;
+  std::optional<VolumeMesh> initial;
+  double initial_s = 0, overlapped_s = 0;
+  std::optional<PdrPlan> early;
+  if (options.pdr.workers >= 2) {
+    if (Result<std::vector<double>> h = SizingField::surface_values(surface, options.sizing); h.ok()) {
+      double sum_h = 0;
+      bool all = true;
+      for (double v : *h) {
+        all = all && std::isfinite(v);
+        sum_h += v;
+      }
+      if (all) {
+        if (Result<PdrPlan> p = plan_pdr(surface, sum_h / static_cast<double>(h->size()), options.pdr); p.ok())
+          early = std::move(*p);
+      }
+    }
+  }
+  if (early) {
+    if (options.pdr.progress && !options.pdr.progress({"initial mesh", 0, 0, 0}))
+      return cancelled("stopped before the initial mesh");
+    Status sizing_status;
+    std::thread side([&] { sizing_status = make_sizing(); });
+    const auto t = Clock::now();
+    Result<VolumeMesh> made = tetrahedralize(surface, early->tetgen);
+    initial_s = seconds_since(t);
+    side.join();
+    overlapped_s = std::min(initial_s, background_s + build_s);
+    PDR_TRY(sizing_status);
+    if (surface_spacing(surface, *sizing_slot) == early->surface_h) {
+      if (!made.ok()) return made.status();
+      plan = std::move(early);
+      initial = std::move(*made);
+    }
+  } else {
+    PDR_TRY(make_sizing());
+  }
+  const SizingField& sizing = *sizing_slot;
+  out.seconds_sizing = background_s + build_s;
   out.boundary_points = sizing.boundary_points();
   PdrOptions pdr = options.pdr;
   pdr.optimize = nullptr;
@@ -73,7 +130,15 @@ Result<ParallelResult> mesh_parallel(const SurfaceMesh& surface, const ParallelO
     pdr.optimize_kernel = &*optimizer;
     pdr.optimize = [&sizing, &options](VolumeMesh& m) { return optimize_volume(m, sizing, *options.optimize); };
   }
-  PDR_ASSIGN_OR_RETURN(out.mesh, run_pdr(surface, sizing, *kernel, pdr, &out.profile));
+  if (plan) {
+    PDR_ASSIGN_OR_RETURN(out.mesh, run_pdr(surface, sizing, *kernel, pdr, &out.profile, *plan,
+                                           std::move(*initial), initial_s));
+  } else {
+    PDR_ASSIGN_OR_RETURN(out.mesh, run_pdr(surface, sizing, *kernel, pdr, &out.profile));
+  }
+  out.profile.background = background_s;
+  out.profile.sizing = build_s;
+  out.profile.overlapped = overlapped_s;
   return out;
 }
 

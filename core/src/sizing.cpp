@@ -8,10 +8,15 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <atomic>
 #include <bit>
 #include <cmath>
 #include <limits>
 #include <utility>
+
+#include <oneapi/tbb/blocked_range.h>
+#include <oneapi/tbb/parallel_for.h>
+#include <oneapi/tbb/parallel_sort.h>
 
 #include "byte_codec.hpp"
 #include "pdrmesh/predicates.hpp"
@@ -133,24 +138,85 @@ Status decode_error(std::string_view what) { return invalid_input(fmt::format("s
 
 Status validate_tets(const std::vector<Vec3>& points, const std::vector<Tet>& tets, std::string_view what) {
   if (tets.empty()) return invalid_input(fmt::format("{}: no tetrahedra", what));
-  for (std::size_t t = 0; t < tets.size(); ++t) {
-    const Tet& v = tets[t];
+  auto indices_ok = [&](const Tet& v) {
     bool ok = true;
     for (int i = 0; i < 4; ++i) {
       ok = ok && v[i] < points.size();
       for (int j = 0; j < i; ++j) ok = ok && v[i] != v[j];
     }
-    if (!ok) {
+    return ok;
+  };
+  auto bad = [&](const Tet& v) {
+    return !indices_ok(v) || exact::orient3d(points[v[0]], points[v[1]], points[v[2]], points[v[3]]) <= 0;
+  };
+  // The lowest bad tet, found in parallel (each chunk keeps its lowest).
+  std::atomic<std::size_t> first{tets.size()};
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, tets.size(), 4096), [&](const auto& r) {
+    for (std::size_t t = r.begin(); t < r.end() && t < first.load(); ++t) {
+      if (!bad(tets[t])) continue;
+      std::size_t cur = first.load();
+      while (t < cur && !first.compare_exchange_weak(cur, t)) {
+      }
+      break;
+    }
+  });
+  if (const std::size_t t = first.load(); t < tets.size()) {
+    const Tet& v = tets[t];
+    if (!indices_ok(v)) {
       return invalid_input(fmt::format("{}: tet {} (points {}, {}, {}, {}) has an index out of range (of {} points) "
                                        "or a repeated point",
                                        what, t, v[0], v[1], v[2], v[3], points.size()));
     }
-    if (exact::orient3d(points[v[0]], points[v[1]], points[v[2]], points[v[3]]) <= 0) {
-      return invalid_input(fmt::format("{}: tet {} (points {}, {}, {}, {}) is not positively oriented", what, t,
-                                       v[0], v[1], v[2], v[3]));
-    }
+    return invalid_input(fmt::format("{}: tet {} (points {}, {}, {}, {}) is not positively oriented", what, t,
+                                     v[0], v[1], v[2], v[3]));
   }
   return Status::ok_status();
+}
+
+
+/// Boundary spacing (step 1 of the header): per surface point the sum and count
+/// of the lengths of its distinct edges, and the points used by a triangle.
+struct BoundarySpacing {
+  std::vector<double> sum;
+  std::vector<std::uint32_t> count;
+  std::vector<Index> used;
+};
+
+Result<BoundarySpacing> boundary_spacing(const SurfaceMesh& surface, const std::string& name) {
+  if (surface.triangles.empty()) return invalid_input(fmt::format("{}: no triangles to derive a spacing from", name));
+  std::vector<std::pair<Index, Index>> edges;
+  edges.reserve(3 * surface.triangles.size());
+  for (std::size_t t = 0; t < surface.triangles.size(); ++t) {
+    const Tri& v = surface.triangles[t];
+    const std::size_t n = surface.points.size();
+    if (v[0] >= n || v[1] >= n || v[2] >= n || v[0] == v[1] || v[1] == v[2] || v[0] == v[2]) {
+      return invalid_input(fmt::format("{}: triangle {} (points {}, {}, {}) has an index out of range (of {} points) "
+                                       "or a repeated point",
+                                       name, t, v[0], v[1], v[2], n));
+    }
+    for (int i = 0; i < 3; ++i) edges.emplace_back(std::minmax(v[i], v[(i + 1) % 3]));
+  }
+  tbb::parallel_sort(edges.begin(), edges.end());  // a total order: the same result as std::sort
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  BoundarySpacing out;
+  out.sum.assign(surface.points.size(), 0.0);
+  out.count.assign(surface.points.size(), 0);
+  for (const auto& [a, b] : edges) {
+    const double len = norm(surface.points[a] - surface.points[b]);
+    out.sum[a] += len;
+    out.sum[b] += len;
+    ++out.count[a];
+    ++out.count[b];
+  }
+  for (Index p = 0; p < surface.points.size(); ++p) {
+    if (out.count[p] == 0) continue;
+    if (!is_finite(surface.points[p])) {
+      return invalid_input(fmt::format("{}: point {} has a non-finite coordinate {}", name, p,
+                                       point_str(surface.points[p])));
+    }
+    out.used.push_back(p);
+  }
+  return out;
 }
 
 }  // namespace
@@ -193,41 +259,10 @@ Result<SizingField> SizingField::build(const SurfaceMesh& surface, const VolumeM
     return f;
   }
   const std::string name = surface.name.empty() ? std::string("surface") : surface.name;
-
-  // Boundary spacing: mean length of the distinct edges at each point.
-  if (surface.triangles.empty()) return invalid_input(fmt::format("{}: no triangles to derive a spacing from", name));
-  std::vector<std::pair<Index, Index>> edges;
-  edges.reserve(3 * surface.triangles.size());
-  for (std::size_t t = 0; t < surface.triangles.size(); ++t) {
-    const Tri& v = surface.triangles[t];
-    const std::size_t n = surface.points.size();
-    if (v[0] >= n || v[1] >= n || v[2] >= n || v[0] == v[1] || v[1] == v[2] || v[0] == v[2]) {
-      return invalid_input(fmt::format("{}: triangle {} (points {}, {}, {}) has an index out of range (of {} points) "
-                                       "or a repeated point",
-                                       name, t, v[0], v[1], v[2], n));
-    }
-    for (int i = 0; i < 3; ++i) edges.emplace_back(std::minmax(v[i], v[(i + 1) % 3]));
-  }
-  std::sort(edges.begin(), edges.end());
-  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
-  std::vector<double> sum(surface.points.size(), 0.0);
-  std::vector<std::uint32_t> count(surface.points.size(), 0);
-  for (const auto& [a, b] : edges) {
-    const double len = norm(surface.points[a] - surface.points[b]);
-    sum[a] += len;
-    sum[b] += len;
-    ++count[a];
-    ++count[b];
-  }
-  std::vector<Index> used;
-  for (Index p = 0; p < surface.points.size(); ++p) {
-    if (count[p] == 0) continue;
-    if (!is_finite(surface.points[p])) {
-      return invalid_input(fmt::format("{}: point {} has a non-finite coordinate {}", name, p,
-                                       point_str(surface.points[p])));
-    }
-    used.push_back(p);
-  }
+  PDR_ASSIGN_OR_RETURN(const BoundarySpacing spacing, boundary_spacing(surface, name));
+  const std::vector<double>& sum = spacing.sum;
+  const std::vector<std::uint32_t>& count = spacing.count;
+  const std::vector<Index>& used = spacing.used;
 
   // Background checks, then match boundary points to background points by coordinates.
   for (std::size_t p = 0; p < background.points.size(); ++p) {
@@ -242,7 +277,7 @@ Result<SizingField> SizingField::build(const SurfaceMesh& surface, const VolumeM
   auto xyz_less = [&](Index a, Index b) {
     return std::pair(background.points[a], a) < std::pair(background.points[b], b);
   };
-  std::sort(by_xyz.begin(), by_xyz.end(), xyz_less);
+  tbb::parallel_sort(by_xyz.begin(), by_xyz.end(), xyz_less);  // a total order (index last)
   std::vector<Index> match(background.points.size(), kNoIndex);  // background -> surface point
   for (Index p : used) {
     const Vec3& x = surface.points[p];
@@ -269,10 +304,40 @@ Result<SizingField> SizingField::build(const SurfaceMesh& surface, const VolumeM
   PDR_TRY(f.finish());
 
   // Interior background points: Shepard (1/d^2) mean over the nearest boundary points.
-  for (Index b = 0; b < match.size(); ++b) {
+  tbb::parallel_for(std::size_t{0}, match.size(), [&](std::size_t b) {
     if (match[b] == kNoIndex) f.values_[b] = f.idw(f.points_[b]);
-  }
+  });
   return f;
+}
+
+Result<std::vector<double>> SizingField::surface_values(const SurfaceMesh& surface, const SizingOptions& options) {
+  PDR_TRY(validate(options));
+  std::vector<double> out(surface.points.size(), kNaN);
+  SizingField f;
+  f.growth_ = options.growth;
+  f.lo_ = options.hmin.value_or(0.0);
+  f.hi_ = options.hmax.value_or(kInf);
+  if (options.size) {
+    std::fill(out.begin(), out.end(), std::clamp(*options.size, f.lo_, f.hi_));  // h is uniform everywhere
+    return out;
+  }
+  const std::string name = surface.name.empty() ? std::string("surface") : surface.name;
+  PDR_ASSIGN_OR_RETURN(const BoundarySpacing spacing, boundary_spacing(surface, name));
+  // The field of the boundary points alone: no tets, so only at_point's
+  // value and growth limit apply (what at() gives at a background vertex).
+  f.point_count_ = spacing.used.size();
+  f.points_.reserve(spacing.used.size());
+  f.values_.reserve(spacing.used.size());
+  for (Index p : spacing.used) {
+    f.boundary_.push_back(static_cast<Index>(f.points_.size()));
+    f.points_.push_back(surface.points[p]);
+    f.values_.push_back(spacing.sum[p] / spacing.count[p]);
+  }
+  PDR_TRY(f.finish());
+  tbb::parallel_for(std::size_t{0}, spacing.used.size(), [&](std::size_t i) {
+    out[spacing.used[i]] = f.at_point(static_cast<Index>(i));
+  });
+  return out;
 }
 
 Status SizingField::finish() {

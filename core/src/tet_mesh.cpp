@@ -4,6 +4,7 @@
 #include "pdrmesh/tet_mesh.hpp"
 
 #include <fmt/format.h>
+#include <oneapi/tbb/parallel_sort.h>
 
 #include <algorithm>
 #include <cassert>
@@ -87,7 +88,13 @@ Result<TetMesh> TetMesh::from_volume_mesh(const VolumeMesh& mesh, std::vector<Gl
   for (Index t = 0; t < nt; ++t)
     for (int f = 0; f < 4; ++f)
       faces.push_back({topo::sorted_key(topo::face_of(m.tets_[t], f)), pack_face(t, f)});
-  std::sort(faces.begin(), faces.end());
+  // A total order, so both give std::sort's result; a leaf task's mesh (small)
+  // sorts on its own worker thread.
+  if (faces.size() < (std::size_t{1} << 19)) {
+    std::sort(faces.begin(), faces.end());
+  } else {
+    tbb::parallel_sort(faces.begin(), faces.end());
+  }
   for (std::size_t i = 0; i < faces.size();) {
     std::size_t j = i + 1;
     while (j < faces.size() && faces[j].key == faces[i].key) ++j;

@@ -12,6 +12,8 @@
 #include <string_view>
 #include <utility>
 
+#include <oneapi/tbb/parallel_sort.h>
+
 #include "pdrmesh/predicates.hpp"
 #include "pdrmesh/topology.hpp"
 
@@ -128,8 +130,10 @@ ValidationReport validate_mesh(const VolumeMesh& mesh, const SurfaceMesh* surfac
       faces.push_back({face_key(o), static_cast<Index>(t), o});
     }
   }
-  std::sort(faces.begin(), faces.end(), [](const OrientedFace& a, const OrientedFace& b) {
-    return std::tie(a.key.sorted, a.tet) < std::tie(b.key.sorted, b.tet);
+  // Parallel sorts below use total orders (ties broken by an index), so they
+  // give exactly what std::sort gives.
+  tbb::parallel_sort(faces.begin(), faces.end(), [](const OrientedFace& a, const OrientedFace& b) {
+    return std::tie(a.key.sorted, a.tet, a.oriented) < std::tie(b.key.sorted, b.tet, b.oriented);
   });
   std::vector<Tri> boundary;  // derived: faces of exactly one tet, outward
   std::size_t unique_faces = 0;
@@ -162,7 +166,7 @@ ValidationReport validate_mesh(const VolumeMesh& mesh, const SurfaceMesh* surfac
       if (!used[i]) rec.add("points", "point {} {} is used by no tet", i, point_str(P[i]));
     std::vector<Index> order(np);
     for (std::size_t i = 0; i < np; ++i) order[i] = static_cast<Index>(i);
-    std::sort(order.begin(), order.end(), [&](Index a, Index b) {
+    tbb::parallel_sort(order.begin(), order.end(), [&](Index a, Index b) {
       return point_less(P[a], P[b]) || (!point_less(P[b], P[a]) && a < b);
     });
     for (std::size_t i = 1; i < np; ++i)
@@ -186,8 +190,8 @@ ValidationReport validate_mesh(const VolumeMesh& mesh, const SurfaceMesh* surfac
         edges.push_back({std::min(u, v), std::max(u, v), u < v, static_cast<Index>(f)});
       }
     }
-    std::sort(edges.begin(), edges.end(), [](const DirectedEdge& a, const DirectedEdge& b) {
-      return std::tie(a.lo, a.hi, a.face) < std::tie(b.lo, b.hi, b.face);
+    tbb::parallel_sort(edges.begin(), edges.end(), [](const DirectedEdge& a, const DirectedEdge& b) {
+      return std::tie(a.lo, a.hi, a.face, a.forward) < std::tie(b.lo, b.hi, b.face, b.forward);
     });
     for (std::size_t i = 0; i < edges.size();) {
       std::size_t j = i;
@@ -209,8 +213,8 @@ ValidationReport validate_mesh(const VolumeMesh& mesh, const SurfaceMesh* surfac
     corners.reserve(3 * boundary.size());
     for (const Tri& t : boundary)
       for (int c = 0; c < 3; ++c) corners.push_back({t[c], t[(c + 1) % 3], t[(c + 2) % 3]});
-    std::sort(corners.begin(), corners.end(),
-              [](const Corner& a, const Corner& b) { return std::tie(a.v, a.x) < std::tie(b.v, b.x); });
+    tbb::parallel_sort(corners.begin(), corners.end(),
+                       [](const Corner& a, const Corner& b) { return std::tie(a.v, a.x, a.y) < std::tie(b.v, b.x, b.y); });
     for (std::size_t i = 0; i < corners.size();) {
       std::size_t j = i;
       while (j < corners.size() && corners[j].v == corners[i].v) ++j;
@@ -242,7 +246,7 @@ ValidationReport validate_mesh(const VolumeMesh& mesh, const SurfaceMesh* surfac
     for (const Tet& k : mesh.tets)
       for (int a = 0; a < 4; ++a)
         for (int b = a + 1; b < 4; ++b) edges.emplace_back(std::min(k[a], k[b]), std::max(k[a], k[b]));
-    std::sort(edges.begin(), edges.end());
+    tbb::parallel_sort(edges.begin(), edges.end());
     const auto ne = static_cast<std::size_t>(std::unique(edges.begin(), edges.end()) - edges.begin());
     std::vector<char> used(np, 0);
     std::size_t nv = 0;
@@ -265,7 +269,7 @@ ValidationReport validate_mesh(const VolumeMesh& mesh, const SurfaceMesh* surfac
     std::vector<Tri> derived;
     derived.reserve(boundary.size());
     for (const Tri& t : boundary) derived.push_back(canonical(t));
-    std::sort(derived.begin(), derived.end());
+    tbb::parallel_sort(derived.begin(), derived.end());
     for (std::size_t f = 0; f < mesh.boundary.size(); ++f) {
       const Tri& t = mesh.boundary[f];
       if (t[0] >= np || t[1] >= np || t[2] >= np) {
@@ -290,7 +294,9 @@ ValidationReport validate_mesh(const VolumeMesh& mesh, const SurfaceMesh* surfac
     report.enclosed_volume = enclosed_volume(*surface);
     std::vector<Index> by_coord(np);
     for (std::size_t i = 0; i < np; ++i) by_coord[i] = static_cast<Index>(i);
-    std::sort(by_coord.begin(), by_coord.end(), [&](Index a, Index b) { return point_less(P[a], P[b]); });
+    tbb::parallel_sort(by_coord.begin(), by_coord.end(), [&](Index a, Index b) {
+      return point_less(P[a], P[b]) || (!point_less(P[b], P[a]) && a < b);
+    });
     std::vector<Index> to_mesh(surface->points.size(), kNoIndex);
     for (std::size_t i = 0; i < surface->points.size(); ++i) {
       const Vec3& q = surface->points[i];
@@ -325,8 +331,8 @@ ValidationReport validate_mesh(const VolumeMesh& mesh, const SurfaceMesh* surfac
     std::vector<Tri> actual;
     actual.reserve(boundary.size());
     for (const Tri& t : boundary) actual.push_back(canonical(t));
-    std::sort(expected.begin(), expected.end());
-    std::sort(actual.begin(), actual.end());
+    tbb::parallel_sort(expected.begin(), expected.end());
+    tbb::parallel_sort(actual.begin(), actual.end());
     std::vector<Tri> missing, extra;
     std::set_difference(expected.begin(), expected.end(), actual.begin(), actual.end(), std::back_inserter(missing));
     std::set_difference(actual.begin(), actual.end(), expected.begin(), expected.end(), std::back_inserter(extra));

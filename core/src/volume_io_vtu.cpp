@@ -13,8 +13,10 @@
 // UnstructuredGrid with one Piece (what we write, and what VTK/ParaView write
 // in ascii mode) and reports anything else clearly.
 #include <fmt/compile.h>
+#include <oneapi/tbb/parallel_for.h>
 
 #include <optional>
+#include <vector>
 
 #include "pdrmesh/quality.hpp"
 #include "volume_io_detail.hpp"
@@ -25,15 +27,31 @@ namespace {
 constexpr int kVtkTriangle = 5;
 constexpr int kVtkTetra = 10;
 
-/// One DataArray of `n` values, `fn(out_iterator, i)` writing value i.
+/// One DataArray of `n` values, `fn(out_iterator, i)` writing value i (it
+/// must only read shared data). Eight values a line. The lines are formatted
+/// in parallel, a chunk of them to a buffer each, and written in order: the
+/// same bytes for any thread count.
 template <class Fn>
 Status write_array(OutputFile& out, std::string_view header, std::size_t n, Fn&& fn) {
   auto it = std::back_inserter(out.buf());
   fmt::format_to(it, "        {}\n", header);
-  for (std::size_t i = 0; i < n; ++i) {
-    fn(it, i);
-    if ((i + 1) % 8 == 0 || i + 1 == n) {
-      out.buf().push_back('\n');
+  constexpr std::size_t kChunk = 8 * 2048;  // values a chunk (whole lines)
+  constexpr std::size_t kBatch = 64;        // chunks formatted at once (bounded memory)
+  std::vector<fmt::memory_buffer> chunks(std::min(kBatch, (n + kChunk - 1) / kChunk));
+  for (std::size_t first = 0; first < n; first += kChunk * kBatch) {
+    const std::size_t count = std::min(kBatch, (n - first + kChunk - 1) / kChunk);
+    tbb::parallel_for(std::size_t{0}, count, [&](std::size_t c) {
+      fmt::memory_buffer& b = chunks[c];
+      b.clear();
+      auto o = std::back_inserter(b);
+      const std::size_t lo = first + c * kChunk, hi = std::min(n, lo + kChunk);
+      for (std::size_t i = lo; i < hi; ++i) {
+        fn(o, i);
+        if ((i + 1) % 8 == 0 || i + 1 == n) b.push_back('\n');
+      }
+    });
+    for (std::size_t c = 0; c < count; ++c) {
+      out.buf().append(chunks[c].data(), chunks[c].data() + chunks[c].size());
       PDR_TRY(out.maybe_flush());
     }
   }

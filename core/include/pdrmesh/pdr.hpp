@@ -42,6 +42,7 @@
 #include "pdrmesh/sizing.hpp"
 #include "pdrmesh/status.hpp"
 #include "pdrmesh/surface.hpp"
+#include "pdrmesh/tetgen_adapter.hpp"
 #include "pdrmesh/volume_mesh.hpp"
 
 namespace pdrmesh {
@@ -134,7 +135,18 @@ struct PdrProfile {
   double optimization = 0;     ///< optimization rounds and the global hook
   double optimization_leaves = 0;  ///< of which the optimization rounds (decomposition included)
   double task_busy = 0;        ///< sum of all leaf task durations, all rounds
-  double total = 0;
+  double global_optimization = 0;  ///< of optimization: the global `optimize` hook (serial)
+  double total = 0;            ///< the engine: initial mesh to the end of the last round or hook
+  // Outside run_pdr, so that the profile covers the whole run (0 when not measured).
+  double read = 0;             ///< reading the surface (CLI)
+  double surface_check = 0;    ///< surface_check (CLI)
+  double background = 0;       ///< the background TetGen mesh of the sizing field (mesh_parallel)
+  double sizing = 0;           ///< SizingField::build (mesh_parallel)
+  double overlapped = 0;       ///< of background + sizing: the time they ran beside the initial mesh
+  double validation = 0;       ///< validate_mesh of the result (CLI)
+  double write = 0;            ///< writing the result (CLI)
+  double quality = 0;          ///< the quality summary (CLI)
+  double wall = 0;             ///< the whole run as measured by its caller; 0: total
   // Counts.
   int depth = 0;
   std::size_t initial_tets = 0;
@@ -159,6 +171,31 @@ struct PdrProfile {
 /// last produced each tet. `profile` may be null.
 Result<VolumeMesh> run_pdr(const SurfaceMesh& checked_surface, const SizingField& sizing,
                            const LeafKernel& kernel, const PdrOptions& options, PdrProfile* profile);
+
+/// How run_pdr starts: the octree depth and the initial TetGen options, both
+/// from the mean of h over the surface points (surface_h).
+struct PdrPlan {
+  double surface_h = 0;
+  int depth = 0;
+  TetgenOptions tetgen;
+};
+
+/// The mean of sizing.at over the surface points, in point order.
+double surface_spacing(const SurfaceMesh& surface, const SizingField& sizing);
+
+/// The plan run_pdr makes for this surface_h: depth (options.depth, or the
+/// default from the estimated tet count) and the initial mesh's volume bound.
+/// invalid_input on a bad depth or divisor or an empty surface.
+Result<PdrPlan> plan_pdr(const SurfaceMesh& checked_surface, double surface_h, const PdrOptions& options);
+
+/// run_pdr from an initial mesh the caller made with tetrahedralize(surface,
+/// plan.tetgen) (in initial_s seconds, counted in the profile), plan from
+/// plan_pdr(surface, surface_spacing(surface, sizing), options): the same
+/// result as run_pdr above. Lets the caller make the initial mesh while the
+/// sizing field is still being built (mesh_parallel does with 2 or more workers).
+Result<VolumeMesh> run_pdr(const SurfaceMesh& checked_surface, const SizingField& sizing,
+                           const LeafKernel& kernel, const PdrOptions& options, PdrProfile* profile,
+                           const PdrPlan& plan, VolumeMesh initial, double initial_s);
 
 // ---- engine pieces, public for tests and for a distributed coordinator
 

@@ -39,8 +39,8 @@ std::string profile_to_json(const PdrProfile& profile, std::size_t workers);
 /// that disagree, an index out of range).
 Result<PdrProfile> profile_from_json(std::string_view json);
 
-/// Serial seconds of a run: total minus the wall time of its rounds' leaf
-/// schedules (never below 0).
+/// Serial seconds of a run: its wall time (total when wall is 0) minus the
+/// wall time of its rounds' leaf schedules (never below 0).
 double serial_seconds(const PdrProfile& profile);
 
 /// A round made 8^k times finer: every leaf at depth d becomes its 8^k

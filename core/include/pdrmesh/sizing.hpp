@@ -111,6 +111,14 @@ class SizingField {
   static Result<SizingField> build(const SurfaceMesh& surface, const VolumeMesh& background,
                                    const SizingOptions& options);
 
+  /// h at every surface point from the surface alone, without a background
+  /// mesh: for a point used by a triangle, bit for bit what build(surface, B,
+  /// options).at(point) gives for any background B that build accepts (at a
+  /// background vertex the interpolant is the vertex's value); NaN for a point
+  /// no triangle uses. Lets a caller plan from h at the surface while the
+  /// background mesh is still being made. build's surface errors.
+  static Result<std::vector<double>> surface_values(const SurfaceMesh& surface, const SizingOptions& options);
+
   /// h(x). Thread-safe, deterministic, allocation-free.
   double at(const Vec3& x) const;
 
