@@ -114,9 +114,13 @@ wait_address() {  # wait_address NAME PREFIX: the HOST:PORT after PREFIX in NAME
   pid=$(<"$dir/run/$name.pid")
   local deadline=$((SECONDS + ${PDRMESH_START_TIMEOUT:-30}))
   while ((SECONDS < deadline)); do
+    # Liveness first: a process found dead has written all it will, so a line it printed just
+    # before exiting is seen (and the caller reports it as exiting after starting).
+    local alive=1
+    kill -0 "$pid" 2>/dev/null || alive=0
     line=$(grep -m1 "^$prefix " "$dir/logs/$name.out" 2>/dev/null || true)
     if [[ -n $line ]]; then echo "${line#"$prefix "}"; return 0; fi
-    if ! kill -0 "$pid" 2>/dev/null; then
+    if ((alive == 0)); then
       say "$name (pid $pid) exited before printing '$prefix HOST:PORT'; the end of $dir/logs/$name.log:"
       tail -n 20 "$dir/logs/$name.log" >&2 || true
       exit 1
