@@ -18,6 +18,22 @@ namespace pdrmesh {
 namespace {
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+/// run_pdr's plan from the surface alone (SizingField::surface_values gives h
+/// at the surface points, summed in point order as surface_spacing does), or
+/// none when those values are not all finite or the plan fails.
+std::optional<PdrPlan> plan_from_surface(const SurfaceMesh& surface, const ParallelOptions& options) {
+  Result<std::vector<double>> h = SizingField::surface_values(surface, options.sizing);
+  if (!h.ok()) return std::nullopt;
+  double sum_h = 0;
+  for (double v : *h) {
+    if (!std::isfinite(v)) return std::nullopt;
+    sum_h += v;
+  }
+  Result<PdrPlan> plan = plan_pdr(surface, sum_h / static_cast<double>(h->size()), options.pdr);
+  if (!plan.ok()) return std::nullopt;
+  return std::move(*plan);
+}
 }  // namespace
 
 Result<SerialResult> mesh_serial(const SurfaceMesh& surface, const SerialOptions& options,
@@ -80,39 +96,26 @@ Result<ParallelResult> mesh_parallel(const SurfaceMesh& surface, const ParallelO
   // the surface alone gives (SizingField::surface_values). Checked against the
   // built field afterwards; on any difference the initial mesh is made again
   // from the field's own plan, so the result is always run_pdr's.
-  std::optional<PdrPlan> plan;
+  std::optional<PdrPlan> plan;  // set: `initial` was made from it, beside the sizing field
   std::optional<VolumeMesh> initial;
   double initial_s = 0, overlapped_s = 0;
-  std::optional<PdrPlan> early;
-  if (options.pdr.workers >= 2) {
-    if (Result<std::vector<double>> h = SizingField::surface_values(surface, options.sizing); h.ok()) {
-      double sum_h = 0;
-      bool all = true;
-      for (double v : *h) {
-        all = all && std::isfinite(v);
-        sum_h += v;
-      }
-      if (all) {
-        if (Result<PdrPlan> p = plan_pdr(surface, sum_h / static_cast<double>(h->size()), options.pdr); p.ok())
-          early = std::move(*p);
-      }
-    }
-  }
-  if (early) {
+  if (options.pdr.workers >= 2) plan = plan_from_surface(surface, options);
+  if (plan) {
     if (options.pdr.progress && !options.pdr.progress({"initial mesh", 0, 0, 0}))
       return cancelled("stopped before the initial mesh");
     Status sizing_status;
     std::thread side([&] { sizing_status = make_sizing(); });
     const auto t = Clock::now();
-    Result<VolumeMesh> made = tetrahedralize(surface, early->tetgen);
+    Result<VolumeMesh> made = tetrahedralize(surface, plan->tetgen);
     initial_s = seconds_since(t);
     side.join();
     overlapped_s = std::min(initial_s, background_s + build_s);
     PDR_TRY(sizing_status);
-    if (surface_spacing(surface, *sizing_slot) == early->surface_h) {
+    if (surface_spacing(surface, *sizing_slot) == plan->surface_h) {
       if (!made.ok()) return made.status();
-      plan = std::move(early);
       initial = std::move(*made);
+    } else {
+      plan.reset();  // run_pdr makes the initial mesh from the field's own plan
     }
   } else {
     PDR_TRY(make_sizing());

@@ -592,7 +592,7 @@ double SizingField::lower_bound(const Box& box) const {
       continue;
     }
     for (std::uint32_t i = node.begin; i < node.end; ++i)
-      best = std::min(best, kd_h_[i] + gm1 * box_box_dist(Box{kd_xyz_[i], kd_xyz_[i]}));
+      best = std::min(best, kd_h_[i] + gm1 * std::sqrt(box_dist2(box, kd_xyz_[i])));
   }
   return kBelow * std::max(lo_, best);
 }
