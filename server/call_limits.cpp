@@ -72,14 +72,13 @@ int stream_limit_for_threads(int max_server_threads) {
 
 StreamCounter::Slot StreamCounter::try_open(const std::string& user, Full* why) {
   std::lock_guard lock(mu_);
-  auto [it, added] = open_.try_emplace(user, 0);
-  const bool user_full = it->second >= max_;
+  const auto it = open_.find(user);
+  const bool user_full = it != open_.end() && it->second >= max_;
   if (user_full || total_ >= max_total_) {
-    if (added) open_.erase(it);
     if (why != nullptr) *why = user_full ? Full::kUser : Full::kServer;
     return {};
   }
-  ++it->second;
+  ++open_[user];
   ++total_;
   return Slot(this, user);
 }

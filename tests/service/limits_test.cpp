@@ -143,9 +143,7 @@ TEST_F(Limits, TwoHundredStreamsStayWithinTheThreadCapAndJobsGoOn) {
   }
   Options o = options(1);
   o.max_server_threads = kThreads;
-  auto c = Coordinator::BuildAndStart(o, nullptr);
-  ASSERT_TRUE(c.ok()) << c.status().to_string();
-  coordinator_ = std::move(c).value();
+  start(o);
   auto bob = client("tok-bob");
   v1::MeshOptions slower;  // some 100,000 tets: a few seconds, so it runs through the flood
   slower.set_size(0.8);

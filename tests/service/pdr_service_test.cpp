@@ -33,10 +33,7 @@
 namespace pdrmesh::server {
 namespace {
 
-std::string file_bytes(const std::filesystem::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
+using test::file_bytes;
 
 /// A unary call by method name with raw request bytes: its status and response bytes.
 std::pair<grpc::Status, std::string> raw_unary(const std::shared_ptr<grpc::Channel>& channel, const std::string& method,

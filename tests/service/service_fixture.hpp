@@ -38,7 +38,10 @@ class Service : public ::testing::Test {
   }
 
   void start(int threads, UserLimits limits = {}, std::unique_ptr<MeshEngine> engine = nullptr) {
-    auto c = Coordinator::BuildAndStart(options(threads, limits), std::move(engine));
+    start(options(threads, limits), std::move(engine));
+  }
+  void start(const Options& o, std::unique_ptr<MeshEngine> engine = nullptr) {
+    auto c = Coordinator::BuildAndStart(o, std::move(engine));
     ASSERT_TRUE(c.ok()) << c.status().to_string();
     coordinator_ = std::move(c).value();
     ASSERT_GT(coordinator_->port(), 0);
