@@ -62,7 +62,6 @@ int main(int argc, char** argv) {
              "surface", "tets", "after", "min all", "max all", "min inner", "max inner", "bad",
              "->", "flips", "ins", "s", "tets/s", "valid");
   for (const std::string& name : names) {
-    std::fflush(stdout);  // TetGen runs in a forked child: leave it no buffered output to copy
     auto surface = read_surface(dir + "/" + name + ".stl");
     if (!surface.ok()) {
       fmt::print("{:<12} {}\n", name, surface.status().to_string());

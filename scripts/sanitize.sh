@@ -2,10 +2,8 @@
 # SPDX-License-Identifier: AGPL-3.0-or-later
 # The sanitizer and fuzz stage of scripts/test.sh (run after the normal build and ctest):
 #  1. build-asan: clang-14, AddressSanitizer + UndefinedBehaviorSanitizer (UBSan stops at the
-#     first report) and the libFuzzer targets; the ctest suite there but what forks TetGen beside
-#     busy threads (ASAN_CTEST_LABEL_EXCLUDE, ASAN_CTEST_EXCLUDE: see below), including the replay of
-#     tests/fuzz/regressions; then every fuzz target
-#     for FUZZ_SECONDS (default 10) each.
+#     first report) and the libFuzzer targets; the whole ctest suite there, including the replay
+#     of tests/fuzz/regressions; then every fuzz target for FUZZ_SECONDS (default 10) each.
 #  2. build-tsan: clang-14, ThreadSanitizer, linked against oneTBB built with TSan from Debian's
 #     own source (scripts/tsan-tbb.sh: Debian's libtbb12 is not instrumented, so TSan could not
 #     see TBB's task hand-off). pdrmesh_thread_tests (tests/scheduler_test.cpp and
@@ -23,11 +21,11 @@ jobs=$(nproc)
 clang=(-DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14)
 t0=$SECONDS
 
-# Reports go to stderr of the process that has them; a TetGen child (tetgen_adapter.cpp) writes
-# its stderr to its log, dies with exitcode 1 and its parent fails the test with that log.
-# detect_leaks=1: a leak at exit fails a test process. The TetGen child ends with _exit(), which
-# skips the leak check, so memory TetGen owns at that point is never reported (it is a child
-# about to vanish). Suppressions are for third-party code only, each with its reason.
+# Reports go to stderr of the process that has them; the TetGen helper (pdrmesh-tetgen, built with
+# the same sanitizers) writes its stderr to its log, dies with exitcode 1 and its parent fails the
+# test with that log. detect_leaks=1: a leak at exit fails a test process. The helper ends with
+# _exit(), which skips the leak check, so memory TetGen owns at that point is never reported (a
+# process about to vanish). Suppressions are for third-party code only, each with its reason.
 sup=$root/tests/sanitizers
 export ASAN_OPTIONS="detect_leaks=1:halt_on_error=1:detect_stack_use_after_return=0:strict_string_checks=1"
 export LSAN_OPTIONS="suppressions=$sup/lsan.supp:print_suppressions=0"
@@ -39,18 +37,10 @@ cmake -S "$root" -B "$root/build-asan" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInf
   -DPDRMESH_SANITIZE=address,undefined -DPDRMESH_FUZZ=ON >/dev/null
 cmake --build "$root/build-asan" --parallel "$jobs"
 echo "sanitize: ASan+UBSan ctest ($((SECONDS - t0)) s so far)"
-# What CI runs by default leaves out the tests that fork a TetGen child while other threads of the
-# process allocate: LLVM 14's ASan does not hold its allocator lock across fork(), so such a child
-# can inherit it locked and hang in its first malloc (seen: Workers.TwoWorkerProcessesGiveTheLocalBytes,
-# cli.run.primitives13.d2.tetgen; glibc's malloc, in the normal build, is fork-safe). That is the
-# service tests (a coordinator forks TetGen beside its gRPC threads), the corpus-wide CLI runs (also
-# minutes each under ASan), the namespace test, and the unit tests that run the TetGen leaf kernel
-# on several threads or make the initial mesh beside the sizing (mesh_parallel with 2+ workers).
-# ASAN_CTEST_LABEL_EXCLUDE= ASAN_CTEST_EXCLUDE= runs everything (it may hang).
-label_exclude=${ASAN_CTEST_LABEL_EXCLUDE-corpus|netns|service}
-test_exclude=${ASAN_CTEST_EXCLUDE-Pdr\.(TetgenKernel|BothKernels|ATetgenCrash|MeshParallel)}
-(cd "$root/build-asan" && ctest --output-on-failure --parallel "$jobs" --timeout 900 \
-  ${label_exclude:+-LE "$label_exclude"} ${test_exclude:+-E "$test_exclude"})
+# Every test, the service and corpus ones included: TetGen runs in a helper program started by
+# posix_spawn (tetgen_adapter.cpp), so a lock that another thread holds cannot reach it (LLVM 14's
+# ASan allocator is not fork-safe; a bare fork() of TetGen beside busy threads used to hang here).
+(cd "$root/build-asan" && ctest --output-on-failure --parallel "$jobs" --timeout 900)
 echo "sanitize: fuzzing, ${FUZZ_SECONDS:-10} s per target ($((SECONDS - t0)) s so far)"
 FUZZ_BUILD_DIR=$root/build-asan "$root/tests/fuzz/run.sh" "${FUZZ_SECONDS:-10}"
 

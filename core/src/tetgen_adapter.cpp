@@ -1,15 +1,15 @@
 // SPDX-License-Identifier: AGPL-3.0-or-later
-// TetGen adapter (see tetgen_adapter.hpp): runs TetGen in a forked child,
+// TetGen adapter (see tetgen_adapter.hpp): starts the helper program
+// pdrmesh-tetgen (tetgen_child.cpp) for each call, hands it the surface,
 // receives points and tets through a pipe, validates and orients them.
-// This is the only file of the project that includes <tetgen.h>.
 
 #include "pdrmesh/tetgen_adapter.hpp"
 
 #include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
-#include <sys/resource.h>
-#include <stdio_ext.h>
+#include <spawn.h>
+#include <sys/mman.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -23,8 +23,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <new>
-#include <stdexcept>
+#include <filesystem>
 #include <string_view>
 #include <thread>
 #include <utility>
@@ -34,56 +33,16 @@
 
 #include "pdrmesh/predicates.hpp"
 #include "pdrmesh/topology.hpp"
-
-#ifndef TETLIBRARY
-#define TETLIBRARY
-#endif
-#include <tetgen.h>
+#include "tetgen_wire.hpp"
 
 namespace pdrmesh {
 namespace {
 
-// ---------------------------------------------------------------------------
-// Wire format of the child's answer (native endianness: same machine).
-//   Header, then for kOk: n_points * 3 doubles, n_tets * 4 int32 (TetGen's
-//   order); for the error kinds: message_len bytes of text.
-constexpr std::uint64_t kMagic = 0x31544547524450ull;  // "PDRGET1"
+namespace wire = tetgen_wire;
 
-enum class Answer : std::uint32_t {
-  kOk = 0,
-  kTetgenCode = 1,  // TetGen threw an int (terminatetetgen); `code` holds it
-  kOutOfMemory = 2, // std::bad_alloc
-  kException = 3,   // another std::exception; message holds what()
-  kUnknown = 4,     // something else was thrown
-};
-
-struct Header {
-  std::uint64_t magic = kMagic;
-  std::uint32_t answer = 0;
-  std::int32_t code = 0;
-  std::uint64_t n_points = 0;
-  std::uint64_t n_tets = 0;
-  std::uint64_t message_len = 0;
-};
-
-// Fixed descriptor of the result pipe inside the child (0-2 are stdin, and
-// stdout/stderr redirected to the log pipe).
-constexpr int kChildResultFd = 3;
-// Kept from the child's stdout/stderr: the end of it goes into messages.
+// Kept from the helper's stdout/stderr: the end of it goes into messages.
 constexpr std::size_t kLogKeep = 64 * 1024;
 constexpr std::size_t kLogTail = 600;
-
-// ---------------------------------------------------------------------------
-// Everything the child needs, prepared in the parent before fork().
-struct ChildInput {
-  std::vector<double> points;  // 3 per point
-  std::vector<int> corners;    // 3 per triangle
-  std::vector<tetgenio::polygon> polygons;
-  std::vector<tetgenio::facet> facets;
-  std::vector<char> switches;  // NUL-terminated, writable (TetGen's API takes char*)
-  std::size_t memory_limit = 0;
-  TetgenOptions::Fault fault = TetgenOptions::Fault::kNone;
-};
 
 /// Owns a file descriptor.
 class Fd {
@@ -94,143 +53,16 @@ class Fd {
   Fd& operator=(const Fd&) = delete;
   ~Fd() { reset(); }
   int get() const { return fd_; }
-  void reset() {
+  /// Gives up ownership (the descriptor stays open).
+  void release() { fd_ = -1; }
+  void reset(int fd = -1) {
     if (fd_ >= 0) ::close(fd_);
-    fd_ = -1;
+    fd_ = fd;
   }
 
  private:
   int fd_ = -1;
 };
-
-bool write_all(int fd, const void* data, std::size_t size) {
-  const char* p = static_cast<const char*>(data);
-  while (size > 0) {
-    const ssize_t n = ::write(fd, p, std::min<std::size_t>(size, 1 << 20));
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      return false;
-    }
-    p += n;
-    size -= static_cast<std::size_t>(n);
-  }
-  return true;
-}
-
-bool send_error(Answer answer, int code, std::string_view message) {
-  Header h;
-  h.answer = static_cast<std::uint32_t>(answer);
-  h.code = code;
-  h.message_len = message.size();
-  return write_all(kChildResultFd, &h, sizeof h) &&
-         write_all(kChildResultFd, message.data(), message.size());
-}
-
-/// Child, part 1: descriptors, limits and signals (only system calls).
-void child_setup(int result_w, int log_w, std::size_t memory_limit) {
-  // Move our two pipe ends above the standard descriptors first, so the
-  // dup2 calls below cannot clobber one with the other.
-  const int res = ::fcntl(result_w, F_DUPFD, 10);
-  const int log = ::fcntl(log_w, F_DUPFD, 10);
-  if (res < 0 || log < 0) ::_exit(120);
-  const int null_fd = ::open("/dev/null", O_RDONLY);
-  if (null_fd >= 0) ::dup2(null_fd, 0);
-  if (::dup2(log, 1) < 0 || ::dup2(log, 2) < 0 || ::dup2(res, kChildResultFd) < 0) ::_exit(121);
-  // Close everything else: in particular the pipes of concurrent calls that
-  // this child inherited, which would otherwise keep them from seeing EOF.
-  if (::close_range(kChildResultFd + 1, ~0U, 0) != 0) {
-    const long max_fd = ::sysconf(_SC_OPEN_MAX);
-    for (long fd = kChildResultFd + 1; fd < std::min(max_fd > 0 ? max_fd : 1024L, 1L << 20); ++fd)
-      ::close(static_cast<int>(fd));
-  }
-  struct rlimit no_core = {0, 0};
-  ::setrlimit(RLIMIT_CORE, &no_core);
-  if (memory_limit > 0) {
-    struct rlimit as = {memory_limit, memory_limit};
-    ::setrlimit(RLIMIT_AS, &as);
-  }
-  // Default dispositions and no blocked signals, whatever the caller installed.
-  for (int sig : {SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGABRT, SIGPIPE, SIGTERM})
-    ::signal(sig, SIG_DFL);
-  sigset_t none;
-  sigemptyset(&none);
-  ::pthread_sigmask(SIG_SETMASK, &none, nullptr);
-}
-
-/// TetGen's input, pointing into arrays TetGen must not free (tetgenio's
-/// destructor would delete[] them while an exception unwinds).
-struct BorrowedInput : tetgenio {
-  BorrowedInput() = default;
-  BorrowedInput(const BorrowedInput&) = delete;
-  BorrowedInput& operator=(const BorrowedInput&) = delete;
-  ~BorrowedInput() {
-    pointlist = nullptr;
-    facetlist = nullptr;
-    numberoffacets = 0;
-  }
-};
-
-/// Child: runs TetGen and sends the answer; never returns.
-[[noreturn]] void child_main(ChildInput& input, int result_w, int log_w) {
-  child_setup(result_w, log_w, input.memory_limit);
-  // The stdio buffers are copies of the parent's: what they hold is the
-  // parent's pending output, which the parent writes itself. Discard it here,
-  // so it neither appears twice nor pollutes TetGen's log. Then no buffering,
-  // so that what TetGen printed before a crash reaches the log.
-  __fpurge(stdout);
-  __fpurge(stderr);
-  std::setvbuf(stdout, nullptr, _IONBF, 0);
-  bool sent = false;
-  try {
-    switch (input.fault) {
-      case TetgenOptions::Fault::kNone: break;
-      case TetgenOptions::Fault::kCrash:
-        std::printf("injected fault: crashing\n");
-        ::raise(SIGSEGV);
-        break;
-      case TetgenOptions::Fault::kHang:
-        std::printf("injected fault: hanging\n");
-        for (;;) ::pause();
-      case TetgenOptions::Fault::kExit:
-        std::printf("injected fault: calling exit(3)\n");
-        std::exit(3);
-      case TetgenOptions::Fault::kThrow:
-        throw std::runtime_error("injected fault: exception thrown by the mesher");
-    }
-    BorrowedInput in;
-    in.firstnumber = 0;
-    in.numberofpoints = static_cast<int>(input.points.size() / 3);
-    in.pointlist = input.points.data();
-    in.numberoffacets = static_cast<int>(input.facets.size());
-    in.facetlist = input.facets.data();
-    tetgenio out;
-    ::tetrahedralize(input.switches.data(), &in, &out);
-    if (out.numberofcorners != 4 || out.numberofpoints < 0 || out.numberoftetrahedra < 0)
-      throw std::runtime_error(fmt::format("unexpected TetGen output ({} corners, {} points, {} tets)",
-                                           out.numberofcorners, out.numberofpoints,
-                                           out.numberoftetrahedra));
-    Header h;
-    h.answer = static_cast<std::uint32_t>(Answer::kOk);
-    h.n_points = static_cast<std::uint64_t>(out.numberofpoints);
-    h.n_tets = static_cast<std::uint64_t>(out.numberoftetrahedra);
-    sent = write_all(kChildResultFd, &h, sizeof h) &&
-           write_all(kChildResultFd, out.pointlist, h.n_points * 3 * sizeof(double)) &&
-           write_all(kChildResultFd, out.tetrahedronlist, h.n_tets * 4 * sizeof(int));
-    // The parent's input arrays are not TetGen's to free; skip all destructors.
-    std::fflush(stdout);
-    ::_exit(sent ? 0 : 122);
-  } catch (int code) {
-    sent = send_error(Answer::kTetgenCode, code, {});
-  } catch (const std::bad_alloc&) {
-    sent = send_error(Answer::kOutOfMemory, 0, {});
-  } catch (const std::exception& e) {
-    sent = send_error(Answer::kException, 0, e.what());
-  } catch (...) {
-    sent = send_error(Answer::kUnknown, 0, {});
-  }
-  std::fflush(stdout);
-  ::_exit(sent ? 0 : 122);
-}
 
 // ---------------------------------------------------------------------------
 // Parent side.
@@ -333,25 +165,25 @@ struct RawMesh {
 
 /// Turns the child's bytes into a mesh, checking counts, indices and finiteness.
 Result<RawMesh> parse_answer(const std::vector<char>& bytes, const TetgenOptions& options) {
-  Header h;
+  wire::AnswerHeader h;
   if (bytes.size() < sizeof h)
     return internal_error(fmt::format("TetGen's process sent {} bytes, not a complete answer", bytes.size()));
   std::memcpy(&h, bytes.data(), sizeof h);
-  if (h.magic != kMagic) return internal_error("TetGen's process sent a malformed answer (bad magic)");
+  if (h.magic != wire::kAnswerMagic) return internal_error("TetGen's process sent a malformed answer (bad magic)");
   const std::size_t rest = bytes.size() - sizeof h;
   const char* payload = bytes.data() + sizeof h;
-  switch (static_cast<Answer>(h.answer)) {
-    case Answer::kOk: break;
-    case Answer::kTetgenCode: return tetgen_code_status(h.code);
-    case Answer::kOutOfMemory:
+  switch (static_cast<wire::Answer>(h.answer)) {
+    case wire::Answer::kOk: break;
+    case wire::Answer::kTetgenCode: return tetgen_code_status(h.code);
+    case wire::Answer::kOutOfMemory:
       return resource_exhausted(
           options.memory_limit_bytes > 0
               ? fmt::format("TetGen ran out of memory (limit {} bytes)", options.memory_limit_bytes)
               : std::string("TetGen ran out of memory"));
-    case Answer::kException:
+    case wire::Answer::kException:
       return internal_error(fmt::format("TetGen threw an exception: {}",
                                         std::string_view(payload, std::min<std::size_t>(rest, h.message_len))));
-    case Answer::kUnknown: return internal_error("TetGen threw an unknown exception");
+    case wire::Answer::kUnknown: return internal_error("TetGen threw an unknown exception");
     default: return internal_error(fmt::format("TetGen's process sent an unknown answer kind {}", h.answer));
   }
   // Sizes are checked against the bytes actually received before anything is allocated.
@@ -676,30 +508,101 @@ Result<std::vector<double>> seed_points(const SurfaceMesh& s, double max_volume)
   return seeds;
 }
 
-ChildInput prepare_child_input(const SurfaceMesh& s, const TetgenOptions& o, const std::vector<double>& seeds) {
-  ChildInput in;
-  in.points.reserve(3 * s.points.size() + seeds.size());
-  for (const Vec3& p : s.points) in.points.insert(in.points.end(), p.begin(), p.end());
-  in.points.insert(in.points.end(), seeds.begin(), seeds.end());
-  in.corners.reserve(3 * s.triangles.size());
-  for (const Tri& t : s.triangles)
-    for (Index v : t) in.corners.push_back(static_cast<int>(v));
-  in.polygons.resize(s.triangles.size());
-  in.facets.resize(s.triangles.size());
-  for (std::size_t i = 0; i < s.triangles.size(); ++i) {
-    in.polygons[i].vertexlist = in.corners.data() + 3 * i;
-    in.polygons[i].numberofvertices = 3;
-    in.facets[i].polygonlist = &in.polygons[i];
-    in.facets[i].numberofpolygons = 1;
-    in.facets[i].holelist = nullptr;
-    in.facets[i].numberofholes = 0;
-  }
+/// Writes the helper's request (tetgen_wire.hpp) into an unlinked in-memory
+/// file, rewound, which becomes the helper's stdin: nothing to interleave with
+/// reading its answer, and nothing left on disk.
+Result<int> write_request(const SurfaceMesh& s, const TetgenOptions& o, const std::vector<double>& seeds) {
+  Fd fd(::memfd_create("pdrmesh-tetgen-request", MFD_CLOEXEC));
+  if (fd.get() < 0) return internal_error(fmt::format("cannot create TetGen's request file: {}", std::strerror(errno)));
   const std::string sw = tetgen_switches(o);
-  in.switches.assign(sw.begin(), sw.end());
-  in.switches.push_back('\0');
-  in.memory_limit = o.memory_limit_bytes;
-  in.fault = o.inject_fault;
-  return in;
+  wire::RequestHeader h;
+  h.n_points = s.points.size() + seeds.size() / 3;
+  h.n_triangles = s.triangles.size();
+  h.switches_len = sw.size();
+  h.memory_limit = o.memory_limit_bytes;
+  h.fault = static_cast<std::uint32_t>(o.inject_fault);
+  std::vector<std::int32_t> corners;
+  corners.reserve(3 * s.triangles.size());
+  for (const Tri& t : s.triangles)
+    for (Index v : t) corners.push_back(static_cast<std::int32_t>(v));
+  static_assert(sizeof(Vec3) == 3 * sizeof(double));
+  if (!wire::write_all(fd.get(), &h, sizeof h) ||
+      !wire::write_all(fd.get(), s.points.data(), s.points.size() * sizeof(Vec3)) ||
+      !wire::write_all(fd.get(), seeds.data(), seeds.size() * sizeof(double)) ||
+      !wire::write_all(fd.get(), corners.data(), corners.size() * sizeof(std::int32_t)) ||
+      !wire::write_all(fd.get(), sw.data(), sw.size()) || ::lseek(fd.get(), 0, SEEK_SET) != 0)
+    return internal_error(fmt::format("cannot write TetGen's request: {}", std::strerror(errno)));
+  const int raw = fd.get();
+  fd.release();
+  return raw;
+}
+
+/// Where the helper program is: $PDRMESH_TETGEN_HELPER if set, else
+/// pdrmesh-tetgen beside the running program (how it is installed), else the
+/// one in the build tree (test and bench programs live in other folders).
+/// Never a search of $PATH.
+Result<std::string> helper_path() {
+  if (const char* env = std::getenv("PDRMESH_TETGEN_HELPER"); env != nullptr && *env != '\0') {
+    if (::access(env, X_OK) != 0)
+      return internal_error(fmt::format("PDRMESH_TETGEN_HELPER={} is not an executable file", env));
+    return std::string(env);
+  }
+  std::vector<std::string> tried;
+  std::error_code ec;
+  const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", ec);
+  if (!ec) tried.push_back((self.parent_path() / "pdrmesh-tetgen").string());
+#ifdef PDRMESH_TETGEN_BUILD_PATH
+  tried.emplace_back(PDRMESH_TETGEN_BUILD_PATH);
+#endif
+  for (const std::string& path : tried)
+    if (::access(path.c_str(), X_OK) == 0) return path;
+  return internal_error(fmt::format("cannot find pdrmesh-tetgen, the helper program that runs TetGen (tried {}); "
+                                    "install it beside this program or set PDRMESH_TETGEN_HELPER",
+                                    fmt::join(tried, ", ")));
+}
+
+/// Moves `fd` to a descriptor number of at least 10 (close-on-exec), so that
+/// the helper's dup2 calls onto 0 to 3 cannot clobber one with another.
+Status raise_fd(Fd& fd) {
+  if (fd.get() >= 10) return Status::ok_status();
+  const int moved = ::fcntl(fd.get(), F_DUPFD_CLOEXEC, 10);
+  if (moved < 0) return internal_error(fmt::format("cannot move a descriptor for TetGen: {}", std::strerror(errno)));
+  fd.reset(moved);
+  return Status::ok_status();
+}
+
+/// Starts the helper with `request` as stdin, `log` as stdout and stderr and
+/// `answer` as descriptor 3; nothing else open, default signal handling, no
+/// signal blocked. posix_spawn runs no code of ours between fork and exec.
+Result<pid_t> spawn_helper(const std::string& path, Fd& request, Fd& log, Fd& answer) {
+  PDR_TRY(raise_fd(request));
+  PDR_TRY(raise_fd(log));
+  PDR_TRY(raise_fd(answer));
+  posix_spawn_file_actions_t actions;
+  posix_spawnattr_t attr;
+  if (posix_spawn_file_actions_init(&actions) != 0 || posix_spawnattr_init(&attr) != 0)
+    return internal_error("cannot prepare the start of TetGen's process");
+  sigset_t defaults, none;
+  sigemptyset(&defaults);
+  for (int sig : {SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGABRT, SIGPIPE, SIGTERM, SIGINT, SIGHUP}) sigaddset(&defaults, sig);
+  sigemptyset(&none);
+  int rc = posix_spawnattr_setsigdefault(&attr, &defaults);
+  if (rc == 0) rc = posix_spawnattr_setsigmask(&attr, &none);
+  if (rc == 0) rc = posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETSIGDEF | POSIX_SPAWN_SETSIGMASK);
+  if (rc == 0) rc = posix_spawn_file_actions_adddup2(&actions, request.get(), 0);
+  if (rc == 0) rc = posix_spawn_file_actions_adddup2(&actions, log.get(), 1);
+  if (rc == 0) rc = posix_spawn_file_actions_adddup2(&actions, log.get(), 2);
+  if (rc == 0) rc = posix_spawn_file_actions_adddup2(&actions, answer.get(), wire::kAnswerFd);
+  if (rc == 0) rc = posix_spawn_file_actions_addclosefrom_np(&actions, wire::kAnswerFd + 1);
+  pid_t pid = -1;
+  if (rc == 0) {
+    char* argv[] = {const_cast<char*>(path.c_str()), nullptr};
+    rc = ::posix_spawn(&pid, path.c_str(), &actions, &attr, argv, environ);
+  }
+  posix_spawn_file_actions_destroy(&actions);
+  posix_spawnattr_destroy(&attr);
+  if (rc != 0) return internal_error(fmt::format("cannot start {}: {}", path, std::strerror(rc)));
+  return pid;
 }
 
 }  // namespace
@@ -731,7 +634,9 @@ namespace {
 /// One isolated TetGen run (see the file comment) and the validation of its output.
 Result<VolumeMesh> run_tetgen(const SurfaceMesh& surface, const TetgenOptions& options,
                               const std::vector<double>& seeds) {
-  ChildInput input = prepare_child_input(surface, options, seeds);
+  PDR_ASSIGN_OR_RETURN(const std::string helper, helper_path());
+  PDR_ASSIGN_OR_RETURN(const int request_fd, write_request(surface, options, seeds));
+  Fd request(request_fd);
 
   int result_pipe[2], log_pipe[2];
   if (::pipe2(result_pipe, O_CLOEXEC) != 0)
@@ -741,10 +646,8 @@ Result<VolumeMesh> run_tetgen(const SurfaceMesh& surface, const TetgenOptions& o
     return internal_error(fmt::format("cannot create a pipe for TetGen: {}", std::strerror(errno)));
   Fd log_r(log_pipe[0]), log_w(log_pipe[1]);
 
-  const pid_t pid = ::fork();
-  if (pid < 0) return internal_error(fmt::format("cannot fork a process for TetGen: {}", std::strerror(errno)));
-  if (pid == 0) child_main(input, result_w.get(), log_w.get());
-
+  PDR_ASSIGN_OR_RETURN(const pid_t pid, spawn_helper(helper, request, log_w, result_w));
+  request.reset();
   result_w.reset();
   log_w.reset();
   ChildOutcome o = supervise(pid, result_r.get(), log_r.get(), options.time_limit_s);

@@ -3,19 +3,21 @@
 // closed, outward-oriented surface, with no Steiner point on the boundary (the
 // boundary of the result is exactly the input triangulation).
 //
-// TetGen runs in a forked child process, because it can crash, hang, call exit()
-// or throw on bad input, and re-initialises the global predicate state (see
-// predicates.hpp). The child sends its result through a pipe; the parent
+// TetGen runs in a helper process, the program pdrmesh-tetgen (built from
+// core/src/tetgen_child.cpp, installed beside pdrmesh), because it can crash,
+// hang, call exit() or throw on bad input, and re-initialises the global
+// predicate state (see predicates.hpp). Each call starts a fresh helper with
+// posix_spawn: it shares no lock with the caller's other threads, whatever they
+// hold at that moment. The helper sends its result through a pipe; the parent
 // validates it (counts, indices, finiteness, orientation, boundary) before it is
-// trusted. Each call uses its own pipes and child and touches no global state, so
-// calls from several threads at once are safe.
+// trusted. Each call uses its own pipes and helper and touches no global state,
+// so calls from several threads at once are safe.
+//
+// The helper is $PDRMESH_TETGEN_HELPER if set, else pdrmesh-tetgen in the
+// folder of the running program, else the one in the build tree.
 //
 // Limitations:
 //  - The caller must not set SIGCHLD to SIG_IGN (the child could not be reaped).
-//  - The child runs TetGen (malloc, printf) after fork() from a possibly
-//    multi-threaded process; glibc makes malloc and stdio fork-safe, other
-//    libraries' locks held by other threads at fork time could hang the child,
-//    which the time limit then ends.
 //  - Input points not used by any triangle are not supported (TetGen would keep
 //    or drop them depending on where they lie): check the surface first.
 #pragma once
