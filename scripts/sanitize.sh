@@ -18,7 +18,8 @@
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 jobs=$(nproc)
-clang=(-DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14)
+# Unity builds (see scripts/build.sh): these trees are always built whole.
+clang=(-DCMAKE_C_COMPILER=clang-14 -DCMAKE_CXX_COMPILER=clang++-14 -DCMAKE_UNITY_BUILD=ON)
 t0=$SECONDS
 
 # Reports go to stderr of the process that has them; the TetGen helper (pdrmesh-tetgen, built with

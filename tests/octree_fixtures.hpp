@@ -3,8 +3,12 @@
 #pragma once
 
 #include <functional>
+#include <utility>
 #include <vector>
 
+#include <gtest/gtest.h>
+
+#include "pdrmesh/decomposition.hpp"
 #include "pdrmesh/volume_mesh.hpp"
 
 namespace pdrmesh::fixtures {
@@ -33,6 +37,13 @@ inline VolumeMesh kuhn_grid(int k, const std::function<bool(int, int, int)>& kee
     }
   }
   return m;
+}
+
+/// The octree decomposition of depth `depth` of kuhn_grid(k) (a test failure if it fails).
+inline Decomposition grid_decomposition(int k, int depth) {
+  auto d = decompose(kuhn_grid(k), depth);
+  EXPECT_TRUE(d.ok()) << d.status().to_string();
+  return std::move(d).value();
 }
 
 }  // namespace pdrmesh::fixtures

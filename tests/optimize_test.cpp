@@ -25,9 +25,11 @@
 namespace pdrmesh {
 namespace {
 
+using fixtures::max_dihedral;
+
 /// n x n x n unit cubes, each cut into the 6 Kuhn tets of fixtures::cube();
 /// point (x, y, z) has index x + (n+1) (y + (n+1) z). The hull is the frozen boundary.
-VolumeMesh kuhn_grid(int n) {
+VolumeMesh kuhn_grid_with_hull(int n) {
   VolumeMesh m;
   const auto id = [n](int x, int y, int z) { return static_cast<Index>(x + (n + 1) * (y + (n + 1) * z)); };
   for (int z = 0; z <= n; ++z)
@@ -74,7 +76,7 @@ bool all_positive(const VolumeMesh& m) {
 /// The Kuhn grid with every interior point moved by a deterministic pseudo-random
 /// offset of up to `amount` per axis (halved until every tet stays positive).
 VolumeMesh jittered_grid(int n, double amount) {
-  VolumeMesh m = kuhn_grid(n);
+  VolumeMesh m = kuhn_grid_with_hull(n);
   const auto on_hull = hull_points(m);
   std::uint64_t state = 0x2545F4914F6CDD1Dull;
   const auto next = [&state] {
@@ -172,7 +174,7 @@ VolumeMesh capped_sliver(double e) {
 }
 
 TEST(Optimize, RejectsBadOptions) {
-  TetMesh m = fixtures::build(kuhn_grid(1));
+  TetMesh m = fixtures::build(kuhn_grid_with_hull(1));
   OptimizeOptions o;
   o.target_max_dihedral = 10;
   EXPECT_FALSE(optimize(m, nullptr, o).ok());
@@ -186,7 +188,7 @@ TEST(Optimize, RejectsBadOptions) {
 }
 
 TEST(Optimize, GoodMeshIsLeftAlone) {
-  const VolumeMesh v = kuhn_grid(2);  // Kuhn tets: dihedral angles 45..90 degrees
+  const VolumeMesh v = kuhn_grid_with_hull(2);  // Kuhn tets: dihedral angles 45..90 degrees
   TetMesh m = fixtures::build(v);
   auto st = optimize(m, nullptr, {});
   ASSERT_TRUE(st.ok());
@@ -201,7 +203,7 @@ TEST(Optimize, GoodMeshIsLeftAlone) {
 /// quadrilateral), and its neighbour (v, v+x, v+x+z, v+1) a flat cap. Every tet
 /// stays positive: v stays inside the convex star of the Kuhn vertex.
 VolumeMesh grid_with_planted_sliver(double gap) {
-  VolumeMesh v = kuhn_grid(4);
+  VolumeMesh v = kuhn_grid_with_hull(4);
   v.points[2 + 5 * (2 + 5 * 2)] = {3.0 - gap, 2.3, 2.6};
   return v;
 }
@@ -241,7 +243,7 @@ TEST(Optimize, SliverBetweenHullEdgesStaysWhenNothingImproves) {
 }
 
 TEST(Optimize, SmoothingRepairsMisplacedPoint) {
-  VolumeMesh v = kuhn_grid(3);
+  VolumeMesh v = kuhn_grid_with_hull(3);
   const Index p = 1 + 4 * (1 + 4 * 1);  // interior point (1, 1, 1); (2, 2, 2) is a neighbour
   v.points[p] = {1.95, 1.92, 1.96};
   ASSERT_TRUE(all_positive(v));
@@ -260,24 +262,13 @@ TEST(Optimize, SmoothingRepairsMisplacedPoint) {
   expect_valid(m, nullptr);
 }
 
-/// Largest dihedral angle over the alive tets.
-double max_dihedral(const TetMesh& m) {
-  double hi = 0;
-  for (Index t = 0; t < m.num_slots(); ++t) {
-    if (!m.alive(t)) continue;
-    const Tet& k = m.tet(t);
-    hi = std::max(hi, dihedral_range(m.point(k[0]), m.point(k[1]), m.point(k[2]), m.point(k[3])).max);
-  }
-  return hi;
-}
-
 TEST(Optimize, SmoothingAimsAtTheTargetAngles) {
   // Kuhn tets have dihedral angles of 45, 60 and 90 degrees. With targets
   // [30, 100] a point pushed towards a neighbour makes obtuse tets (over 100
   // degrees) whose smallest angles stay well above 30: smoothing must aim at
   // the large angles (the plain smallest sine of a dihedral angle, which the
   // measure replaced, ranks a 105-degree angle as better than a 45-degree one).
-  VolumeMesh v = kuhn_grid(3);
+  VolumeMesh v = kuhn_grid_with_hull(3);
   const Index p = 1 + 4 * (1 + 4 * 1);
   v.points[p] = {1.2, 1.2, 1.2};  // 35.3 to 105.8 degrees around it
   ASSERT_TRUE(all_positive(v));

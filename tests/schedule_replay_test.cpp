@@ -11,12 +11,7 @@
 namespace pdrmesh {
 namespace {
 
-Decomposition grid_decomposition(int k, int depth) {
-  auto d = decompose(fixtures::kuhn_grid(k), depth);
-  EXPECT_TRUE(d.ok()) << d.status().to_string();
-  return std::move(d).value();
-}
-
+using fixtures::grid_decomposition;
 std::vector<double> seeded_durations(std::size_t n, unsigned seed) {
   std::mt19937 rng(seed);
   std::lognormal_distribution<double> dist(0.0, 1.0);

@@ -22,13 +22,8 @@
 namespace pdrmesh {
 namespace {
 
+using fixtures::grid_decomposition;
 using fixtures::kuhn_grid;
-
-Decomposition grid_decomposition(int k, int depth) {
-  auto d = decompose(kuhn_grid(k), depth);
-  EXPECT_TRUE(d.ok()) << d.status().to_string();
-  return std::move(d).value();
-}
 
 std::vector<Index> lock_set(std::span<const std::vector<Index>> n1, Index l) {
   std::vector<Index> s = n1[l];

@@ -108,18 +108,18 @@ bool cone_mesh(const SurfaceMesh& s, VolumeMesh& m) {
   return validate_mesh(m).ok();
 }
 
-struct Sphere {
+struct SphereWithBackground {
   SurfaceMesh surface;
   VolumeMesh background;
 };
 
-const Sphere* sphere() {
-  static const Sphere* s = [] {
-    auto* sp = new Sphere;
+const SphereWithBackground* sphere_with_background() {
+  static const SphereWithBackground* s = [] {
+    auto* sp = new SphereWithBackground;
     sp->surface = fixtures::corpus_surface("sphere966");
     if (sp->surface.triangles.empty() || !cone_mesh(sp->surface, sp->background)) {
       delete sp;
-      return static_cast<Sphere*>(nullptr);
+      return static_cast<SphereWithBackground*>(nullptr);
     }
     return sp;
   }();
@@ -270,7 +270,7 @@ TEST(SizingField, GrowthLimitMatchesBruteForceOnGradedGrid) {
 }
 
 TEST(SizingField, GrowthLimitMatchesBruteForceOnSphere966) {
-  const Sphere* sp = sphere();
+  const SphereWithBackground* sp = sphere_with_background();
   if (sp == nullptr) GTEST_SKIP() << "sphere966.mesh not readable or not star-shaped";
   const Box b = sp->surface.bounds();
   check_growth(sp->surface, sp->background, 1.002, b,
@@ -279,7 +279,7 @@ TEST(SizingField, GrowthLimitMatchesBruteForceOnSphere966) {
 }
 
 TEST(SizingField, SphereBoundarySpacingAndCentre) {
-  const Sphere* sp = sphere();
+  const SphereWithBackground* sp = sphere_with_background();
   if (sp == nullptr) GTEST_SKIP() << "sphere966.mesh not readable or not star-shaped";
   const auto f = build_ok(sp->surface, sp->background, growth(kHuge));
   const auto spacing = mean_incident_edge(sp->surface);
@@ -364,7 +364,7 @@ TEST(SizingField, EncodeDecodeIsBitIdenticalOnCube) {
 }
 
 TEST(SizingField, EncodeDecodeIsBitIdenticalOnSphere966) {
-  const Sphere* sp = sphere();
+  const SphereWithBackground* sp = sphere_with_background();
   if (sp == nullptr) GTEST_SKIP() << "sphere966.mesh not readable or not star-shaped";
   SizingOptions o = growth(1.01);
   o.hmin = 0.9;
@@ -388,7 +388,7 @@ TEST(SizingField, ParallelQueriesMatchSerial) {
 // ---------------------------------------------------------------- surface values
 
 TEST(SizingField, SurfaceValuesMatchTheBuiltFieldBitForBit) {
-  const Sphere* sp = sphere();
+  const SphereWithBackground* sp = sphere_with_background();
   if (sp == nullptr) GTEST_SKIP() << "sphere966.mesh not readable or not star-shaped";
   SizingOptions clamped;
   clamped.hmin = 0.9;

@@ -2,6 +2,7 @@
 // Tests of the surface readers and writers: one fixture per format built here,
 // write/read round trips, malformed inputs, STL welding and the corpus sphere.
 #include "pdrmesh/surface_io.hpp"
+#include "pdrmesh/validate.hpp"
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -91,14 +92,6 @@ void expect_same(const SurfaceMesh& a, const SurfaceMesh& b, bool ids = true) {
   if (ids) {
     EXPECT_EQ(a.surface_ids, b.surface_ids);
   }
-}
-
-/// Signed volume of a closed surface (positive for outward triangles).
-double enclosed_volume(const SurfaceMesh& s) {
-  double v = 0;
-  for (const Tri& t : s.triangles)
-    v += signed_volume({0, 0, 0}, s.points[t[0]], s.points[t[1]], s.points[t[2]]);
-  return v;
 }
 
 /// Little/big-endian byte writer for binary fixtures.

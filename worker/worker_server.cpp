@@ -30,7 +30,10 @@ namespace v1 = pdrmesh::v1;
 
 grpc::Status rpc_error(grpc::StatusCode code, std::string message) { return {code, std::move(message)}; }
 
-/// Decoded sizing fields by digest, least recently used first out.
+}  // namespace
+
+/// Decoded sizing fields by digest, least recently used first out. (Not in the
+/// anonymous namespace: it is the type of a member of Worker::State.)
 class SizingCache {
  public:
   explicit SizingCache(std::size_t capacity) : capacity_(std::max<std::size_t>(capacity, 1)) {}
@@ -56,8 +59,6 @@ class SizingCache {
   std::size_t capacity_;
   std::list<std::pair<std::uint64_t, std::shared_ptr<const SizingField>>> entries_;
 };
-
-}  // namespace
 
 struct Worker::State {
   WorkerOptions options;

@@ -19,6 +19,7 @@
 #include "pdrmesh/predicates.hpp"
 #include "pdrmesh/quality.hpp"
 #include "pdrmesh/topology.hpp"
+#include "stopwatch.hpp"
 
 namespace pdrmesh {
 namespace {
@@ -612,8 +613,7 @@ Result<OptimizeStats> optimize(TetMesh& mesh, const SizingField* sizing,
   const AngleRange after = mesh_range(mesh);
   st.min_dihedral_after = after.min;
   st.max_dihedral_after = after.max;
-  st.seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - clock_start).count();
+  st.seconds = seconds_since(clock_start);
   return st;
 }
 

@@ -22,13 +22,14 @@
 #include "pdrmesh/tetgen_adapter.hpp"
 #include "pdrmesh/topology.hpp"
 #include "pdrmesh/validate.hpp"
+#include "stopwatch.hpp"
+#include "union_find.hpp"
 
 namespace pdrmesh {
 
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 /// Packed face neighbours (4 * u + g, or kNoIndex) of every tet face.
 std::vector<Index> face_neighbours(const VolumeMesh& m) {
@@ -51,21 +52,6 @@ std::vector<Index> face_neighbours(const VolumeMesh& m) {
   }
   return nbr;
 }
-
-/// Minimal union-find over [0, n).
-struct UnionFind {
-  std::vector<Index> parent;
-  explicit UnionFind(std::size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), Index{0}); }
-  Index find(Index x) {
-    while (parent[x] != x) x = parent[x] = parent[parent[x]];
-    return x;
-  }
-  void unite(Index a, Index b) {
-    a = find(a);
-    b = find(b);
-    if (a != b) parent[std::max(a, b)] = std::min(a, b);  // the lowest index is the root
-  }
-};
 
 /// The working state of the fix-ups: adjacency, vertex stars, leaf membership.
 class Fixer {

@@ -12,12 +12,12 @@
 #include "pdrmesh/leaf_kernels.hpp"
 #include "pdrmesh/pdr.hpp"
 #include "pdrmesh/tet_mesh.hpp"
+#include "stopwatch.hpp"
 
 namespace pdrmesh {
 
 namespace {
 using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
 /// run_pdr's plan from the surface alone (SizingField::surface_values gives h
 /// at the surface points, summed in point order as surface_spacing does), or

@@ -17,15 +17,12 @@
 #include "pdrmesh/insert.hpp"
 #include "pdrmesh/predicates.hpp"
 #include "pdrmesh/topology.hpp"
+#include "stopwatch.hpp"
 
 namespace pdrmesh {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-double seconds_since(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
 
 struct Candidate {
   Vec3 p;

@@ -13,6 +13,8 @@
 #include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/task_arena.h>
 
+#include "stopwatch.hpp"
+
 namespace pdrmesh {
 
 LockTable::LockTable(std::size_t leaves) : locked_(leaves, 0) {}
@@ -122,10 +124,6 @@ void DynamicPicker::finish(Index leaf) { adjust(leaf, -1); }
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-double seconds_since(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
 
 /// Runs tasks with timing and concurrency accounting.
 class Instrument {

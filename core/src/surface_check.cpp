@@ -19,6 +19,7 @@
 
 #include "bvh.hpp"
 #include "pdrmesh/predicates.hpp"
+#include "union_find.hpp"
 
 namespace pdrmesh {
 namespace {
@@ -250,30 +251,6 @@ Crossing ray_crossing(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b
 
 // ---------------------------------------------------------------------------
 // Bookkeeping.
-
-class UnionFind {
- public:
-  explicit UnionFind(std::size_t n) : parent_(n) {
-    std::iota(parent_.begin(), parent_.end(), Index{0});
-  }
-  Index find(Index x) {
-    while (parent_[x] != x) {
-      parent_[x] = parent_[parent_[x]];
-      x = parent_[x];
-    }
-    return x;
-  }
-  void unite(Index a, Index b) {
-    a = find(a);
-    b = find(b);
-    if (a == b) return;
-    if (a < b) std::swap(a, b);
-    parent_[a] = b;  // the smaller index is the root: deterministic
-  }
-
- private:
-  std::vector<Index> parent_;
-};
 
 std::string point_str(const Vec3& p) { return fmt::format("({}, {}, {})", p[0], p[1], p[2]); }
 
