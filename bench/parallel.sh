@@ -2,8 +2,8 @@
 # Serial `pdrmesh mesh` beside the parallel `pdrmesh run` on corpus surfaces (issue 4, item 8):
 #  * native kernel with the interface rounds, 1 and 2 workers: tets, parallel/serial tet ratio,
 #    dihedral extremes, share under 10 degrees, wall time, speedup of 2 workers over 1, tets/s,
-#    and the profile shares of the 2-worker run (initial mesh, decomposition, fix-ups, leaf
-#    refinement, interface rounds, optimization, serial share);
+#    and the profile shares of the 2-worker run in percent of its whole wall time (initial mesh,
+#    decomposition, fix-ups, leaf refinement, interface rounds, optimization, serial share);
 #  * the same figures (2 workers) for the native kernel without the interface rounds and for the
 #    TetGen kernel, so that the gain of the interface rounds is visible.
 #   bench/parallel.sh [DEPTH] [SURFACE...]     (default: depth 2, the small corpus surfaces)
@@ -25,11 +25,11 @@ measure() {  # measure OUT_PREFIX command...: wall seconds into $1.s, quality js
   awk -v a="$t0" -v b="$(date +%s.%N)" 'BEGIN { printf "%.2f", b - a }' >"$prefix.s"
   "$pdrmesh" quality --json "$prefix.meshb" >"$prefix.q"
 }
-share() {  # share JSON PHASE: percentage of the total
-  python3 -c "import json,sys; p=json.load(open(sys.argv[1]))['phases']; print('%.0f' % (100*p[sys.argv[2]]/p['total']))" "$1" "$2"
+share() {  # share JSON PHASE: percentage of the run's whole wall time (read to write)
+  python3 -c "import json,sys; p=json.load(open(sys.argv[1]))['phases']; print('%.0f' % (100*p[sys.argv[2]]/p['wall']))" "$1" "$2"
 }
-serial_share() {
-  python3 -c "import json,sys; j=json.load(open(sys.argv[1])); t=j['phases']['total']; print('%.0f' % (100*max(0,t-sum(r['wall_s'] for r in j['rounds']))/t))" "$1"
+serial_share() {  # the share of the wall time outside the rounds of leaf tasks
+  python3 -c "import json,sys; j=json.load(open(sys.argv[1])); t=j['phases']['wall']; print('%.0f' % (100*max(0,t-sum(r['wall_s'] for r in j['rounds']))/t))" "$1"
 }
 quality() {  # quality PREFIX SERIAL_TETS: tets ratio min max under10
   awk -v t="$(field tets "$1.q")" -v st="$2" -v mn="$(field min_dihedral "$1.q")" -v mx="$(field max_dihedral "$1.q")" \
