@@ -145,6 +145,10 @@ int main() {
                  "standard input; it is not meant to be run by hand.\n");
     return 2;
   }
+  // A crash of TetGen must end this process by its signal, which the parent
+  // reports (and reads as bad input after TetGen's "intersect" diagnostics):
+  // no handler of a sanitizer's runtime may turn it into an exit status.
+  for (int sig : {SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGABRT}) ::signal(sig, SIG_DFL);
   struct rlimit no_core = {0, 0};
   ::setrlimit(RLIMIT_CORE, &no_core);
   if (h.memory_limit > 0) {
