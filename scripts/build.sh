@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Configures and builds pdrmesh into ./build (override with BUILD_DIR).
 # Extra arguments go to cmake's configure step, e.g. -DCMAKE_BUILD_TYPE=Debug.
-# A unity build (CMake batches the sources of a target, 8 to a compiler run): a third less time
-# for a whole build, which is what a fresh machine and CI do. For editing, a per-file build rebuilds
+# A unity build (CMake batches the sources of a target, 8 to a compiler run): a quicker whole
+# build, which is what a fresh machine and CI do. For editing, a per-file build rebuilds
 # less: pass -DCMAKE_UNITY_BUILD=OFF. The code compiles either way.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)

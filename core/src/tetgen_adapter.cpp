@@ -15,12 +15,12 @@
 
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <cerrno>
 #include <chrono>
 #include <climits>
 #include <cmath>
 #include <cstdint>
-#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -51,10 +51,13 @@ class Fd {
   explicit Fd(int fd) : fd_(fd) {}
   Fd(const Fd&) = delete;
   Fd& operator=(const Fd&) = delete;
+  Fd(Fd&& other) noexcept : fd_(std::exchange(other.fd_, -1)) {}
+  Fd& operator=(Fd&& other) noexcept {
+    reset(std::exchange(other.fd_, -1));
+    return *this;
+  }
   ~Fd() { reset(); }
   int get() const { return fd_; }
-  /// Gives up ownership (the descriptor stays open).
-  void release() { fd_ = -1; }
   void reset(int fd = -1) {
     if (fd_ >= 0) ::close(fd_);
     fd_ = fd;
@@ -511,7 +514,7 @@ Result<std::vector<double>> seed_points(const SurfaceMesh& s, double max_volume)
 /// Writes the helper's request (tetgen_wire.hpp) into an unlinked in-memory
 /// file, rewound, which becomes the helper's stdin: nothing to interleave with
 /// reading its answer, and nothing left on disk.
-Result<int> write_request(const SurfaceMesh& s, const TetgenOptions& o, const std::vector<double>& seeds) {
+Result<Fd> write_request(const SurfaceMesh& s, const TetgenOptions& o, const std::vector<double>& seeds) {
   Fd fd(::memfd_create("pdrmesh-tetgen-request", MFD_CLOEXEC));
   if (fd.get() < 0) return internal_error(fmt::format("cannot create TetGen's request file: {}", std::strerror(errno)));
   const std::string sw = tetgen_switches(o);
@@ -532,9 +535,7 @@ Result<int> write_request(const SurfaceMesh& s, const TetgenOptions& o, const st
       !wire::write_all(fd.get(), corners.data(), corners.size() * sizeof(std::int32_t)) ||
       !wire::write_all(fd.get(), sw.data(), sw.size()) || ::lseek(fd.get(), 0, SEEK_SET) != 0)
     return internal_error(fmt::format("cannot write TetGen's request: {}", std::strerror(errno)));
-  const int raw = fd.get();
-  fd.release();
-  return raw;
+  return fd;
 }
 
 /// Where the helper program is: $PDRMESH_TETGEN_HELPER if set, else
@@ -580,8 +581,11 @@ Result<pid_t> spawn_helper(const std::string& path, Fd& request, Fd& log, Fd& an
   PDR_TRY(raise_fd(answer));
   posix_spawn_file_actions_t actions;
   posix_spawnattr_t attr;
-  if (posix_spawn_file_actions_init(&actions) != 0 || posix_spawnattr_init(&attr) != 0)
+  if (posix_spawn_file_actions_init(&actions) != 0) return internal_error("cannot prepare the start of TetGen's process");
+  if (posix_spawnattr_init(&attr) != 0) {
+    posix_spawn_file_actions_destroy(&actions);
     return internal_error("cannot prepare the start of TetGen's process");
+  }
   sigset_t defaults, none;
   sigemptyset(&defaults);
   for (int sig : {SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGABRT, SIGPIPE, SIGTERM, SIGINT, SIGHUP}) sigaddset(&defaults, sig);
@@ -635,8 +639,7 @@ namespace {
 Result<VolumeMesh> run_tetgen(const SurfaceMesh& surface, const TetgenOptions& options,
                               const std::vector<double>& seeds) {
   PDR_ASSIGN_OR_RETURN(const std::string helper, helper_path());
-  PDR_ASSIGN_OR_RETURN(const int request_fd, write_request(surface, options, seeds));
-  Fd request(request_fd);
+  PDR_ASSIGN_OR_RETURN(Fd request, write_request(surface, options, seeds));
 
   int result_pipe[2], log_pipe[2];
   if (::pipe2(result_pipe, O_CLOEXEC) != 0)
