@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <tuple>
 
 #include <fmt/format.h>
 #include <oneapi/tbb/parallel_for.h>
@@ -33,7 +34,7 @@ struct FaceRecord {
   std::array<Index, 3> key;
   Index packed;
   bool operator<(const FaceRecord& o) const {
-    return key != o.key ? key < o.key : packed < o.packed;
+    return std::tie(key, packed) < std::tie(o.key, o.packed);
   }
 };
 

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstring>
 #include <numbers>
+#include <tuple>
 #include <utility>
 
 #include "byte_codec.hpp"
@@ -209,7 +210,7 @@ Status validate_leaf_output(const LeafTaskInput& in, const LeafTaskOutput& out) 
   struct Face {
     Tri key;  // sorted
     Tri tri;  // canonical rotation, oriented
-    bool operator<(const Face& o) const { return key < o.key || (key == o.key && tri < o.tri); }
+    bool operator<(const Face& o) const { return std::tie(key, tri) < std::tie(o.key, o.tri); }
   };
   std::vector<Face> faces;
   faces.reserve(4 * out.tets.size());

@@ -13,6 +13,7 @@
 #include <mutex>
 #include <numeric>
 #include <string>
+#include <tuple>
 #include <utility>
 
 #include <oneapi/tbb/parallel_for.h>
@@ -36,7 +37,7 @@ std::vector<Index> face_neighbours(const VolumeMesh& m) {
   struct Rec {
     Tri key;
     Index packed;
-    bool operator<(const Rec& o) const { return key < o.key || (key == o.key && packed < o.packed); }
+    bool operator<(const Rec& o) const { return std::tie(key, packed) < std::tie(o.key, o.packed); }
   };
   std::vector<Rec> faces;
   faces.reserve(4 * m.tets.size());
@@ -272,7 +273,7 @@ LeafTaskInput build_leaf_input(std::uint32_t leaf, std::span<const Vec3> points,
   struct Face {
     Tri key;
     Tri tri;
-    bool operator<(const Face& o) const { return key < o.key || (key == o.key && tri < o.tri); }
+    bool operator<(const Face& o) const { return std::tie(key, tri) < std::tie(o.key, o.tri); }
   };
   std::vector<Face> faces;
   faces.reserve(4 * tets.size());

@@ -15,6 +15,7 @@
 #include <iterator>
 #include <nlohmann/json.hpp>
 #include <numeric>
+#include <tuple>
 #include <utility>
 
 #include "bvh.hpp"
@@ -303,7 +304,7 @@ struct EdgeUse {
   Index tri;
   std::uint8_t local;  ///< the edge from corner local to corner local + 1
   bool operator<(const EdgeUse& o) const {
-    return key != o.key ? key < o.key : (tri != o.tri ? tri < o.tri : local < o.local);
+    return std::tie(key, tri, local) < std::tie(o.key, o.tri, o.local);
   }
 };
 

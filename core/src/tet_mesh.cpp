@@ -10,6 +10,7 @@
 #include <cassert>
 #include <limits>
 #include <string>
+#include <tuple>
 
 #include "pdrmesh/predicates.hpp"
 #include "pdrmesh/topology.hpp"
@@ -23,7 +24,7 @@ struct FaceRecord {
   Tri key;
   Index packed;
   bool operator<(const FaceRecord& o) const {
-    return key != o.key ? key < o.key : packed < o.packed;
+    return std::tie(key, packed) < std::tie(o.key, o.packed);
   }
 };
 

@@ -26,6 +26,7 @@
 #include <filesystem>
 #include <string_view>
 #include <thread>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -264,7 +265,7 @@ Result<VolumeMesh> build_volume_mesh(RawMesh m, const SurfaceMesh& surface) {
   for (std::size_t t = 0; t < nt; ++t)
     for (int k = 0; k < 4; ++k) faces.push_back({topo::sorted_key(topo::face_of(m.tets[t], k)), static_cast<Index>(t), k});
   auto by_key = [](const FaceRecord& a, const FaceRecord& b) {
-    return a.key != b.key ? a.key < b.key : a.tet != b.tet ? a.tet < b.tet : a.local < b.local;
+    return std::tie(a.key, a.tet, a.local) < std::tie(b.key, b.tet, b.local);
   };
   std::sort(faces.begin(), faces.end(), by_key);
 
