@@ -7,6 +7,7 @@
 #  * the same figures (2 workers) for the native kernel without the interface rounds and for the
 #    TetGen kernel, so that the gain of the interface rounds is visible.
 #   bench/parallel.sh [DEPTH] [SURFACE...]     (default: depth 2, the small corpus surfaces)
+#   VARIANTS="native" bench/parallel.sh ...    (a subset of: native no-iface tetgen)
 # Each run also writes its profile JSON; pdrmesh_bench_replay projects it to P workers.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -46,7 +47,7 @@ for n in "${names[@]}"; do
   st=$(field tets "$tmp/ser.q")
   ser=$(printf '%-13s %9d %6.2f %6.2f %6.2f' "$n" "$st" "$(cat "$tmp/ser.s")" "$(field min_dihedral "$tmp/ser.q")" \
         "$(field max_dihedral "$tmp/ser.q")")
-  for variant in native no-iface tetgen; do
+  for variant in ${VARIANTS:-native no-iface tetgen}; do
     args=(--depth "$depth" --kernel native); [[ $variant == no-iface ]] && args+=(--no-interface-round)
     [[ $variant == tetgen ]] && args=(--depth "$depth" --kernel tetgen)
     measure "$tmp/w2" "$pdrmesh" run -q "$s" -o "$tmp/w2.meshb" "${args[@]}" --workers 2 --profile-json "$tmp/w2.json" ||

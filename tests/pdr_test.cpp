@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <filesystem>
 #include <memory>
 #include <mutex>
@@ -227,6 +229,90 @@ TEST(Pdr, OptimizationRoundsMayMoveInteriorPointsAndStayIdentical) {
   std::size_t moved = 0;
   for (std::size_t i = 0; i < std::min(a->points.size(), c->points.size()); ++i) moved += a->points[i] != c->points[i];
   EXPECT_GT(moved, 0u);
+}
+
+/// Runs `inner` and records the barycenters of the tets each task receives.
+class RecordingKernel final : public LeafKernel {
+ public:
+  explicit RecordingKernel(RefineHook hook) : inner_(std::move(hook)) {}
+  Result<LeafTaskOutput> run(const LeafTaskInput& in, const SizingField& h) const override {
+    {
+      const std::lock_guard lock(mutex_);
+      for (const Tet& t : in.tets)
+        received_.push_back(0.25 * (in.points[t[0]] + in.points[t[1]] + in.points[t[2]] + in.points[t[3]]));
+    }
+    return inner_.run(in, h);
+  }
+  std::string_view name() const override { return "recording"; }
+  std::vector<Vec3> received() const {
+    const std::lock_guard lock(mutex_);
+    return received_;
+  }
+
+ private:
+  NativeLeafKernel inner_;
+  mutable std::mutex mutex_;
+  mutable std::vector<Vec3> received_;
+};
+
+/// The tets whose four points lie beyond x = x0, as sorted coordinate lists.
+std::vector<std::array<Vec3, 4>> tets_beyond(const VolumeMesh& m, double x0) {
+  std::vector<std::array<Vec3, 4>> out;
+  for (const Tet& t : m.tets) {
+    std::array<Vec3, 4> c{m.points[t[0]], m.points[t[1]], m.points[t[2]], m.points[t[3]]};
+    if (std::all_of(c.begin(), c.end(), [&](const Vec3& p) { return p[0] > x0; })) {
+      std::sort(c.begin(), c.end());
+      out.push_back(c);
+    }
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+TEST(Pdr, OptimizationTasksGetOnlyTheSelectedTetsAndTheirHalo) {
+  // sphere966 with the real refiner: edges about h long, so a vertex layer is short.
+  const Sphere* sp = sphere();
+  if (sp == nullptr) GTEST_SKIP() << "sphere966.mesh not readable";
+  const std::unique_ptr<LeafKernel> kernel = make_leaf_kernel("native").value();
+  PdrOptions o = depth2(2);
+  Result<VolumeMesh> plain = run_pdr(sp->surface, *sp->sizing, *kernel, o, nullptr);  // no optimization
+  ASSERT_TRUE(plain.ok()) << plain.status().to_string();
+
+  // Nothing selected: no task gets a tet, and the mesh is the unoptimized one.
+  const RecordingKernel idle(nudging_hook());
+  o.optimize_kernel = &idle;
+  o.optimize_selects = [](const Vec3&, const Vec3&, const Vec3&, const Vec3&) { return false; };
+  Result<VolumeMesh> none = run_pdr(sp->surface, *sp->sizing, *kernel, o, nullptr);
+  ASSERT_TRUE(none.ok()) << none.status().to_string();
+  EXPECT_TRUE(idle.received().empty());
+  EXPECT_EQ(none->points, plain->points);
+  EXPECT_EQ(tets_beyond(*none, -1e9), tets_beyond(*plain, -1e9));
+
+  // The tets with a corner in the first fifth along x, with one vertex layer:
+  // the tasks (three rounds, the last over the whole mesh) get tets near
+  // that slab only, and nothing far beyond it changes.
+  const Box bb = sp->surface.bounds();
+  const double lo = bb.lo[0], w = bb.hi[0] - bb.lo[0];
+  const RecordingKernel near(nudging_hook());
+  o.optimize_kernel = &near;
+  o.optimize_halo = 1;
+  o.optimize_selects = [x0 = lo + 0.2 * w](const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
+    return std::min({a[0], b[0], c[0], d[0]}) < x0;
+  };
+  PdrProfile prof;
+  Result<VolumeMesh> some = run_pdr(sp->surface, *sp->sizing, *kernel, o, &prof);
+  ASSERT_TRUE(some.ok()) << some.status().to_string();
+  expect_valid(*some, sp->surface);
+  const std::vector<Vec3> got = near.received();
+  ASSERT_FALSE(got.empty());
+  double farthest = lo;
+  for (const Vec3& b : got) farthest = std::max(farthest, b[0]);
+  EXPECT_LT(farthest, lo + 0.5 * w);
+  EXPECT_EQ(tets_beyond(*some, lo + 0.6 * w), tets_beyond(*plain, lo + 0.6 * w));
+  EXPECT_NE(tets_beyond(*some, lo - 1), tets_beyond(*plain, lo - 1));  // the selection did change
+  ASSERT_FALSE(prof.rounds.empty());
+  EXPECT_EQ(prof.rounds.back().name, "final optimization");
+  EXPECT_EQ(prof.rounds.back().leaves.size(), 1u);
 }
 
 TEST(Pdr, ATetgenCrashOnALeafKeepsThatLeafUnrefined) {

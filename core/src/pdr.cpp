@@ -367,12 +367,18 @@ struct TaskResult {
 
 /// The expected cost of each leaf's task, as ranks (0 = the most expensive
 /// starts first): its tet count plus the tets its volume should hold at h
-/// (sampled on every 4th tet). A heuristic for the order only; the result does
-/// not depend on it.
-std::vector<Index> cost_ranks(const VolumeMesh& cur, const Decomposition& d, const SizingField& sizing) {
+/// (sampled on every 4th tet), or the size of the leaf's selection when the
+/// round sends only part of it. A heuristic for the order only; the result
+/// does not depend on it.
+std::vector<Index> cost_ranks(const VolumeMesh& cur, const Decomposition& d, const SizingField& sizing,
+                              const std::vector<std::vector<Tet>>& sent) {
   std::vector<double> cost(d.size(), 0.0);
   tbb::parallel_for(std::size_t{0}, d.size(), [&](std::size_t l) {
     const auto& tets = d.leaf_tets[l];
+    if (sent[l].size() != tets.size()) {  // a selection: its size is the work
+      cost[l] = static_cast<double>(sent[l].size());
+      return;
+    }
     double c = static_cast<double>(tets.size());
     for (std::size_t i = 0; i < tets.size(); i += 4) {
       const Tet& v = cur.tets[tets[i]];
@@ -390,24 +396,50 @@ std::vector<Index> cost_ranks(const VolumeMesh& cur, const Decomposition& d, con
   return rank;
 }
 
+/// One flag per tet of `m`: the tets `needs` picks, and every tet within
+/// `halo` vertex layers of them (a layer: the tets sharing a point with a
+/// flagged tet).
+std::vector<char> select_tets(const VolumeMesh& m, const PdrOptions& options) {
+  const auto& needs = options.optimize_selects;
+  const std::vector<Vec3>& P = m.points;
+  std::vector<char> flag(m.tets.size(), 0);
+  tbb::parallel_for(std::size_t{0}, m.tets.size(), [&](std::size_t t) {
+    const Tet& k = m.tets[t];
+    flag[t] = needs(P[k[0]], P[k[1]], P[k[2]], P[k[3]]) ? 1 : 0;
+  });
+  std::vector<char> touched(P.size());
+  for (int layer = 0; layer < options.optimize_halo; ++layer) {
+    std::fill(touched.begin(), touched.end(), 0);
+    for (std::size_t t = 0; t < m.tets.size(); ++t)
+      if (flag[t])
+        for (Index v : m.tets[t]) touched[v] = 1;
+    for (std::size_t t = 0; t < m.tets.size(); ++t)
+      if (!flag[t])
+        for (Index v : m.tets[t]) flag[t] = static_cast<char>(flag[t] | touched[v]);
+  }
+  return flag;
+}
+
 /// One round over decomposition d of `cur`: every leaf's tets go through
 /// `kernel` (its hull frozen), and `cur` gets the results, leaf by leaf in
 /// ascending order, new points appended in that order. Task inputs depend only
 /// on the leaf's own tets and the points present before the round (nothing
 /// moves a hull point, and new points get their ids only after the round), so
 /// the result is the same for any worker count, completion order or policy.
+/// With `selected` (one flag per tet of `cur`), a leaf's task gets only its
+/// selected tets and the others are kept as they are, after the task's tets.
 Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const FaceIdTable& boundary,
                  const SizingField& sizing, const LeafKernel& kernel, const PdrOptions& options, bool fixups,
-                 RoundResult& rr) {
+                 RoundResult& rr, const std::vector<char>* selected = nullptr) {
   if (fixups) rr.fixups = apply_fixups(cur, d, options.max_fixup_sweeps);
   rr.leaves = d.size();
   std::vector<std::vector<Tet>> leaf_tets(d.size());
+  std::vector<std::vector<Tet>> kept(d.size());
   for (Index l = 0; l < d.size(); ++l) {
-    leaf_tets[l].reserve(d.leaf_tets[l].size());
-    for (Index t : d.leaf_tets[l]) leaf_tets[l].push_back(cur.tets[t]);
+    for (Index t : d.leaf_tets[l]) (selected == nullptr || (*selected)[t] ? leaf_tets[l] : kept[l]).push_back(cur.tets[t]);
     rr.max_leaf_tets = std::max(rr.max_leaf_tets, leaf_tets[l].size());
   }
-  const std::vector<Index> rank = cost_ranks(cur, d, sizing);
+  const std::vector<Index> rank = cost_ranks(cur, d, sizing, leaf_tets);
   const std::vector<Vec3>& points = cur.points;  // read-only during the round
   Status error;
   std::atomic<bool> stop{false};
@@ -492,8 +524,10 @@ Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const
       for (int i = 0; i < 4; ++i) g[i] = t[i] < ni ? static_cast<Index>(r.point_ids[t[i]]) : base + (t[i] - ni);
       cur.tets.push_back(g);
     }
-    cur.tet_regions.insert(cur.tet_regions.end(), r.output.tets.size(), static_cast<int>(d.leaves[l]));
+    cur.tets.insert(cur.tets.end(), kept[l].begin(), kept[l].end());
+    cur.tet_regions.insert(cur.tet_regions.end(), r.output.tets.size() + kept[l].size(), static_cast<int>(d.leaves[l]));
     r = TaskResult{};
+    kept[l] = {};
   }
   rr.merge_s += seconds_since(t0);
   rr.record.name = std::string(phase);
@@ -620,12 +654,16 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
     prof.rounds.push_back(std::move(r.record));
   };
   /// A round over a new decomposition of `cur` at `box`.
-  const auto round = [&](std::string_view phase, const Box& box, const LeafKernel& k, bool fix) -> Status {
+  /// With `select`, the tets options.optimize_selects picks and their halo only.
+  const auto round = [&](std::string_view phase, const Box& box, const LeafKernel& k, bool fix, int round_depth,
+                         bool select) -> Status {
     const auto td = Clock::now();
-    PDR_ASSIGN_OR_RETURN(Decomposition d, decompose_leaves(cur, depth, box));
+    PDR_ASSIGN_OR_RETURN(Decomposition d, decompose_leaves(cur, round_depth, box));
     prof.decomposition += seconds_since(td);
+    std::vector<char> selected;
+    if (select) selected = select_tets(cur, options);
     RoundResult r;
-    PDR_TRY(run_round(phase, cur, std::move(d), boundary, sizing, k, options, fix, r));
+    PDR_TRY(run_round(phase, cur, std::move(d), boundary, sizing, k, options, fix, r, select ? &selected : nullptr));
     account(std::move(r));
     return {};
   };
@@ -642,7 +680,7 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
   if (options.interface_round && depth > 0 && options.interface_rounds > 0) {
     t0 = Clock::now();
     const std::size_t before = prof.rounds.size();
-    PDR_TRY(round("interface round", box2, kernel, fixups));
+    PDR_TRY(round("interface round", box2, kernel, fixups, depth, false));
     prof.interface_leaf_count = prof.rounds.size() > before ? prof.rounds.back().n1.size() : 0;
     last_box = box2;
     if (options.interface_rounds > 1) {
@@ -653,7 +691,7 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
         box3.lo[k] += 0.5 * half;
         box3.hi[k] += 0.5 * half;
       }
-      PDR_TRY(round("second interface round", box3, kernel, fixups));
+      PDR_TRY(round("second interface round", box3, kernel, fixups, depth, false));
       last_box = box3;
     }
     prof.interface_round = seconds_since(t0);
@@ -665,13 +703,24 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
   if (options.optimize_kernel != nullptr || options.optimize) {
     if (!report("optimization", cur.tets.size())) return cancelled("stopped before the optimization");
     t0 = Clock::now();
+    const bool select = options.optimize_kernel != nullptr && static_cast<bool>(options.optimize_selects);
     if (options.optimize_kernel != nullptr) {
-      PDR_TRY(round("optimization", box1, *options.optimize_kernel, false));
-      if (depth > 0) PDR_TRY(round("shifted optimization", box2, *options.optimize_kernel, false));
+      PDR_TRY(round("optimization", box1, *options.optimize_kernel, false, depth, select));
+      if (depth > 0) PDR_TRY(round("shifted optimization", box2, *options.optimize_kernel, false, depth, select));
       last_box = depth > 0 ? box2 : box1;
       prof.optimization_leaves = seconds_since(t0);
     }
-    if (options.optimize) {
+    if (select) {
+      // The final pass: one task over the whole mesh's selection (its hull
+      // frozen), so what the rounds' frozen hulls kept from them is reached.
+      // Its tets are then in the one leaf of a depth-0 grid; afterwards each
+      // gets the leaf of the last round's grid that holds its barycenter.
+      const auto tg = Clock::now();
+      PDR_TRY(round("final optimization", box1, *options.optimize_kernel, false, 0, true));
+      prof.global_optimization = seconds_since(tg);
+      for (Index t = 0; t < cur.tets.size(); ++t)
+        cur.tet_regions[t] = static_cast<int>(leaf_of_point(last_box, depth, tet_barycenter(cur, t)));
+    } else if (options.optimize) {
       // The leaf of each tet is bookkeeping, not a material region: the
       // optimization must see one region, or it would treat every former leaf
       // interface as a constraint (no flip across it, its points fixed) and

@@ -11,6 +11,7 @@
 
 #include "pdrmesh/leaf_kernels.hpp"
 #include "pdrmesh/pdr.hpp"
+#include "pdrmesh/quality.hpp"
 #include "pdrmesh/tet_mesh.hpp"
 #include "stopwatch.hpp"
 
@@ -132,6 +133,11 @@ Result<ParallelResult> mesh_parallel(const SurfaceMesh& surface, const ParallelO
     optimizer.emplace([opt](TetMesh& leaf, const SizingField& h) { return pdrmesh::optimize(leaf, &h, opt).status(); });
     pdr.optimize_kernel = &*optimizer;
     pdr.optimize = [&sizing, &options](VolumeMesh& m) { return optimize_volume(m, sizing, *options.optimize); };
+    pdr.optimize_selects = [lo = opt.target_min_dihedral, hi = opt.target_max_dihedral](
+                               const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
+      const AngleRange r = dihedral_range(a, b, c, d);
+      return r.min < lo || r.max > hi;
+    };
   }
   if (plan) {
     PDR_ASSIGN_OR_RETURN(out.mesh, run_pdr(surface, sizing, *kernel, pdr, &out.profile, *plan,
