@@ -242,7 +242,12 @@ class Optimizer {
   }
 
   /// Restricts smooth() to the vertices of bad tets with no fixed point.
-  void set_interior_only(bool on) { interior_only_ = on; }
+  /// With `pin` (the polishing rounds' polish_pins_fixed), smoothing also pins
+  /// the tets with a fixed point (see optimize.hpp).
+  void set_interior_only(bool on, bool pin = false) {
+    interior_only_ = on;
+    pin_fixed_ = on && pin;
+  }
 
   void start_sweep() {
     flips_this_sweep_ = 0;
@@ -403,20 +408,30 @@ class Optimizer {
   }
 
   /// The smoothing profile of a star from its measures: each clipped at 1 (a
-  /// tet within the targets counts as good, however good), ascending.
-  static void to_profile(const std::vector<double>& measures, std::vector<double>& out) {
-    out.resize(measures.size());
-    for (std::size_t i = 0; i < measures.size(); ++i) out[i] = std::min(measures[i], 1.0);
+  /// tet within the targets counts as good, however good), ascending; the
+  /// pinned tets (pinned_, in link_ order) are left out unless every tet is.
+  void to_profile(const std::vector<double>& measures, std::vector<double>& out) const {
+    out.clear();
+    for (std::size_t i = 0; i < measures.size(); ++i)
+      if (!pinned_[i] || all_pinned_) out.push_back(std::min(measures[i], 1.0));
     std::sort(out.begin(), out.end());
   }
 
   /// Whether apex position x beats the old one for smoothing: every tet
-  /// positive and the profile lexicographically above profile_old_ (the worst
-  /// tet better, or as good and the next worse one better, ...). Leaves x's
-  /// profile in profile_new_.
+  /// positive, every tet at or above its bound in lower_ (the judged tets: the
+  /// old worst judged measure; a pinned tet: its own old measure, so it never
+  /// gets worse), and the profile lexicographically above profile_old_ (the
+  /// worst judged tet better, or as good and the next worse one better, ...).
+  /// Leaves x's profile in profile_new_.
   bool smoothing_accepts(const Vec3& x) {
-    // A tet below the old worst puts the profile below the old one: stop early.
-    if (!star_measures(x, measures_new_, profile_old_.front())) return false;
+    measures_new_.clear();
+    for (std::size_t i = 0; i < link_.size(); ++i) {
+      const Tri& f = link_[i];
+      const std::array<Vec3, 4> p{m_.point(f[0]), m_.point(f[1]), m_.point(f[2]), x};
+      const double q = measure(p);
+      if (q < lower_[i] || exact::orient3d(p[0], p[1], p[2], p[3]) <= 0) return false;
+      measures_new_.push_back(q);
+    }
     to_profile(measures_new_, profile_new_);
     return profile_old_ < profile_new_;
   }
@@ -431,8 +446,21 @@ class Optimizer {
     const Vec3 old = m_.point(v);
     Vec3 best;
     if (!star_measures(old, measures_old_)) return false;
+    // In the polishing rounds, a tet with a fixed point is pinned: it only
+    // must not get worse, and the move is judged by the other tets' profile.
+    pinned_.assign(link_.size(), 0);
+    all_pinned_ = true;
+    for (std::size_t i = 0; i < link_.size(); ++i) {
+      bool pinned = false;
+      for (Index u : link_[i]) pinned = pinned || (pin_fixed_ && u < fixed_.size() && fixed_[u] != 0);
+      pinned_[i] = pinned ? 1 : 0;
+      all_pinned_ = all_pinned_ && pinned;
+    }
     to_profile(measures_old_, profile_old_);
     if (profile_old_.front() >= 1.0) return false;  // the star is good already
+    lower_.resize(link_.size());
+    for (std::size_t i = 0; i < link_.size(); ++i)
+      lower_[i] = pinned_[i] && !all_pinned_ ? std::min(measures_old_[i], 1.0) : profile_old_.front();
     // Targets and line search as best_position, but compared by the star's
     // profile (smoothing_accepts): a move may improve a bad tet while the
     // star's worst tet, which v cannot help (e.g. a tet on the boundary), stays
@@ -523,7 +551,11 @@ class Optimizer {
   std::vector<double> measures_old_, measures_new_;  ///< smoothing scratch
   std::vector<char> fixed_;     ///< per point, set by smooth(): on a frozen, hull or region face
   bool interior_only_ = false;  ///< see set_interior_only
+  bool pin_fixed_ = false;      ///< smoothing: tets with a fixed point are pinned
   std::vector<double> profile_old_, profile_new_, profile_best_;
+  std::vector<char> pinned_;    ///< smoothing: per link_ face, the tet over it is pinned
+  bool all_pinned_ = false;     ///< smoothing: every tet of the star is pinned
+  std::vector<double> lower_;   ///< smoothing: per link_ face, the least measure accepted
   std::size_t flips_this_sweep_ = 0;
   std::size_t flip_budget_ = 0;
 };
@@ -600,7 +632,7 @@ Result<OptimizeStats> optimize(TetMesh& mesh, const SizingField* sizing,
       ++st.polish_rounds;
       opt.start_sweep();
       opt.reconnect(opt.interior(bad));
-      opt.set_interior_only(true);
+      opt.set_interior_only(true, options.polish_pins_fixed);
       opt.smooth();
       opt.set_interior_only(false);
       bad = opt.bad_tets();

@@ -24,7 +24,13 @@
 // seeded with the bad tets that have no fixed point (see 3.), then smoothing of
 // their vertices alone, while the number of such tets falls. They finish the
 // interior cheaply where the sweeps spend their work on tets next to the
-// boundary, many beyond repair next to needle triangles.
+// boundary, many beyond repair next to needle triangles. Their smoothing judges
+// a move by the profile (see 3.) of the star's tets with no fixed point only;
+// a tet with a fixed point is pinned: it must stay positive and its measure
+// must not fall below min(its old measure, 1), but it does not lead the
+// comparison, so a hopeless tet on a needle triangle next to the boundary no
+// longer blocks (or steers) the repair of the interior tets it shares a point
+// with. (A star whose tets all have a fixed point is judged as in 3.)
 //
 //  1. Reconnection. A FIFO work queue, seeded with the bad tets in slot order.
 //     For a bad tet: edge removal (flips.hpp remove_edge: 3-2, 4-4 and larger
@@ -103,6 +109,10 @@ struct OptimizeOptions {
   /// A point is inserted only this far (times h at the point) from every
   /// vertex of the sliver's cavity.
   double insert_min_distance = 0.5;
+  /// Polishing rounds: tets with a fixed point are pinned (must not get worse)
+  /// instead of leading the smoothing comparison (see above). Off: the
+  /// polishing smoothing compares whole stars as in 3.
+  bool polish_pins_fixed = true;
   /// Safety cap on successful flips per sweep, times the number of tets at the
   /// start of the sweep (the min-max rule already guarantees an end).
   double max_flips_per_tet = 20;
