@@ -96,7 +96,15 @@ class Optimizer {
   /// targets (>= 1 for a good tet).
   double measure(const std::array<Vec3, 4>& p) const { return min_sine(p, acute_, obtuse_); }
 
+  /// The badness of the alive tet t, through known_ (see there).
   Badness badness(Index t) const {
+    if (t >= known_.size()) known_.resize(m_.num_slots(), 0);  // never inside bad_flags' parallel scan
+    unsigned char& k = known_[t];
+    if (k == 0) k = static_cast<unsigned char>(1 + static_cast<int>(compute_badness(t)));
+    return static_cast<Badness>(k - 1);
+  }
+
+  Badness compute_badness(Index t) const {
     const auto p = corners(m_, m_.tet(t));
     const AngleRange r = dihedral_range(p[0], p[1], p[2], p[3]);
     const bool small = r.min < o_.target_min_dihedral, large = r.max > o_.target_max_dihedral;
@@ -106,6 +114,7 @@ class Optimizer {
 
   /// Per slot: 1 for a live bad tet (computed in parallel).
   std::vector<unsigned char> bad_flags() const {
+    if (known_.size() < m_.num_slots()) known_.resize(m_.num_slots(), 0);
     std::vector<unsigned char> is_bad(m_.num_slots(), 0);
     const auto scan = [&](const tbb::blocked_range<Index>& r) {
       for (Index t = r.begin(); t < r.end(); ++t) is_bad[t] = m_.alive(t) && badness(t) != Badness::kGood ? 1 : 0;
@@ -256,8 +265,15 @@ class Optimizer {
 
  private:
   bool push_created() {
+    forget_created();
     for (Index c : m_.last_created()) queue_.push_back(c);
     return true;
+  }
+
+  /// Drops the known badness of the tets the last operation created.
+  void forget_created() {
+    for (Index c : m_.last_created())
+      if (c < known_.size()) known_[c] = 0;
   }
 
   /// One flip that improves the neighbourhood of the bad tet t, or none.
@@ -469,7 +485,10 @@ class Optimizer {
     (void)best_position(old, q0, best, /*profile=*/true);
     if (best == old) return false;
     m_.set_point(v, best);
-    for (const auto& s : star_) m_.invalidate_quality(s.first);
+    for (const auto& s : star_) {
+      m_.invalidate_quality(s.first);
+      if (s.first < known_.size()) known_[s.first] = 0;
+    }
     return true;
   }
 
@@ -536,6 +555,7 @@ class Optimizer {
     for (const Tri& f : link_) fresh.push_back({f[0], f[1], f[2], p});
     const std::vector<Index> parent(fresh.size(), 0);
     m_.replace_cavity(cavity, fresh, parent);
+    forget_created();
     return true;
   }
 
@@ -558,6 +578,11 @@ class Optimizer {
   std::vector<double> lower_;   ///< smoothing: per link_ face, the least measure accepted
   std::size_t flips_this_sweep_ = 0;
   std::size_t flip_budget_ = 0;
+  /// Per slot: 1 + the Badness of the tet while known, 0 when unknown. Cleared
+  /// for every tet an operation creates (a reused slot included) and for the
+  /// star of a moved point, so a known entry of an alive tet is always current
+  /// (the full-mesh scans of each sweep then evaluate only what changed).
+  mutable std::vector<unsigned char> known_;
 };
 
 /// Smallest and largest dihedral angle of the live tets (a parallel min/max:
