@@ -3,7 +3,14 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
+#include <cstdint>
+
+// libtet's own predicates (initialised by predicates.cpp), to check the
+// filtered wrappers against.
+double orient3d(double* pa, double* pb, double* pc, double* pd);
+double insphere(double* pa, double* pb, double* pc, double* pd, double* pe);
 
 namespace pdrmesh {
 namespace {
@@ -51,6 +58,40 @@ TEST(Collinear, DetectsDegenerateTriangles) {
   EXPECT_TRUE(exact::collinear(kO, kX, Vec3{3, 0, 0}));
   EXPECT_TRUE(exact::collinear(kO, Vec3{1, 1, 1}, Vec3{0.5, 0.5, 0.5}));
   EXPECT_FALSE(exact::collinear(kO, kX, kY));
+}
+
+TEST(Predicates, FilterAgreesWithLibtet) {
+  // Random points, then the same nudged onto planes and spheres by a few ulps,
+  // where the wrappers' inline filter cannot decide and libtet's adaptive
+  // stages must: every answer equals the sign libtet gives.
+  std::uint64_t state = 0x243F6A8885A308D3ull;
+  const auto uniform = [&] {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return static_cast<double>(state >> 11) * 0x1p-53;
+  };
+  const auto sign = [](double v) { return (v > 0.0) - (v < 0.0); };
+  int undecided_o3d = 0, undecided_isp = 0;
+  for (int i = 0; i < 20000; ++i) {
+    std::array<Vec3, 5> p;
+    for (Vec3& q : p) q = {uniform() * 8 - 4, uniform() * 8 - 4, uniform() * 8 - 4};
+    if (i % 2 == 1) {
+      // d (and e) on the plane of a, b, c (and sphere of a, b, c, d), up to rounding.
+      const double s = uniform(), t = uniform();
+      p[3] = p[0] + s * (p[1] - p[0]) + t * (p[2] - p[0]);
+      p[4] = p[0] + (p[1] - p[0]) + (p[2] - p[0]) - p[3] + p[0];  // on the plane too
+    }
+    if (i % 4 == 3) p[3] = Vec3{p[0][0], p[0][1], p[0][2] + uniform() * 0x1p-40};
+    std::array<Vec3, 5> c = p;  // libtet takes non-const pointers
+    const int o3d = -sign(::orient3d(c[0].data(), c[1].data(), c[2].data(), c[3].data()));
+    EXPECT_EQ(exact::orient3d(p[0], p[1], p[2], p[3]), o3d) << "case " << i;
+    undecided_o3d += o3d == 0 ? 1 : 0;
+    c = p;
+    const int isp = -sign(::insphere(c[0].data(), c[1].data(), c[2].data(), c[3].data(), c[4].data()));
+    EXPECT_EQ(exact::insphere(p[0], p[1], p[2], p[3], p[4]), isp) << "case " << i;
+    undecided_isp += isp == 0 ? 1 : 0;
+  }
+  // The cases above include exact zeros (a degenerate tet, d = e and so on).
+  EXPECT_GT(undecided_o3d + undecided_isp, 0);
 }
 
 }  // namespace
