@@ -61,19 +61,20 @@ Result<TetMesh> TetMesh::from_volume_mesh(const VolumeMesh& mesh, std::vector<Gl
   m.points_ = mesh.points;
   m.ids_ = std::move(point_ids);
   m.next_id_ = next_id;
-  m.tets_ = mesh.tets;
+  m.cells_.resize(mesh.tets.size());
+  for (std::size_t t = 0; t < mesh.tets.size(); ++t)
+    m.cells_[t] = {mesh.tets[t], {kNoIndex, kNoIndex, kNoIndex, kNoIndex}};
   m.regions_ = mesh.tet_regions;
   m.boundary_ = mesh.boundary;
   m.boundary_ids_ = mesh.boundary_ids;
   const Index nt = static_cast<Index>(mesh.tets.size());
   const Index np = static_cast<Index>(mesh.points.size());
-  m.adj_.assign(nt, {kNoIndex, kNoIndex, kNoIndex, kNoIndex});
   m.flags_.assign(nt, kAlive | kActive);
   m.quality_.assign(nt, kUnknown);
   m.alive_count_ = nt;
 
   for (Index t = 0; t < nt; ++t) {
-    const Tet& k = m.tets_[t];
+    const Tet& k = m.cells_[t].v;
     for (Index v : k)
       if (v >= np)
         return invalid_input(
@@ -88,7 +89,7 @@ Result<TetMesh> TetMesh::from_volume_mesh(const VolumeMesh& mesh, std::vector<Gl
   faces.reserve(4 * static_cast<std::size_t>(nt));
   for (Index t = 0; t < nt; ++t)
     for (int f = 0; f < 4; ++f)
-      faces.push_back({topo::sorted_key(topo::face_of(m.tets_[t], f)), pack_face(t, f)});
+      faces.push_back({topo::sorted_key(topo::face_of(m.cells_[t].v, f)), pack_face(t, f)});
   // A total order, so both give std::sort's result; a leaf task's mesh (small)
   // sorts on its own worker thread.
   if (faces.size() < (std::size_t{1} << 19)) {
@@ -107,8 +108,8 @@ Result<TetMesh> TetMesh::from_volume_mesh(const VolumeMesh& mesh, std::vector<Gl
       const Index a = faces[i].packed, b = faces[i + 1].packed;
       if (face_tet(a) == face_tet(b))
         return invalid_input(fmt::format("tet {} has a repeated point", face_tet(a)));
-      m.adj_[face_tet(a)][face_local(a)] = b;
-      m.adj_[face_tet(b)][face_local(b)] = a;
+      m.cells_[face_tet(a)].adj[face_local(a)] = b;
+      m.cells_[face_tet(b)].adj[face_local(b)] = a;
     }
     i = j;
   }
@@ -133,7 +134,7 @@ VolumeMesh TetMesh::to_volume_mesh() const {
   if (!regions_.empty()) out.tet_regions.reserve(alive_count_);
   for (Index t = 0; t < num_slots(); ++t) {
     if (!alive(t)) continue;
-    out.tets.push_back(tets_[t]);
+    out.tets.push_back(cells_[t].v);
     if (!regions_.empty()) out.tet_regions.push_back(regions_[t]);
   }
   out.boundary = boundary_;
@@ -156,7 +157,7 @@ void TetMesh::set_active(Index t, bool on) {
 void TetMesh::set_frozen(Index t, int f, bool on) {
   const Flags bit = frozen_bit(f);
   flags_[t] = static_cast<Flags>(on ? flags_[t] | bit : flags_[t] & ~bit);
-  const Index n = adj_[t][f];
+  const Index n = cells_[t].adj[f];
   if (n == kNoIndex) return;
   const Flags nbit = frozen_bit(face_local(n));
   Flags& nf = flags_[face_tet(n)];
@@ -165,7 +166,7 @@ void TetMesh::set_frozen(Index t, int f, bool on) {
 
 bool TetMesh::edge_ring(Index t, int e, EdgeRing& r, int max_size) const {
   const int limit = std::clamp(max_size, 1, EdgeRing::kMax);
-  const Tet& k = tets_[t];
+  const Tet& k = cells_[t].v;
   r.a = k[topo::kEdgeVertex[e][0]];
   r.b = k[topo::kEdgeVertex[e][1]];
   // Invariant of the walk: tet `cur` holds {a, b, p, q} with orient3d(a,b,p,q) > 0.
@@ -176,7 +177,7 @@ bool TetMesh::edge_ring(Index t, int e, EdgeRing& r, int max_size) const {
   r.closed = false;
   for (int step = 0;; ++step) {
     if (step > limit) return false;
-    const Index n = adj_[cur][topo::local_vertex(tets_[cur], q)];
+    const Index n = cells_[cur].adj[topo::local_vertex(cells_[cur].v, q)];
     if (n == kNoIndex) break;
     const Index u = face_tet(n);
     if (u == t) {
@@ -187,7 +188,7 @@ bool TetMesh::edge_ring(Index t, int e, EdgeRing& r, int max_size) const {
       break;
     }
     q = p;
-    p = tets_[u][face_local(n)];
+    p = cells_[u].v[face_local(n)];
     cur = u;
   }
   // Walk forwards (through the face opposite p) recording the ring.
@@ -198,7 +199,7 @@ bool TetMesh::edge_ring(Index t, int e, EdgeRing& r, int max_size) const {
     r.tets[r.size] = cur;
     r.ring[r.size] = p;
     ++r.size;
-    const Index n = adj_[cur][topo::local_vertex(tets_[cur], p)];
+    const Index n = cells_[cur].adj[topo::local_vertex(cells_[cur].v, p)];
     if (n == kNoIndex) {
       r.ring[r.size] = q;
       return !r.closed;  // a closed ring never reaches the hull
@@ -206,7 +207,7 @@ bool TetMesh::edge_ring(Index t, int e, EdgeRing& r, int max_size) const {
     const Index u = face_tet(n);
     if (u == first) return r.closed;
     p = q;
-    q = tets_[u][face_local(n)];
+    q = cells_[u].v[face_local(n)];
     cur = u;
   }
 }
@@ -217,18 +218,17 @@ Index TetMesh::allocate_tet() {
     free_.pop_back();
     return t;
   }
-  assert(tets_.size() < kMaxTets);
-  tets_.push_back({kNoIndex, kNoIndex, kNoIndex, kNoIndex});
-  adj_.push_back({kNoIndex, kNoIndex, kNoIndex, kNoIndex});
+  assert(cells_.size() < kMaxTets);
+  cells_.push_back({{kNoIndex, kNoIndex, kNoIndex, kNoIndex}, {kNoIndex, kNoIndex, kNoIndex, kNoIndex}});
   flags_.push_back(0);
   quality_.push_back(kUnknown);
   if (!regions_.empty()) regions_.push_back(0);
-  return static_cast<Index>(tets_.size() - 1);
+  return static_cast<Index>(cells_.size() - 1);
 }
 
 void TetMesh::free_tet(Index t) {
-  tets_[t] = {kNoIndex, kNoIndex, kNoIndex, kNoIndex};
-  adj_[t] = {kNoIndex, kNoIndex, kNoIndex, kNoIndex};
+  cells_[t].v = {kNoIndex, kNoIndex, kNoIndex, kNoIndex};
+  cells_[t].adj = {kNoIndex, kNoIndex, kNoIndex, kNoIndex};
   flags_[t] = 0;
   free_.push_back(t);
   --alive_count_;
@@ -244,10 +244,10 @@ void TetMesh::replace_cavity(std::span<const Index> old_tets, std::span<const Te
   for (Index t : old_tets) {
     if (!regions_.empty()) old_regions_.push_back(regions_[t]);
     for (int f = 0; f < 4; ++f) {
-      const Index n = adj_[t][f];
+      const Index n = cells_[t].adj[f];
       if (n != kNoIndex && (flags_[face_tet(n)] & kMark) != 0) continue;  // inside
       faces_.push_back(
-          {topo::sorted_key(topo::face_of(tets_[t], f)), static_cast<Index>(outer_.size()), true});
+          {topo::sorted_key(topo::face_of(cells_[t].v, f)), static_cast<Index>(outer_.size()), true});
       outer_.push_back({n, frozen(t, f)});
     }
   }
@@ -255,7 +255,7 @@ void TetMesh::replace_cavity(std::span<const Index> old_tets, std::span<const Te
 
   for (std::size_t j = 0; j < new_tets.size(); ++j) {
     const Index t = allocate_tet();
-    tets_[t] = new_tets[j];
+    cells_[t].v = new_tets[j];
     flags_[t] = kAlive | kActive;
     quality_[t] = kUnknown;
     if (!regions_.empty()) regions_[t] = old_regions_[parent[j]];
@@ -295,12 +295,12 @@ void TetMesh::replace_cavity(std::span<const Index> old_tets, std::span<const Te
         const OuterFace& o = outer_[x.who];
         const Index t = face_tet(y.who);
         const int f = face_local(y.who);
-        adj_[t][f] = o.neighbour;
-        if (o.neighbour != kNoIndex) adj_[face_tet(o.neighbour)][face_local(o.neighbour)] = y.who;
+        cells_[t].adj[f] = o.neighbour;
+        if (o.neighbour != kNoIndex) cells_[face_tet(o.neighbour)].adj[face_local(o.neighbour)] = y.who;
         if (o.frozen) flags_[t] = static_cast<Flags>(flags_[t] | frozen_bit(f));
       } else {
-        adj_[face_tet(x.who)][face_local(x.who)] = y.who;
-        adj_[face_tet(y.who)][face_local(y.who)] = x.who;
+        cells_[face_tet(x.who)].adj[face_local(x.who)] = y.who;
+        cells_[face_tet(y.who)].adj[face_local(y.who)] = x.who;
       }
       break;
     }
@@ -321,17 +321,16 @@ std::vector<Index> TetMesh::compact() {
   for (Index t = 0; t < n; ++t) {
     if (map[t] == kNoIndex) continue;
     const Index nt = map[t];
-    tets_[nt] = tets_[t];
+    cells_[nt].v = cells_[t].v;
     flags_[nt] = flags_[t];
     quality_[nt] = quality_[t];
     if (!regions_.empty()) regions_[nt] = regions_[t];
     for (int f = 0; f < 4; ++f) {
-      const Index a = adj_[t][f];
-      adj_[nt][f] = a == kNoIndex ? kNoIndex : pack_face(map[face_tet(a)], face_local(a));
+      const Index a = cells_[t].adj[f];
+      cells_[nt].adj[f] = a == kNoIndex ? kNoIndex : pack_face(map[face_tet(a)], face_local(a));
     }
   }
-  tets_.resize(next);
-  adj_.resize(next);
+  cells_.resize(next);
   flags_.resize(next);
   quality_.resize(next);
   if (!regions_.empty()) regions_.resize(next);
@@ -341,7 +340,7 @@ std::vector<Index> TetMesh::compact() {
 
 Status TetMesh::check() const {
   const Index n = num_slots();
-  if (adj_.size() != n || flags_.size() != n || quality_.size() != n ||
+  if (flags_.size() != n || quality_.size() != n ||
       (!regions_.empty() && regions_.size() != n))
     return internal_error("tet arrays have different lengths");
   if (ids_.size() != points_.size()) return internal_error("point ids and points differ in count");
@@ -353,7 +352,7 @@ Status TetMesh::check() const {
           fmt::format("tet {} has flags {:#x} with reserved or scratch bits", t, fl));
     if (!alive(t)) continue;
     ++alive_seen;
-    const Tet& k = tets_[t];
+    const Tet& k = cells_[t].v;
     for (int i = 0; i < 4; ++i) {
       if (k[i] >= num_points())
         return internal_error(fmt::format("{} refers to a missing point", describe_tet(k, t)));
@@ -366,20 +365,20 @@ Status TetMesh::check() const {
       return internal_error(fmt::format("{} is not positively oriented (first point at {}, {}, {})",
                                         describe_tet(k, t), p[k[0]][0], p[k[0]][1], p[k[0]][2]));
     for (int f = 0; f < 4; ++f) {
-      const Index a = adj_[t][f];
+      const Index a = cells_[t].adj[f];
       if (a == kNoIndex) continue;
       const Index u = face_tet(a);
       const int g = face_local(a);
       if (u >= n || !alive(u) || u == t)
         return internal_error(fmt::format("{} face {}: neighbour {} is not an alive other tet",
                                           describe_tet(k, t), f, u));
-      if (adj_[u][g] != pack_face(t, f))
+      if (cells_[u].adj[g] != pack_face(t, f))
         return internal_error(fmt::format("{} face {}: neighbour tet {} face {} points elsewhere",
                                           describe_tet(k, t), f, u, g));
-      if (topo::sorted_key(topo::face_of(k, f)) != topo::sorted_key(topo::face_of(tets_[u], g)))
+      if (topo::sorted_key(topo::face_of(k, f)) != topo::sorted_key(topo::face_of(cells_[u].v, g)))
         return internal_error(fmt::format("{} face {}: neighbour {} face {} has other points",
-                                          describe_tet(k, t), f, describe_tet(tets_[u], u), g));
-      if (tets_[u][g] == k[f])
+                                          describe_tet(k, t), f, describe_tet(cells_[u].v, u), g));
+      if (cells_[u].v[g] == k[f])
         return internal_error(fmt::format("{} face {}: neighbour tet {} has the same apex",
                                           describe_tet(k, t), f, u));
       if (frozen(t, f) != frozen(u, g))
@@ -402,7 +401,7 @@ Status TetMesh::check() const {
   for (Index t = 0; t < n; ++t)
     if (alive(t))
       for (int f = 0; f < 4; ++f)
-        if (frozen(t, f)) frozen_faces.push_back(topo::sorted_key(topo::face_of(tets_[t], f)));
+        if (frozen(t, f)) frozen_faces.push_back(topo::sorted_key(topo::face_of(cells_[t].v, f)));
   std::sort(frozen_faces.begin(), frozen_faces.end());
   for (std::size_t i = 0; i < boundary_.size(); ++i) {
     const Tri& b = boundary_[i];

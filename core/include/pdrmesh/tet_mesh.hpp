@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: AGPL-3.0-or-later
-// The refiner's own tetrahedral mesh: compact struct-of-arrays with packed face
-// adjacency, per-tet flags (alive, active, frozen faces) and a free list, built
+// The refiner's own tetrahedral mesh: compact per-slot arrays (vertices with
+// packed face adjacency, per-tet flags (alive, active, frozen faces)) and a free list, built
 // for local operations (flips.hpp, insert.hpp). Converts to and from VolumeMesh.
 //
 // Local numbering of vertices, faces and edges: topology.hpp.
@@ -92,15 +92,15 @@ class TetMesh {
 
   // ---- tets
   /// Number of slots, alive or dead; tet indices run below this.
-  Index num_slots() const { return static_cast<Index>(tets_.size()); }
+  Index num_slots() const { return static_cast<Index>(cells_.size()); }
   Index num_tets() const { return alive_count_; }
-  const Tet& tet(Index t) const { return tets_[t]; }
+  const Tet& tet(Index t) const { return cells_[t].v; }
   Flags flags(Index t) const { return flags_[t]; }
   bool alive(Index t) const { return (flags_[t] & kAlive) != 0; }
   bool active(Index t) const { return (flags_[t] & kActive) != 0; }
   bool frozen(Index t, int f) const { return (flags_[t] & frozen_bit(f)) != 0; }
   /// Packed neighbour across face f (pack_face), or kNoIndex.
-  Index neighbour(Index t, int f) const { return adj_[t][f]; }
+  Index neighbour(Index t, int f) const { return cells_[t].adj[f]; }
   /// Region of tet t (0 when the input had none).
   int region(Index t) const { return regions_.empty() ? 0 : regions_[t]; }
   const std::vector<Tri>& boundary() const { return boundary_; }
@@ -159,8 +159,13 @@ class TetMesh {
   std::vector<GlobalId> ids_;
   GlobalId next_id_ = 0;
 
-  std::vector<Tet> tets_;
-  std::vector<std::array<Index, 4>> adj_;
+  /// A tet's vertices and its packed face neighbours side by side, in one
+  /// 32-byte block (half a cache line): the walks read both for each tet.
+  struct alignas(32) Cell {
+    Tet v;
+    std::array<Index, 4> adj;
+  };
+  std::vector<Cell> cells_;
   std::vector<Flags> flags_;
   std::vector<int> regions_;     ///< empty, or one per slot
   std::vector<double> quality_;  ///< one per slot, NaN when not computed
