@@ -19,6 +19,7 @@
 #include "pdrmesh/leaf_kernels.hpp"
 #include "pdrmesh/pipeline.hpp"
 #include "pdrmesh/predicates.hpp"
+#include "pdrmesh/quality.hpp"
 #include "pdrmesh/surface_io.hpp"
 #include "pdrmesh/tetgen_adapter.hpp"
 #include "pdrmesh/validate.hpp"
@@ -313,6 +314,35 @@ TEST(Pdr, OptimizationTasksGetOnlyTheSelectedTetsAndTheirHalo) {
   ASSERT_FALSE(prof.rounds.empty());
   EXPECT_EQ(prof.rounds.back().name, "final optimization");
   EXPECT_EQ(prof.rounds.back().leaves.size(), 1u);
+}
+
+TEST(Pdr, InterfaceRoundsGetOnlyTheTetsNearTheLastInterfaces) {
+  const Sphere* sp = sphere();
+  if (sp == nullptr) GTEST_SKIP() << "sphere966.mesh not readable";
+  const std::unique_ptr<LeafKernel> kernel = make_leaf_kernel("native").value();
+  PdrOptions o = depth2(2);
+  o.interface_halo = 0;  // whole leaves
+  PdrProfile whole_prof;
+  Result<VolumeMesh> whole = run_pdr(sp->surface, *sp->sizing, *kernel, o, &whole_prof);
+  ASSERT_TRUE(whole.ok()) << whole.status().to_string();
+  o.interface_halo = 1;
+  PdrProfile prof;
+  Result<VolumeMesh> near = run_pdr(sp->surface, *sp->sizing, *kernel, o, &prof);
+  ASSERT_TRUE(near.ok()) << near.status().to_string();
+  expect_valid(*near, sp->surface);
+
+  // The refinement round sends every tet; the interface rounds only part.
+  ASSERT_EQ(prof.rounds.size(), 3u);
+  EXPECT_EQ(prof.rounds[0].tets_sent, prof.rounds[0].tets);
+  for (std::size_t r = 0; r < 3; ++r) EXPECT_EQ(whole_prof.rounds[r].tets_sent, whole_prof.rounds[r].tets);
+  for (std::size_t r = 1; r < 3; ++r) {
+    EXPECT_GT(prof.rounds[r].tets_sent, 0u) << prof.rounds[r].name;
+    EXPECT_LT(prof.rounds[r].tets_sent, prof.rounds[r].tets) << prof.rounds[r].name;
+  }
+  // What the interface rounds are for is kept: the density and the worst angle.
+  const double ratio = static_cast<double>(near->tets.size()) / static_cast<double>(whole->tets.size());
+  EXPECT_NEAR(ratio, 1.0, 0.03);
+  EXPECT_GT(measure_quality(*near).min_dihedral, measure_quality(*whole).min_dihedral - 1.0);
 }
 
 TEST(Pdr, ATetgenCrashOnALeafKeepsThatLeafUnrefined) {

@@ -9,6 +9,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <mutex>
 #include <numeric>
@@ -396,19 +397,11 @@ std::vector<Index> cost_ranks(const VolumeMesh& cur, const Decomposition& d, con
   return rank;
 }
 
-/// One flag per tet of `m`: the tets `needs` picks, and every tet within
-/// `halo` vertex layers of them (a layer: the tets sharing a point with a
-/// flagged tet).
-std::vector<char> select_tets(const VolumeMesh& m, const PdrOptions& options) {
-  const auto& needs = options.optimize_selects;
-  const std::vector<Vec3>& P = m.points;
-  std::vector<char> flag(m.tets.size(), 0);
-  tbb::parallel_for(std::size_t{0}, m.tets.size(), [&](std::size_t t) {
-    const Tet& k = m.tets[t];
-    flag[t] = needs(P[k[0]], P[k[1]], P[k[2]], P[k[3]]) ? 1 : 0;
-  });
-  std::vector<char> touched(P.size());
-  for (int layer = 0; layer < options.optimize_halo; ++layer) {
+/// Adds to `flag` (one per tet of `m`) every tet within `layers` vertex
+/// layers of a flagged one (a layer: the tets sharing a point with a flagged tet).
+void grow_selection(const VolumeMesh& m, std::vector<char>& flag, int layers) {
+  std::vector<char> touched(m.points.size());
+  for (int layer = 0; layer < layers; ++layer) {
     std::fill(touched.begin(), touched.end(), 0);
     for (std::size_t t = 0; t < m.tets.size(); ++t)
       if (flag[t])
@@ -417,6 +410,40 @@ std::vector<char> select_tets(const VolumeMesh& m, const PdrOptions& options) {
       if (!flag[t])
         for (Index v : m.tets[t]) flag[t] = static_cast<char>(flag[t] | touched[v]);
   }
+}
+
+/// The optimization rounds' selection: the tets options.optimize_selects
+/// picks and their optimize_halo layers.
+std::vector<char> select_bad_tets(const VolumeMesh& m, const PdrOptions& options) {
+  const auto& needs = options.optimize_selects;
+  const std::vector<Vec3>& P = m.points;
+  std::vector<char> flag(m.tets.size(), 0);
+  tbb::parallel_for(std::size_t{0}, m.tets.size(), [&](std::size_t t) {
+    const Tet& k = m.tets[t];
+    flag[t] = needs(P[k[0]], P[k[1]], P[k[2]], P[k[3]]) ? 1 : 0;
+  });
+  grow_selection(m, flag, options.optimize_halo);
+  return flag;
+}
+
+/// The interface rounds' selection: the tets with a point on a face between
+/// two of the last round's leaves (`m.tet_regions`: the leaf of each tet),
+/// which that round kept frozen, and their `halo` layers. Everywhere else the
+/// last round's kernel already ran to the end with nothing frozen nearby.
+std::vector<char> select_interface_tets(const VolumeMesh& m, int halo) {
+  constexpr int kNone = std::numeric_limits<int>::min();
+  std::vector<int> region(m.points.size(), kNone);
+  std::vector<char> shared(m.points.size(), 0);  // used by tets of two leaves
+  for (std::size_t t = 0; t < m.tets.size(); ++t) {
+    for (Index v : m.tets[t]) {
+      if (region[v] == kNone) region[v] = m.tet_regions[t];
+      else if (region[v] != m.tet_regions[t]) shared[v] = 1;
+    }
+  }
+  std::vector<char> flag(m.tets.size(), 0);
+  for (std::size_t t = 0; t < m.tets.size(); ++t)
+    for (Index v : m.tets[t]) flag[t] = static_cast<char>(flag[t] | shared[v]);
+  grow_selection(m, flag, halo);
   return flag;
 }
 
@@ -438,7 +465,9 @@ Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const
   for (Index l = 0; l < d.size(); ++l) {
     for (Index t : d.leaf_tets[l]) (selected == nullptr || (*selected)[t] ? leaf_tets[l] : kept[l]).push_back(cur.tets[t]);
     rr.max_leaf_tets = std::max(rr.max_leaf_tets, leaf_tets[l].size());
+    rr.record.tets_sent += leaf_tets[l].size();
   }
+  rr.record.tets = cur.tets.size();
   const std::vector<Index> rank = cost_ranks(cur, d, sizing, leaf_tets);
   const std::vector<Vec3>& points = cur.points;  // read-only during the round
   Status error;
@@ -653,15 +682,16 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
     prof.failed_leaves += r.failed;
     prof.rounds.push_back(std::move(r.record));
   };
-  /// A round over a new decomposition of `cur` at `box`.
-  /// With `select`, the tets options.optimize_selects picks and their halo only.
+  /// A round over a new decomposition of `cur` at `box`, sending each leaf
+  /// the tets `select` flags (one per tet of `cur`; none: every tet).
+  using Selector = std::function<std::vector<char>()>;
   const auto round = [&](std::string_view phase, const Box& box, const LeafKernel& k, bool fix, int round_depth,
-                         bool select) -> Status {
+                         const Selector& select) -> Status {
     const auto td = Clock::now();
     PDR_ASSIGN_OR_RETURN(Decomposition d, decompose_leaves(cur, round_depth, box));
     prof.decomposition += seconds_since(td);
     std::vector<char> selected;
-    if (select) selected = select_tets(cur, options);
+    if (select) selected = select();
     RoundResult r;
     PDR_TRY(run_round(phase, cur, std::move(d), boundary, sizing, k, options, fix, r, select ? &selected : nullptr));
     account(std::move(r));
@@ -679,8 +709,12 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
   Box last_box = box1;
   if (options.interface_round && depth > 0 && options.interface_rounds > 0) {
     t0 = Clock::now();
+    Selector near_interfaces;
+    if (options.interface_halo > 0 && !fixups) {
+      near_interfaces = [&] { return select_interface_tets(cur, options.interface_halo); };
+    }
     const std::size_t before = prof.rounds.size();
-    PDR_TRY(round("interface round", box2, kernel, fixups, depth, false));
+    PDR_TRY(round("interface round", box2, kernel, fixups, depth, near_interfaces));
     prof.interface_leaf_count = prof.rounds.size() > before ? prof.rounds.back().n1.size() : 0;
     last_box = box2;
     if (options.interface_rounds > 1) {
@@ -691,7 +725,7 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
         box3.lo[k] += 0.5 * half;
         box3.hi[k] += 0.5 * half;
       }
-      PDR_TRY(round("second interface round", box3, kernel, fixups, depth, false));
+      PDR_TRY(round("second interface round", box3, kernel, fixups, depth, near_interfaces));
       last_box = box3;
     }
     prof.interface_round = seconds_since(t0);
@@ -704,9 +738,11 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
     if (!report("optimization", cur.tets.size())) return cancelled("stopped before the optimization");
     t0 = Clock::now();
     const bool select = options.optimize_kernel != nullptr && static_cast<bool>(options.optimize_selects);
+    Selector bad;
+    if (select) bad = [&] { return select_bad_tets(cur, options); };
     if (options.optimize_kernel != nullptr) {
-      PDR_TRY(round("optimization", box1, *options.optimize_kernel, false, depth, select));
-      if (depth > 0) PDR_TRY(round("shifted optimization", box2, *options.optimize_kernel, false, depth, select));
+      PDR_TRY(round("optimization", box1, *options.optimize_kernel, false, depth, bad));
+      if (depth > 0) PDR_TRY(round("shifted optimization", box2, *options.optimize_kernel, false, depth, bad));
       last_box = depth > 0 ? box2 : box1;
       prof.optimization_leaves = seconds_since(t0);
     }
@@ -716,7 +752,7 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
       // Its tets are then in the one leaf of a depth-0 grid; afterwards each
       // gets the leaf of the last round's grid that holds its barycenter.
       const auto tg = Clock::now();
-      PDR_TRY(round("final optimization", box1, *options.optimize_kernel, false, 0, true));
+      PDR_TRY(round("final optimization", box1, *options.optimize_kernel, false, 0, bad));
       prof.global_optimization = seconds_since(tg);
       for (Index t = 0; t < cur.tets.size(); ++t)
         cur.tet_regions[t] = static_cast<int>(leaf_of_point(last_box, depth, tet_barycenter(cur, t)));

@@ -70,7 +70,8 @@ std::string profile_to_json(const PdrProfile& p, std::size_t workers) {
   json rounds = json::array();
   for (const RoundRecord& r : p.rounds) {
     rounds.push_back({{"name", r.name}, {"depth", r.depth}, {"leaves", r.leaves}, {"n1", r.n1},
-                      {"rank", r.rank}, {"task_s", r.task_s}, {"wall_s", r.wall_s}});
+                      {"rank", r.rank}, {"task_s", r.task_s}, {"wall_s", r.wall_s},
+                      {"tets", r.tets}, {"tets_sent", r.tets_sent}});
   }
   j["rounds"] = std::move(rounds);
   return j.dump();
@@ -98,6 +99,8 @@ Result<PdrProfile> profile_from_json(std::string_view text) {
       rec.rank = r.at("rank").get<std::vector<Index>>();
       rec.task_s = r.at("task_s").get<std::vector<double>>();
       rec.wall_s = r.at("wall_s").get<double>();
+      rec.tets = r.value("tets", std::size_t{0});
+      rec.tets_sent = r.value("tets_sent", std::size_t{0});
       const std::size_t n = rec.leaves.size();
       if (rec.n1.size() != n || rec.rank.size() != n || rec.task_s.size() != n)
         return invalid_input(fmt::format("profile: round '{}' lists {} leaves but {} n1, {} rank, {} task_s entries",

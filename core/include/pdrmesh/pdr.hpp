@@ -87,6 +87,12 @@ struct PdrOptions {
   /// elephant at depth 2: parallel/serial tets 0.81, 0.90, 0.96 with one round,
   /// 0.84, 0.98, 1.01 with two).
   int interface_rounds = 2;
+  /// An interface round sends a leaf only its tets with a point on the last
+  /// round's frozen interfaces and this many vertex layers around them (the
+  /// leaf's other tets stay as they are, and a leaf with none runs no task):
+  /// elsewhere the last round's kernel already ran to the end. 0, or a kernel
+  /// that needs the fix-ups: whole leaves.
+  int interface_halo = 2;
   /// Partition swap and boundary extraction; unset: kernel.needs_manifold_hull().
   std::optional<bool> fixups;
   /// Fix-up sweeps (swap then extraction over all leaves) at most, per round.
@@ -135,6 +141,8 @@ struct RoundRecord {
   std::vector<Index> rank;             ///< kDynamic priority of each leaf
   std::vector<double> task_s;          ///< measured task seconds per leaf
   double wall_s = 0;                   ///< the schedule's wall time (tasks and merges)
+  std::size_t tets = 0;                ///< tets in the mesh when the round began
+  std::size_t tets_sent = 0;           ///< of them, tets given to the leaf tasks (a selection: fewer)
 };
 
 struct PdrProfile {
