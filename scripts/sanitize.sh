@@ -54,7 +54,9 @@ echo "sanitize: TSan build (build-tsan, the threaded tests only; $((SECONDS - t0
 cmake -S "$root" -B "$root/build-tsan" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo "${clang[@]}" \
   -DPDRMESH_SANITIZE=thread -DTBB_DIR="$root/build-tsan/tsan-tbb/lib/cmake/TBB" >/dev/null
 cmake --build "$root/build-tsan" --parallel "$jobs" --target pdrmesh_thread_tests pdrmesh_coordinator_thread_tests
-if ! ldd "$root/build-tsan/tests/pdrmesh_thread_tests" | grep -q "build-tsan/tsan-tbb/lib/libtbb"; then
+# Not `ldd | grep -q`: grep -q exits at the first match, and under pipefail
+# ldd's SIGPIPE then fails the check (it did, once, on a loaded machine).
+if ! grep -q "build-tsan/tsan-tbb/lib/libtbb" <<<"$(ldd "$root/build-tsan/tests/pdrmesh_thread_tests")"; then
   echo "sanitize: build-tsan is not linked against the instrumented oneTBB" >&2
   exit 1
 fi
