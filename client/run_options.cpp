@@ -23,10 +23,10 @@ SizingOptions SizeArgs::options() const {
 }
 
 void RunOptionArgs::add_to(CLI::App* cmd) {
-  cmd->add_option("--depth", depth, "octree depth (2^d leaves a side); default: chosen from the target size")
+  cmd->add_option("--depth", depth, "octree depth (2^d leaves a side); default: chosen from the target size and the leaves the body occupies")
       ->check(CLI::Range(0, 10));
   cmd->add_option("--kernel", kernel, "leaf kernel")->check(CLI::IsMember({"native", "tetgen"}))->capture_default_str();
-  cmd->add_flag("--no-interface-round", no_interface_round, "skip the second, shifted round over the interfaces");
+  cmd->add_flag("--no-interface-round", no_interface_round, "skip the interface rounds (decompositions shifted by half and a quarter leaf, over the first round's interfaces)");
   cmd->add_flag("--no-optimize", no_optimize, "skip the final optimization");
   size.add_to(cmd);
 }

@@ -236,6 +236,35 @@ TEST(Decomposition, DefaultDepthIsTheSmallestThatReachesTheTarget) {
   }
 }
 
+TEST(Decomposition, DefaultDepthCountsTheOccupiedLeaves) {
+  // A rod: 2^d of the 8^d leaves occupied, so 100 leaves need depth 7, not 3.
+  const auto rod = [](int d) { return std::size_t{1} << d; };
+  EXPECT_EQ(default_depth(100000, 1000, rod), 7);
+  EXPECT_EQ(default_depth(100000, 1000), 3);
+  // Estimates are clamped to [1, 8^d]: none occupied still deepens, more than
+  // all does not make a shallower grid than the full count.
+  EXPECT_EQ(default_depth(100000, 1000, [](int) { return std::size_t{0}; }), kMaxDepth);
+  EXPECT_EQ(default_depth(100000, 1000, [](int) { return std::size_t{1} << 40; }), default_depth(100000, 1000));
+}
+
+TEST(Decomposition, OccupiedLeavesOfAThinSlabAndOfAFullCube) {
+  // Points on both faces of a 1 x 1 x 0.01 slab. Its root cube is 1 wide and
+  // centred on the slab, whose faces straddle the middle plane z = 0.005: at
+  // depth 2, 4 x 4 leaves in x and y, 2 in z, out of 64.
+  std::vector<Vec3> slab;
+  for (int i = 0; i <= 20; ++i)
+    for (int j = 0; j <= 20; ++j)
+      for (double z : {0.0, 0.01}) slab.push_back({i / 20.0, j / 20.0, z});
+  EXPECT_EQ(occupied_leaves_estimate(slab, 0.01, 0), 1u);
+  EXPECT_EQ(occupied_leaves_estimate(slab, 0.01, 1), 8u);
+  EXPECT_EQ(occupied_leaves_estimate(slab, 0.01, 2), 32u);
+  // A unit cube known by its 8 corners: the volume counts the inner leaves.
+  std::vector<Vec3> corners;
+  for (int k = 0; k < 8; ++k) corners.push_back({double(k & 1), double((k >> 1) & 1), double((k >> 2) & 1)});
+  EXPECT_EQ(occupied_leaves_estimate(corners, 1.0, 2), 64u);
+  EXPECT_EQ(occupied_leaves_estimate(corners, 1.0, 3), 512u);
+}
+
 }  // namespace
 }  // namespace pdrmesh
 

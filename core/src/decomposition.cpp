@@ -14,20 +14,6 @@
 namespace pdrmesh {
 namespace {
 
-/// The octree's root cube for a bounding box (see Decomposition::box).
-Box root_cube(const Box& bb) {
-  double side = 0;
-  for (int a = 0; a < 3; ++a) side = std::max(side, bb.hi[a] - bb.lo[a]);
-  side *= 1.0 + 1e-6;
-  if (!(side > 0)) side = 1.0;  // a single point (or nothing): any cube will do
-  Box cube;
-  for (int a = 0; a < 3; ++a) {
-    const double centre = 0.5 * (bb.lo[a] + bb.hi[a]);
-    cube.lo[a] = centre - 0.5 * side;
-    cube.hi[a] = centre + 0.5 * side;
-  }
-  return cube;
-}
 
 /// One face of one tet, keyed by its sorted vertices; `packed` = 4 * tet + face.
 struct FaceRecord {
@@ -234,12 +220,48 @@ std::vector<std::vector<Index>> grid_n1(std::span<const LeafId> leaves, int dept
   return n1;
 }
 
+Box root_cube(const Box& bb) {
+  double side = 0;
+  for (int a = 0; a < 3; ++a) side = std::max(side, bb.hi[a] - bb.lo[a]);
+  side *= 1.0 + 1e-6;
+  if (!(side > 0)) side = 1.0;  // a single point (or nothing): any cube will do
+  Box cube;
+  for (int a = 0; a < 3; ++a) {
+    const double centre = 0.5 * (bb.lo[a] + bb.hi[a]);
+    cube.lo[a] = centre - 0.5 * side;
+    cube.hi[a] = centre + 0.5 * side;
+  }
+  return cube;
+}
+
 int default_depth(std::size_t target_tets, std::size_t tets_per_leaf) {
+  return default_depth(target_tets, tets_per_leaf, [](int d) { return std::size_t{1} << (3 * d); });
+}
+
+int default_depth(std::size_t target_tets, std::size_t tets_per_leaf,
+                  const std::function<std::size_t(int depth)>& occupied_leaves) {
   tets_per_leaf = std::max<std::size_t>(tets_per_leaf, 1);
   const std::size_t leaves = target_tets / tets_per_leaf + (target_tets % tets_per_leaf != 0 ? 1 : 0);
+  const auto occupied = [&](int d) {
+    return std::clamp<std::size_t>(occupied_leaves(d), 1, std::size_t{1} << (3 * d));
+  };
   int d = 0;
-  while (d < kMaxDepth && (std::size_t{1} << (3 * d)) < leaves) ++d;
+  while (d < kMaxDepth && occupied(d) < leaves) ++d;
   return d;
+}
+
+std::size_t occupied_leaves_estimate(std::span<const Vec3> surface_points, double enclosed_volume, int depth) {
+  Box bb;
+  for (const Vec3& p : surface_points) bb.add(p);
+  const Box cube = root_cube(bb);
+  std::vector<LeafId> cells(surface_points.size());
+  for (std::size_t i = 0; i < surface_points.size(); ++i) cells[i] = leaf_of_point(cube, depth, surface_points[i]);
+  std::sort(cells.begin(), cells.end());
+  const auto touched = static_cast<std::size_t>(std::unique(cells.begin(), cells.end()) - cells.begin());
+  const double leaf_side = (cube.hi[0] - cube.lo[0]) / static_cast<double>(std::size_t{1} << depth);
+  const double by_volume = enclosed_volume / (leaf_side * leaf_side * leaf_side);
+  const double filled = std::isfinite(by_volume) ? std::clamp(by_volume, 0.0, 1e18) : 0.0;
+  return std::max(touched, static_cast<std::size_t>(std::ceil(filled)));
 }
 
 }  // namespace pdrmesh

@@ -611,9 +611,11 @@ Result<PdrPlan> plan_pdr(const SurfaceMesh& surface, double surface_h, const Pdr
   plan.surface_h = surface_h;
   plan.depth = options.depth;
   if (plan.depth < 0) {
-    const double estimate = enclosed_volume(surface) / regular_tet_volume(surface_h);
+    const double volume = enclosed_volume(surface);
+    const double estimate = volume / regular_tet_volume(surface_h);
     const double capped = std::isfinite(estimate) ? std::clamp(estimate, 0.0, 1e15) : 0.0;
-    plan.depth = default_depth(static_cast<std::size_t>(capped), options.final_tets_per_leaf);
+    plan.depth = default_depth(static_cast<std::size_t>(capped), options.final_tets_per_leaf,
+                               [&](int d) { return occupied_leaves_estimate(surface.points, volume, d); });
   }
   TetgenOptions& tg = plan.tetgen;
   const double leaf_side = side / static_cast<double>(1 << plan.depth);

@@ -9,6 +9,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <span>
 #include <utility>
 #include <vector>
@@ -93,6 +94,10 @@ Result<Decomposition> decompose_leaves(const VolumeMesh& mesh, int depth, const 
 /// `depth`): per entry, the indices of the entries whose boxes touch it.
 std::vector<std::vector<Index>> grid_n1(std::span<const LeafId> leaves, int depth);
 
+/// The octree's root cube for a bounding box (Decomposition::box: what
+/// decompose(mesh, depth) uses for the mesh's bounding box).
+Box root_cube(const Box& bounding_box);
+
 /// The octree depth for a mesh of `target_tets` (the initial mesh's tet count)
 /// so that leaves hold about `tets_per_leaf` tets: the smallest d with
 /// 8^d * tets_per_leaf >= target_tets, clamped to [0, kMaxDepth]. It counts all
@@ -101,5 +106,20 @@ std::vector<std::vector<Index>> grid_n1(std::span<const LeafId> leaves, int dept
 /// horn bulb (3.77M tets, depth 4) corresponds to tets_per_leaf ~ 1000.
 /// tets_per_leaf == 0 is read as 1.
 int default_depth(std::size_t target_tets, std::size_t tets_per_leaf);
+
+/// The same with the leaves the body occupies: the smallest d with
+/// occupied_leaves(d) * tets_per_leaf >= target_tets, where occupied_leaves(d)
+/// estimates the non-empty leaves at depth d (at least 1; more than 8^d counts
+/// as 8^d). A thin body then gets the depth its own extent needs (frame fills
+/// 58 of the 512 leaves of depth 3).
+int default_depth(std::size_t target_tets, std::size_t tets_per_leaf,
+                  const std::function<std::size_t(int depth)>& occupied_leaves);
+
+/// An estimate of the leaves a closed surface's body occupies at `depth` over
+/// root_cube(surface bounds): the leaves holding a surface point, or the
+/// enclosed volume in leaf volumes, whichever is more (a lower bound of the
+/// leaves a tet barycenter reaches when the surface's triangles are smaller
+/// than a leaf).
+std::size_t occupied_leaves_estimate(std::span<const Vec3> surface_points, double enclosed_volume, int depth);
 
 }  // namespace pdrmesh

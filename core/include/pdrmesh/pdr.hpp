@@ -56,9 +56,10 @@ struct PdrProgress {
 };
 
 struct PdrOptions {
-  /// Octree depth; -1: default_depth(E, final_tets_per_leaf) with E the
-  /// estimated final tet count, enclosed volume / regular_tet_volume(mean h at
-  /// the surface points).
+  /// Octree depth; -1: the smallest depth whose occupied leaves hold about
+  /// final_tets_per_leaf of E tets or fewer each (default_depth with
+  /// occupied_leaves_estimate), E the estimated final tet count, enclosed
+  /// volume / regular_tet_volume(mean h at the surface points).
   int depth = -1;
   std::size_t final_tets_per_leaf = 20000;
   std::size_t workers = 1;
