@@ -6,12 +6,18 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
+#include <functional>
 #include <iterator>
 #include <limits>
 #include <map>
+#include <numeric>
 #include <string_view>
 #include <utility>
 
+#include <oneapi/tbb/blocked_range.h>
+#include <oneapi/tbb/parallel_for.h>
+#include <oneapi/tbb/parallel_reduce.h>
 #include <oneapi/tbb/parallel_sort.h>
 
 #include "pdrmesh/predicates.hpp"
@@ -58,11 +64,26 @@ class Recorder {
   std::map<std::string, std::size_t, std::less<>> kept_;
 };
 
-struct OrientedFace {
-  FaceKey key;
-  Index tet;
-  Tri oriented;  // outward w.r.t. `tet`
-};
+/// The offsets of a counting sort by a key in [0, keys): `each(add)` calls
+/// add(key) once per item; key k's items go to [start[k], start[k + 1]).
+template <class Each>
+std::vector<std::size_t> bucket_starts(std::size_t keys, Each&& each) {
+  std::vector<std::size_t> start(keys + 1, 0);
+  each([&](Index key) { ++start[key + 1]; });
+  std::partial_sum(start.begin(), start.end(), start.begin());
+  return start;
+}
+
+/// Sorts each bucket [start[k], start[k + 1]) of `items` by `less`, buckets in parallel.
+template <class T, class Less>
+void sort_buckets(std::vector<T>& items, const std::vector<std::size_t>& start, Less less) {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, start.size() - 1), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t k = r.begin(); k != r.end(); ++k) {
+      std::sort(items.begin() + static_cast<std::ptrdiff_t>(start[k]),
+                items.begin() + static_cast<std::ptrdiff_t>(start[k + 1]), less);
+    }
+  });
+}
 
 bool same_point(const Vec3& a, const Vec3& b) { return a[0] == b[0] && a[1] == b[1] && a[2] == b[2]; }
 bool point_less(const Vec3& a, const Vec3& b) { return a < b; }
@@ -120,44 +141,60 @@ ValidationReport validate_mesh(const VolumeMesh& mesh, const SurfaceMesh* surfac
     report.volume += signed_volume(P[k[0]], P[k[1]], P[k[2]], P[k[3]]);
   }
 
-  // 3. Faces: shared by at most two tets, with opposite orientations.
-  std::vector<OrientedFace> faces;
-  faces.reserve(4 * mesh.tets.size());
-  for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
-    const Tet& k = mesh.tets[t];
-    for (int f = 0; f < 4; ++f) {
-      const Tri o = topo::face_of(k, f);
-      faces.push_back({face_key(o), static_cast<Index>(t), o});
+  // 3. Faces: shared by at most two tets, with opposite orientations. The
+  // faces are grouped by their smallest point (a counting sort) and each group
+  // sorted by its other two points, then the tet: the order of one sort by
+  // (sorted points, tet), in linear time plus small sorts, 16 bytes a face.
+  struct FaceRef {
+    Index b, c;     // the face's other two points, b < c
+    Index tet;
+    std::uint32_t slot;  // topo::face_of(mesh.tets[tet], slot)
+  };
+  const std::vector<std::size_t> face_first = bucket_starts(np, [&](auto&& add) {
+    for (const Tet& k : mesh.tets)
+      for (int f = 0; f < 4; ++f) add(std::min({k[(f + 1) % 4], k[(f + 2) % 4], k[(f + 3) % 4]}));  // face f: all but k[f]
+  });
+  std::vector<FaceRef> faces(face_first[np]);
+  {
+    std::vector<std::size_t> next(face_first.begin(), face_first.end() - 1);
+    for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
+      for (int f = 0; f < 4; ++f) {
+        const Tri s = topo::sorted_key(topo::face_of(mesh.tets[t], f));
+        faces[next[s[0]]++] = {s[1], s[2], static_cast<Index>(t), static_cast<std::uint32_t>(f)};
+      }
     }
   }
-  // Parallel sorts below use total orders (ties broken by an index), so they
-  // give exactly what std::sort gives.
-  tbb::parallel_sort(faces.begin(), faces.end(), [](const OrientedFace& a, const OrientedFace& b) {
-    return std::tie(a.key.sorted, a.tet, a.oriented) < std::tie(b.key.sorted, b.tet, b.oriented);
+  sort_buckets(faces, face_first, [](const FaceRef& x, const FaceRef& y) {
+    return std::tie(x.b, x.c, x.tet) < std::tie(y.b, y.c, y.tet);
   });
+  const auto oriented = [&](const FaceRef& r) { return topo::face_of(mesh.tets[r.tet], static_cast<int>(r.slot)); };
   std::vector<Tri> boundary;  // derived: faces of exactly one tet, outward
   std::size_t unique_faces = 0;
-  for (std::size_t i = 0; i < faces.size();) {
-    std::size_t j = i;
-    while (j < faces.size() && faces[j].key.sorted == faces[i].key.sorted) ++j;
-    ++unique_faces;
-    const auto& s = faces[i].key.sorted;
-    if (j - i == 1) {
-      boundary.push_back(faces[i].oriented);
-    } else if (j - i == 2) {
-      if (faces[i].key.even == faces[i + 1].key.even) {
-        rec.add("conformity", "tets {} and {} overlap across face ({}, {}, {}) at {}", faces[i].tet,
-                faces[i + 1].tet, s[0], s[1], s[2], point_str(P[s[0]]));
+  for (Index a = 0; a < np; ++a) {
+    for (std::size_t i = face_first[a], end = face_first[a + 1]; i < end;) {
+      std::size_t j = i;
+      while (j < end && faces[j].b == faces[i].b && faces[j].c == faces[i].c) ++j;
+      ++unique_faces;
+      const Index b = faces[i].b, c = faces[i].c;
+      if (j - i == 1) {
+        boundary.push_back(oriented(faces[i]));
+      } else if (j - i == 2) {
+        if (face_key(oriented(faces[i])).even == face_key(oriented(faces[i + 1])).even) {
+          rec.add("conformity", "tets {} and {} overlap across face ({}, {}, {}) at {}", faces[i].tet,
+                  faces[i + 1].tet, a, b, c, point_str(P[a]));
+        }
+      } else {
+        rec.add("conformity", "face ({}, {}, {}) at {} is shared by {} tets", a, b, c, point_str(P[a]), j - i);
       }
-    } else {
-      rec.add("conformity", "face ({}, {}, {}) at {} is shared by {} tets", s[0], s[1], s[2],
-              point_str(P[s[0]]), j - i);
+      i = j;
     }
-    i = j;
   }
+  faces = {};
   report.boundary_faces = boundary.size();
 
-  // 4. Points: used, and no two with the same coordinates.
+  // 4. Points: used, and no two with the same coordinates. (The parallel sorts
+  // here and below use total orders, ties broken by an index, so they give
+  // exactly what std::sort gives.)
   {
     std::vector<char> used(np, 0);
     for (const Tet& k : mesh.tets)
@@ -241,13 +278,32 @@ ValidationReport validate_mesh(const VolumeMesh& mesh, const SurfaceMesh* surfac
 
   // 6. Euler characteristic of the volume: chi(M) = chi(boundary of M) / 2.
   {
-    std::vector<std::pair<Index, Index>> edges;
-    edges.reserve(6 * mesh.tets.size());
-    for (const Tet& k : mesh.tets)
-      for (int a = 0; a < 4; ++a)
-        for (int b = a + 1; b < 4; ++b) edges.emplace_back(std::min(k[a], k[b]), std::max(k[a], k[b]));
-    tbb::parallel_sort(edges.begin(), edges.end());
-    const auto ne = static_cast<std::size_t>(std::unique(edges.begin(), edges.end()) - edges.begin());
+    // Edges grouped by their smaller point (a counting sort), each group's
+    // larger points sorted and counted once.
+    const std::vector<std::size_t> edge_first = bucket_starts(np, [&](auto&& add) {
+      for (const Tet& k : mesh.tets)
+        for (int a = 0; a < 4; ++a)
+          for (int b = a + 1; b < 4; ++b) add(std::min(k[a], k[b]));
+    });
+    std::vector<Index> ends(edge_first[np]);
+    {
+      std::vector<std::size_t> next(edge_first.begin(), edge_first.end() - 1);
+      for (const Tet& k : mesh.tets)
+        for (int a = 0; a < 4; ++a)
+          for (int b = a + 1; b < 4; ++b) ends[next[std::min(k[a], k[b])]++] = std::max(k[a], k[b]);
+    }
+    sort_buckets(ends, edge_first, std::less<Index>());
+    const std::size_t ne = tbb::parallel_reduce(
+        tbb::blocked_range<std::size_t>(0, np), std::size_t{0},
+        [&](const tbb::blocked_range<std::size_t>& r, std::size_t n) {
+          for (std::size_t v = r.begin(); v != r.end(); ++v) {
+            const auto lo = ends.begin() + static_cast<std::ptrdiff_t>(edge_first[v]);
+            const auto hi = ends.begin() + static_cast<std::ptrdiff_t>(edge_first[v + 1]);
+            n += static_cast<std::size_t>(std::unique(lo, hi) - lo);
+          }
+          return n;
+        },
+        std::plus<>());
     std::vector<char> used(np, 0);
     std::size_t nv = 0;
     for (const Tet& k : mesh.tets)
