@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <utility>
 #include <vector>
 
 #include "pdrmesh/flips.hpp"
@@ -141,6 +142,8 @@ class Refiner {
       const auto tp = Clock::now();
       RefinePassStats ps;
       ps.pass = pass;
+      if (o_.spatial_order && m_.num_tets() >= kMinSortTets && m_.num_tets() >= sorted_tets_ + sorted_tets_ / 4)
+        sort_tets();  // after each growth by a quarter
       deactivate();
       collect(midpoints);
       ps.candidates = candidates_.size();
@@ -200,6 +203,51 @@ class Refiner {
   void deactivate() {
     for (Index t = 0; t < m_.num_slots(); ++t)
       if (m_.alive(t) && m_.active(t) && satisfied(t)) m_.set_active(t, false);
+  }
+
+  /// Renumbers the tets in the Morton order of their barycentres (ties by slot):
+  /// the pass then collects, walks and flips through neighbouring slots instead
+  /// of slots scattered by the free list, far fewer cache misses.
+  void sort_tets() {
+    Vec3 lo = m_.point(0), hi = m_.point(0);
+    for (const Vec3& p : m_.points())
+      for (int i = 0; i < 3; ++i) {
+        lo[i] = std::min(lo[i], p[i]);
+        hi[i] = std::max(hi[i], p[i]);
+      }
+    constexpr double kCells = 2097151.0;  // 21 bits per axis
+    Vec3 scale{};
+    for (int i = 0; i < 3; ++i) scale[i] = hi[i] > lo[i] ? kCells / (hi[i] - lo[i]) : 0.0;
+    keys_.clear();
+    for (Index t = 0; t < m_.num_slots(); ++t) {
+      if (!m_.alive(t)) continue;
+      const Tet& k = m_.tet(t);
+      std::uint64_t key = 0;
+      for (int i = 0; i < 3; ++i) {
+        const double c = 0.25 * (m_.point(k[0])[i] + m_.point(k[1])[i] + m_.point(k[2])[i] + m_.point(k[3])[i]);
+        const auto q = static_cast<std::uint64_t>(std::clamp((c - lo[i]) * scale[i], 0.0, kCells));
+        key |= spread_bits(q) << i;
+      }
+      keys_.push_back({key, t});
+    }
+    std::sort(keys_.begin(), keys_.end());
+    std::vector<Index> order(keys_.size());
+    for (std::size_t i = 0; i < keys_.size(); ++i) order[i] = keys_[i].second;
+    const std::vector<Index> map = m_.reorder(order);
+    last_tet_ = map[last_tet_] != kNoIndex ? map[last_tet_] : 0;
+    sorted_tets_ = m_.num_tets();
+    keys_ = {};
+  }
+
+  /// The 21 low bits of x spread to every third bit (a Morton code's one axis).
+  static std::uint64_t spread_bits(std::uint64_t x) {
+    x &= 0x1FFFFFu;
+    x = (x | x << 32) & 0x1F00000000FFFFull;
+    x = (x | x << 16) & 0x1F0000FF0000FFull;
+    x = (x | x << 8) & 0x100F00F00F00F00Full;
+    x = (x | x << 4) & 0x10C30C30C30C30C3ull;
+    x = (x | x << 2) & 0x1249249249249249ull;
+    return x;
   }
 
   /// True when the edge (a, b) is no longer than split_ratio times its mean h.
@@ -695,6 +743,9 @@ class Refiner {
   std::uint32_t in_ = 0, out_ = 0;
   EdgeRing ring_;
   FailedEdges failed_;  ///< the deferred reconnection's failed edge removals
+  static constexpr Index kMinSortTets = 4096;  ///< smaller meshes stay in slot order
+  Index sorted_tets_ = 0;  ///< alive tets at the last sort_tets
+  std::vector<std::pair<std::uint64_t, Index>> keys_;  ///< sort_tets' scratch
   Index last_tet_ = 0;
   double bad_cos_ = -2.0;  ///< cosine of min_max_angle; -2 when every tet is tried
 };
