@@ -18,6 +18,7 @@
 #include "pdrmesh/flips.hpp"
 #include "pdrmesh/insert.hpp"
 #include "pdrmesh/predicates.hpp"
+#include "bvh.hpp"
 #include "pdrmesh/topology.hpp"
 #include "stopwatch.hpp"
 
@@ -226,7 +227,7 @@ class Refiner {
       for (int i = 0; i < 3; ++i) {
         const double c = 0.25 * (m_.point(k[0])[i] + m_.point(k[1])[i] + m_.point(k[2])[i] + m_.point(k[3])[i]);
         const auto q = static_cast<std::uint64_t>(std::clamp((c - lo[i]) * scale[i], 0.0, kCells));
-        key |= spread_bits(q) << i;
+        key |= detail::spread_bits(q) << i;
       }
       keys_.push_back({key, t});
     }
@@ -237,17 +238,6 @@ class Refiner {
     last_tet_ = map[last_tet_] != kNoIndex ? map[last_tet_] : 0;
     sorted_tets_ = m_.num_tets();
     keys_ = {};
-  }
-
-  /// The 21 low bits of x spread to every third bit (a Morton code's one axis).
-  static std::uint64_t spread_bits(std::uint64_t x) {
-    x &= 0x1FFFFFu;
-    x = (x | x << 32) & 0x1F00000000FFFFull;
-    x = (x | x << 16) & 0x1F0000FF0000FFull;
-    x = (x | x << 8) & 0x100F00F00F00F00Full;
-    x = (x | x << 4) & 0x10C30C30C30C30C3ull;
-    x = (x | x << 2) & 0x1249249249249249ull;
-    return x;
   }
 
   /// True when the edge (a, b) is no longer than split_ratio times its mean h.
