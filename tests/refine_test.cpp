@@ -72,12 +72,12 @@ std::vector<bool> boundary_points(const VolumeMesh& m) {
   return b;
 }
 
-TetMesh refined_cube(double h, RefineStats* stats = nullptr) {
+TetMesh refined_cube(double h, RefineStats* stats = nullptr, const RefineOptions& options = {}) {
   const SurfaceMesh surface = fixtures::unit_cube_surface();
   const VolumeMesh initial = fixtures::unit_cube_mesh();
   const SizingField field = uniform_field(surface, initial, h);
   TetMesh mesh = fixtures::build(initial);
-  auto r = refine(mesh, field);
+  auto r = refine(mesh, field, options);
   EXPECT_TRUE(r.ok()) << r.status().to_string();
   if (stats != nullptr && r.ok()) *stats = *r;
   return mesh;
@@ -115,6 +115,26 @@ TEST(Refine, IsDeterministic) {
   ASSERT_EQ(a.points.size(), b.points.size());
   ASSERT_EQ(a.tets, b.tets);
   EXPECT_EQ(std::memcmp(a.points.data(), b.points.data(), a.points.size() * sizeof(Vec3)), 0);
+}
+
+TEST(Refine, SpatialOrderValidatesAndIsDeterministic) {
+  // Fine enough that the mesh passes the renumbering's 4096-tet threshold.
+  RefineOptions o;
+  o.spatial_order = true;
+  RefineStats stats;
+  const VolumeMesh a = refined_cube(0.07, &stats, o).to_volume_mesh();
+  ASSERT_GT(a.tets.size(), 8192u);
+  const SurfaceMesh surface = fixtures::unit_cube_surface();
+  const ValidationReport report = validate_mesh(a, &surface);
+  EXPECT_TRUE(report.ok()) << format_validation(report);
+  std::size_t edges = 0;
+  EXPECT_GE(interior_edge_share(a, boundary_points(a), 0.07, &edges), 0.9) << edges << " interior edges";
+  const VolumeMesh b = refined_cube(0.07, nullptr, o).to_volume_mesh();
+  ASSERT_EQ(a.points.size(), b.points.size());
+  ASSERT_EQ(a.tets, b.tets);
+  EXPECT_EQ(std::memcmp(a.points.data(), b.points.data(), a.points.size() * sizeof(Vec3)), 0);
+  // The order differs from the default run's: the renumbering took effect.
+  EXPECT_NE(a.tets, refined_cube(0.07).to_volume_mesh().tets);
 }
 
 TEST(Refine, CavityInsertionKeepsTheMeshDelaunay) {

@@ -210,6 +210,22 @@ TEST(TetMesh, CompactRenumbersAliveTetsInOrder) {
   }
 }
 
+TEST(TetMesh, ReorderPutsAliveTetsInTheGivenOrder) {
+  TetMesh m = build(fixtures::edge_ring({0, 0, -2}, {0, 0, 2}, fixtures::polygon(3, 1.0)));
+  ASSERT_EQ(flip32(m, 1, topo::kEdgeIndex[0][1]), FlipOutcome::kDone);
+  ASSERT_FALSE(m.alive(0));
+  const Tet t1 = m.tet(1), t2 = m.tet(2);
+  const Index n2 = m.neighbour(2, 0);
+  const std::vector<Index> order{2, 1};
+  const std::vector<Index> map = m.reorder(order);
+  ASSERT_EQ(map, (std::vector<Index>{kNoIndex, 1, 0}));
+  EXPECT_EQ(m.num_slots(), 2u);
+  EXPECT_TRUE(m.check().ok()) << m.check().to_string();
+  EXPECT_EQ(m.tet(0), t2);
+  EXPECT_EQ(m.tet(1), t1);
+  EXPECT_EQ(m.neighbour(0, 0), n2 == kNoIndex ? kNoIndex : pack_face(map[face_tet(n2)], face_local(n2)));
+}
+
 TEST(TetMesh, CheckReportsAnInvertedTet) {
   TetMesh m = build(fixtures::cube());
   Tet mirrored = m.tet(2);

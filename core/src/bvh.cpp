@@ -12,17 +12,6 @@
 namespace pdrmesh::detail {
 namespace {
 
-// Spreads the low 21 bits of x so that two zero bits separate consecutive ones.
-std::uint64_t spread_bits(std::uint64_t x) {
-  x &= 0x1fffffULL;
-  x = (x | x << 32) & 0x1f00000000ffffULL;
-  x = (x | x << 16) & 0x1f0000ff0000ffULL;
-  x = (x | x << 8) & 0x100f00f00f00f00fULL;
-  x = (x | x << 4) & 0x10c30c30c30c30c3ULL;
-  x = (x | x << 2) & 0x1249249249249249ULL;
-  return x;
-}
-
 Box merge(const Box& a, const Box& b) {
   Box m;
   for (int k = 0; k < 3; ++k) {

@@ -11,11 +11,24 @@
 #include <algorithm>
 #include <bit>
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 #include "pdrmesh/types.hpp"
 
 namespace pdrmesh::detail {
+
+/// Spreads the low 21 bits of x so that two zero bits separate consecutive
+/// ones: one axis of a 63-bit Morton code (also the refiner's tet order).
+inline std::uint64_t spread_bits(std::uint64_t x) {
+  x &= 0x1fffffULL;
+  x = (x | x << 32) & 0x1f00000000ffffULL;
+  x = (x | x << 16) & 0x1f0000ff0000ffULL;
+  x = (x | x << 8) & 0x100f00f00f00f00fULL;
+  x = (x | x << 4) & 0x10c30c30c30c30c3ULL;
+  x = (x | x << 2) & 0x1249249249249249ULL;
+  return x;
+}
 
 /// Closed boxes touch or overlap (compared with <=). Empty boxes touch nothing.
 inline bool boxes_touch(const Box& a, const Box& b) {

@@ -338,6 +338,34 @@ std::vector<Index> TetMesh::compact() {
   return map;
 }
 
+std::vector<Index> TetMesh::reorder(std::span<const Index> order) {
+  assert(order.size() == alive_count_);
+  const Index n = num_slots();
+  std::vector<Index> map(n, kNoIndex);
+  for (std::size_t i = 0; i < order.size(); ++i) map[order[i]] = static_cast<Index>(i);
+  std::vector<Cell> cells(order.size());
+  std::vector<Flags> flags(order.size());
+  std::vector<double> quality(order.size());
+  std::vector<int> regions(regions_.empty() ? 0 : order.size());
+  for (std::size_t i = 0; i < order.size(); ++i) {
+    const Index t = order[i];
+    cells[i].v = cells_[t].v;
+    for (int f = 0; f < 4; ++f) {
+      const Index a = cells_[t].adj[f];
+      cells[i].adj[f] = a == kNoIndex ? kNoIndex : pack_face(map[face_tet(a)], face_local(a));
+    }
+    flags[i] = flags_[t];
+    quality[i] = quality_[t];
+    if (!regions_.empty()) regions[i] = regions_[t];
+  }
+  cells_ = std::move(cells);
+  flags_ = std::move(flags);
+  quality_ = std::move(quality);
+  regions_ = std::move(regions);
+  free_.clear();
+  return map;
+}
+
 Status TetMesh::check() const {
   const Index n = num_slots();
   if (flags_.size() != n || quality_.size() != n ||

@@ -144,6 +144,11 @@ class TetMesh {
   /// Moves the alive tets to the front keeping their order and empties the free
   /// list. Returns old index -> new index (kNoIndex for dead slots).
   std::vector<Index> compact();
+  /// Moves the alive tets to slots 0, 1, ... in the order `order` (every alive
+  /// tet exactly once) and empties the free list; returns old index -> new
+  /// index (kNoIndex for dead slots). The refiner puts tets in a spatial order
+  /// with it so that neighbouring tets share cache lines.
+  std::vector<Index> reorder(std::span<const Index> order);
 
   /// Full validity check, for tests and debug builds: flags, free list,
   /// adjacency symmetric and on matching faces, frozen marks equal on both
