@@ -447,6 +447,48 @@ TEST_F(VolumeIo, WriteRefusesUnknownSuffixAndInconsistentMeshes) {
   EXPECT_EQ(read_volume(path("missing.mesh")).status().code(), StatusCode::kNotFound);
 }
 
+TEST_F(VolumeIo, WritesAtomicallyThroughAStagedFile) {
+  const VolumeMesh one = grid_mesh(1), two = grid_mesh(2);
+  const fs::path out = path("out.mesh");
+  ASSERT_TRUE(write_volume(one, out).ok());
+  const std::string first = slurp(out);
+  const auto entries = [&] {
+    std::vector<std::string> names;
+    for (const auto& e : fs::directory_iterator(dir_)) names.push_back(e.path().filename().string());
+    std::sort(names.begin(), names.end());
+    return names;
+  };
+  {
+    auto staged = stage_volume(two, out);
+    ASSERT_TRUE(staged.ok()) << staged.status().to_string();
+    EXPECT_EQ(slurp(out), first);  // not in place before commit
+    const auto names = entries();
+    ASSERT_EQ(names.size(), 2u);
+    EXPECT_TRUE(names[0].starts_with(".out.mesh.") && names[0].ends_with(".partial")) << names[0];
+  }
+  EXPECT_EQ(entries(), std::vector<std::string>{"out.mesh"});  // discarded uncommitted
+  EXPECT_EQ(slurp(out), first);
+
+  auto staged = stage_volume(two, out);
+  ASSERT_TRUE(staged.ok());
+  ASSERT_TRUE(staged->commit().ok());
+  EXPECT_EQ(entries(), std::vector<std::string>{"out.mesh"});
+  const auto r = read_volume(out);
+  ASSERT_TRUE(r.ok()) << r.status().to_string();
+  expect_same_mesh(two, *r, true);
+
+  // A destination that cannot take the file: named in the error, nothing left behind.
+  const Status missing = write_volume(one, path("no/such/dir/a.vtu"));
+  EXPECT_EQ(missing.code(), StatusCode::kIoError) << missing.to_string();
+  EXPECT_NE(missing.message().find("no/such/dir/a.vtu"), std::string::npos) << missing.to_string();
+  fs::create_directory(path("taken.mesh"));
+  const Status taken = write_volume(one, path("taken.mesh"));
+  EXPECT_EQ(taken.code(), StatusCode::kIoError) << taken.to_string();
+  EXPECT_NE(taken.message().find("taken.mesh"), std::string::npos) << taken.to_string();
+  EXPECT_TRUE(fs::is_directory(path("taken.mesh")));
+  EXPECT_EQ(entries(), (std::vector<std::string>{"out.mesh", "taken.mesh"}));
+}
+
 // ---------------------------------------------------------------- malformed files
 
 TEST_F(VolumeIo, MeditRejectsMalformedFiles) {

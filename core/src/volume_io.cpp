@@ -8,6 +8,9 @@
 #include <cctype>
 #include <cerrno>
 #include <limits>
+#include <utility>
+
+#include <unistd.h>
 
 #include "volume_io_detail.hpp"
 
@@ -361,9 +364,9 @@ Result<VolumeFormat> volume_format_from_path(const std::filesystem::path& path) 
                                  volume_format_suffixes()));
 }
 
-Status write_volume(const VolumeMesh& mesh, const std::filesystem::path& path) {
-  PDR_ASSIGN_OR_RETURN(const VolumeFormat format, volume_format_from_path(path));
-  PDR_TRY(volio::check_writable(mesh));
+namespace {
+
+Status write_format(const VolumeMesh& mesh, VolumeFormat format, const std::filesystem::path& path) {
   switch (format) {
     case VolumeFormat::kMedit: return volio::write_medit(mesh, path);
     case VolumeFormat::kMeditBinary: return volio::write_meshb(mesh, path);
@@ -375,6 +378,53 @@ Status write_volume(const VolumeMesh& mesh, const std::filesystem::path& path) {
     case VolumeFormat::kSu2: return volio::write_su2(mesh, path);
   }
   return internal_error("unhandled volume format");
+}
+
+}  // namespace
+
+StagedVolume& StagedVolume::operator=(StagedVolume&& other) noexcept {
+  if (this != &other) {
+    discard();
+    staged_ = std::exchange(other.staged_, {});
+    destination_ = std::exchange(other.destination_, {});
+  }
+  return *this;
+}
+
+Status StagedVolume::commit() {
+  if (staged_.empty()) return internal_error("commit of a volume file that is not staged");
+  std::error_code ec;
+  std::filesystem::rename(staged_, destination_, ec);
+  if (ec) {
+    const std::string why = ec.message();
+    discard();
+    return io_error(fmt::format("{}: cannot put the written file in place: {}", destination_.string(), why));
+  }
+  staged_.clear();
+  return {};
+}
+
+void StagedVolume::discard() noexcept {
+  if (staged_.empty()) return;
+  std::error_code ec;
+  std::filesystem::remove(staged_, ec);
+  staged_.clear();
+}
+
+Result<StagedVolume> stage_volume(const VolumeMesh& mesh, const std::filesystem::path& path) {
+  PDR_ASSIGN_OR_RETURN(const VolumeFormat format, volume_format_from_path(path));
+  PDR_TRY(volio::check_writable(mesh));
+  const std::filesystem::path partial =
+      path.parent_path() / fmt::format(".{}.{}.partial", path.filename().string(), ::getpid());
+  StagedVolume staged(partial, path);  // removes the partial file if the write fails
+  if (Status s = write_format(mesh, format, partial); !s.ok())
+    return Status(s.code(), fmt::format("{} (writing {})", s.message(), path.string()));
+  return staged;
+}
+
+Status write_volume(const VolumeMesh& mesh, const std::filesystem::path& path) {
+  PDR_ASSIGN_OR_RETURN(StagedVolume staged, stage_volume(mesh, path));
+  return staged.commit();
 }
 
 Result<VolumeMesh> read_volume(const std::filesystem::path& path) {

@@ -166,7 +166,7 @@ struct PdrProfile {
   double surface_check = 0;    ///< surface_check (CLI)
   double background = 0;       ///< the background TetGen mesh of the sizing field (mesh_parallel)
   double sizing = 0;           ///< SizingField::build (mesh_parallel)
-  double overlapped = 0;       ///< of background + sizing: the time they ran beside the initial mesh
+  double overlapped = 0;       ///< time steps ran side by side: background + sizing beside the initial mesh, validation beside the write (CLI)
   double validation = 0;       ///< validate_mesh of the result (CLI)
   double write = 0;            ///< writing the result (CLI)
   double quality = 0;          ///< the quality summary (CLI)

@@ -16,6 +16,7 @@
 
 #include <filesystem>
 #include <string_view>
+#include <utility>
 
 #include "pdrmesh/status.hpp"
 #include "pdrmesh/volume_mesh.hpp"
@@ -40,10 +41,42 @@ Result<VolumeFormat> volume_format_from_path(const std::filesystem::path& path);
 /// ".mesh .meshb .vtu .ugrid .lb8.ugrid .b8.ugrid .msh .su2", for help texts.
 std::string_view volume_format_suffixes();
 
-/// Writes `mesh` in the format named by the suffix of `path`. A mesh with
-/// inconsistent sizes, out-of-range indices or non-finite coordinates is
-/// refused with `invalid_input` before anything is written.
+/// Writes `mesh` in the format named by the suffix of `path`, atomically: the
+/// bytes go to a hidden file beside `path` (".NAME.PID.partial") that is
+/// renamed onto `path` once complete, so a failed or interrupted write never
+/// leaves a partial mesh under `path`. A mesh with inconsistent sizes,
+/// out-of-range indices or non-finite coordinates is refused with
+/// `invalid_input` before anything is written.
 Status write_volume(const VolumeMesh& mesh, const std::filesystem::path& path);
+
+/// A mesh file written beside its destination but not yet in place
+/// (stage_volume): commit() renames it onto the destination; destroying it
+/// uncommitted removes it.
+class StagedVolume {
+ public:
+  StagedVolume() = default;
+  StagedVolume(std::filesystem::path staged, std::filesystem::path destination)
+      : staged_(std::move(staged)), destination_(std::move(destination)) {}
+  StagedVolume(StagedVolume&& other) noexcept { *this = std::move(other); }
+  StagedVolume& operator=(StagedVolume&& other) noexcept;
+  StagedVolume(const StagedVolume&) = delete;
+  StagedVolume& operator=(const StagedVolume&) = delete;
+  ~StagedVolume() { discard(); }
+
+  /// Puts the file in place; afterwards this object holds nothing.
+  Status commit();
+  /// Removes the staged file (no-op once committed or discarded).
+  void discard() noexcept;
+
+ private:
+  std::filesystem::path staged_;
+  std::filesystem::path destination_;
+};
+
+/// write_volume without the final rename: for a caller that decides later
+/// (say, after validating the mesh alongside the write) whether the file goes
+/// in place.
+Result<StagedVolume> stage_volume(const VolumeMesh& mesh, const std::filesystem::path& path);
 
 /// Reads a volume mesh in the format named by the suffix of `path`. Malformed
 /// files give `invalid_input` naming file:line (text) or the byte offset
