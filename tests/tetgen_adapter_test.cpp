@@ -144,6 +144,28 @@ TEST(TetgenAdapter, MaxVolumeRefinesCoarseCadSurface) {
   EXPECT_GT(refined_fraction_within_bound("hinge", 2000), 0.8);
 }
 
+// seeds_only: the lattice's points go in, TetGen refines nothing: fewer points
+// than with -a, and none next to the boundary (the lattice keeps 0.4 of its
+// spacing off every triangle).
+TEST(TetgenAdapter, SeedsOnlyAddsLatticePointsAwayFromTheBoundary) {
+  const SurfaceMesh s = fixtures::corpus_surface("sphere966");
+  const VolumeMesh coarse = mesh_ok(s);
+  TetgenOptions o;
+  o.max_volume = enclosed_volume(s) / 2000;
+  const VolumeMesh refined = mesh_ok(s, o);
+  o.seeds_only = true;
+  EXPECT_EQ(tetgen_switches(o), "pYzQMJF");
+  const VolumeMesh seeded = mesh_ok(s, o);
+  expect_valid(s, seeded);
+  EXPECT_GT(seeded.points.size(), coarse.points.size() + 100);
+  EXPECT_LT(seeded.points.size(), refined.points.size());
+  const double spacing = 0.8 * std::cbrt(12.0 * *o.max_volume);
+  double nearest = std::numeric_limits<double>::infinity();
+  for (std::size_t i = s.points.size(); i < seeded.points.size(); ++i)
+    for (const Vec3& p : s.points) nearest = std::min(nearest, norm(seeded.points[i] - p));
+  EXPECT_GE(nearest, 0.4 * spacing);
+}
+
 TEST(TetgenAdapter, RadiusEdgeKeepsBoundary) {
   const SurfaceMesh s = fixtures::corpus_surface("hinge");
   TetgenOptions o;

@@ -623,6 +623,7 @@ Result<PdrPlan> plan_pdr(const SurfaceMesh& surface, double surface_h, const Pdr
                            options.initial_min_volume_factor * regular_tet_volume(surface_h));
   tg.time_limit_s = options.tetgen_time_limit_s;
   tg.radius_edge = options.initial_radius_edge;
+  tg.seeds_only = options.initial_seeds_only;
   if (!(*tg.max_volume > 0) || !std::isfinite(*tg.max_volume)) tg.max_volume.reset();
   return plan;
 }

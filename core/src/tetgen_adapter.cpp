@@ -629,6 +629,7 @@ Result<pid_t> spawn_helper(const std::string& path, Fd& request, Fd& log, Fd& an
 // points. Numbers are written in shortest round-trip form.
 std::string tetgen_switches(const TetgenOptions& options) {
   std::string s = "pYzQMJF";
+  if (options.seeds_only) return s;
   if (options.radius_edge) s += fmt::format("q{}", *options.radius_edge);
   if (options.max_volume) s += fmt::format("a{}", *options.max_volume);
   return s;

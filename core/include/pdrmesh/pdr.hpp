@@ -74,10 +74,23 @@ struct PdrOptions {
   /// without this bound, 1.07 with 2, 0.52 with 8: too coarse a start leaves
   /// small leaves nothing to refine between their frozen hulls).
   double initial_min_volume_factor = 2;
-  /// TetGen -q for the initial mesh (radius-edge bound); unset: none. Without
-  /// it the dense initial mesh holds flat tets of four surface points that no
-  /// round refines and no optimization can flip away (fandisk, elephant:
-  /// min dihedral 2.9 and 6.6 degrees where the serial mesh has 14.5 and 15).
+  /// The initial mesh is the boundary-conforming mesh plus the seed lattice of
+  /// max_volume (TetgenOptions::seeds_only): no TetGen refinement. TetGen's
+  /// -a and -q place points next to the boundary, closer than the target
+  /// spacing where the body is thin, and the refiner never removes a point:
+  /// couplingdown at its default depth (1) made 1.058 times the serial tets
+  /// with them, 0.992 without; the other seven small corpus surfaces at their
+  /// default depths stay within 1.8% of serial either way, frame and armadillo
+  /// within 0.6% without. false: TetGen refines with
+  /// -a max_volume and -q initial_radius_edge.
+  bool initial_seeds_only = true;
+  /// TetGen -q for the initial mesh when !initial_seeds_only (radius-edge
+  /// bound); unset: none. Without it the dense initial mesh holds flat tets of
+  /// four surface points that no round refines and no optimization can flip
+  /// away (fandisk, elephant: min dihedral 2.9 and 6.6 degrees where the serial
+  /// mesh has 14.5 and 15). The seeds keep off the boundary, so at the default
+  /// depths no such tet stays; at depths beyond the default a few do
+  /// (primitives13 at depth 2: min dihedral 5.2 against the serial 15.2).
   std::optional<double> initial_radius_edge = 1.4;
   /// The interface rounds over the decomposition shifted by half a leaf, then
   /// by a quarter leaf (skipped at depth 0, where there are no interfaces).

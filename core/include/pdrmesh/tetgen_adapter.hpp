@@ -42,6 +42,10 @@ struct TetgenOptions {
   std::optional<double> max_volume;
   /// TetGen -q: radius-edge ratio bound (quality refinement); off by default.
   std::optional<double> radius_edge;
+  /// With max_volume: insert only the seed lattice, and run no TetGen
+  /// refinement (neither -a nor -q): the interior points are the lattice's,
+  /// none is placed next to the boundary.
+  bool seeds_only = false;
   /// The child is killed after this many seconds (deadline_exceeded).
   double time_limit_s = 600;
   /// 0 = none; else RLIMIT_AS of the child (resource_exhausted when hit).
