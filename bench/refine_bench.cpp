@@ -16,7 +16,7 @@
 //   PDRMESH_BENCH_EACH_INSERTION (min-max step after each insertion), PDRMESH_BENCH_MIN_MAX_ANGLE=A,
 //   PDRMESH_BENCH_SWEEPS=N (optimization sweeps), PDRMESH_BENCH_NO_REPAIR (no interior repair), PDRMESH_BENCH_LONG_EDGE_RATIO=R,
 //   PDRMESH_BENCH_NO_VOID_MIDPOINTS, PDRMESH_BENCH_SPATIAL_ORDER (RefineOptions::spatial_order),
-//   PDRMESH_BENCH_DUMP_BAD (stderr: up to 40 interior tets outside
+//   PDRMESH_BENCH_DUMP_BAD (stderr: the 40 worst interior tets outside
 //   [15, 150] with their edge lengths over h and their vertices' stars)
 #include <fmt/format.h>
 
@@ -142,13 +142,20 @@ void run(const std::string& dir, const std::string& name, bool fine) {
     std::vector<std::vector<Index>> vt(out.points.size());
     for (Index t = 0; t < out.tets.size(); ++t)
       for (Index v : out.tets[t]) vt[v].push_back(t);
-    int shown = 0;
-    for (Index t = 0; t < out.tets.size() && shown < 40; ++t) {
+    // The 40 worst (smallest of min and 180 - max first).
+    std::vector<std::pair<double, Index>> worst;
+    for (Index t = 0; t < out.tets.size(); ++t) {
       const Tet& k = out.tets[t];
       if (on_boundary[k[0]] || on_boundary[k[1]] || on_boundary[k[2]] || on_boundary[k[3]]) continue;
       const auto r = dihedral_range(out.points[k[0]], out.points[k[1]], out.points[k[2]], out.points[k[3]]);
       if (r.min >= 15 && r.max <= 150) continue;
-      ++shown;
+      worst.push_back({std::min(r.min, 180.0 - r.max), t});
+    }
+    std::sort(worst.begin(), worst.end());
+    if (worst.size() > 40) worst.resize(40);
+    for (const auto& [score, t] : worst) {
+      const Tet& k = out.tets[t];
+      const auto r = dihedral_range(out.points[k[0]], out.points[k[1]], out.points[k[2]], out.points[k[3]]);
       const Vec3 c = 0.25 * (out.points[k[0]] + out.points[k[1]] + out.points[k[2]] + out.points[k[3]]);
       const double h = field->at(c);
       std::string el;

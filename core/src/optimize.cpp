@@ -185,8 +185,23 @@ class Optimizer {
     return inserted;
   }
 
-  /// Marks in fixed_ the points on a frozen, hull or region face.
+  /// Marks in fixed_ the points on a frozen, hull or region face, and in
+  /// surface_ those on a boundary triangle that is not a leaf's interface
+  /// (TetMesh::boundary() with a non-zero id, or any when there are no ids).
   void find_fixed() {
+    // No operation of the optimizer changes which points are fixed (flips and
+    // insertions refuse frozen, hull and region faces; a new point is free),
+    // so the marks are found once and only grow with the points after that.
+    if (fixed_known_) {
+      fixed_.resize(m_.num_points(), 0);
+      surface_.resize(m_.num_points(), 0);
+      return;
+    }
+    fixed_known_ = true;
+    surface_.assign(m_.num_points(), 0);
+    for (std::size_t i = 0; i < m_.boundary().size(); ++i)
+      if (m_.boundary_ids().size() != m_.boundary().size() || m_.boundary_ids()[i] != 0)
+        for (Index v : m_.boundary()[i]) surface_[v] = 1;
     fixed_.assign(m_.num_points(), 0);
     for (Index t = 0; t < m_.num_slots(); ++t) {
       if (!m_.alive(t)) continue;
@@ -323,6 +338,13 @@ class Optimizer {
     return true;
   }
 
+  /// Whether a point of face f is on the surface (surface_).
+  bool on_surface(const Tri& f) const {
+    for (Index v : f)
+      if (v < surface_.size() && surface_[v] != 0) return true;
+    return false;
+  }
+
   /// measure() of tet k, or -inf when k is not positive (exact).
   double measured(const Tet& k) const {
     const auto p = corners(m_, k);
@@ -330,23 +352,36 @@ class Optimizer {
     return measure(p);
   }
 
-  /// Whether the tets of fresh_ with no fixed point are all at least as good
-  /// as `floor` (the worst old tet with no fixed point, capped at 1): a repair
-  /// flip must not trade an interior tet for a worse one.
-  bool free_tets_hold(double floor) const {
-    for (const Tet& k : fresh_) {
-      bool free = true;
-      for (Index v : k) free = free && !(v < fixed_.size() && fixed_[v] != 0);
-      if (free && measure(corners(m_, k)) < floor) return false;
-    }
+  /// Whether the tets of fresh_ hold the floors of the tets they replace
+  /// (repair_floors): a repair flip must not trade an interior tet for a worse
+  /// one, nor make a tet with a fixed point worse than kRepairFloor where the
+  /// old ones with a fixed point were not.
+  bool fresh_holds(const std::array<double, 3>& floors) const {
+    for (const Tet& k : fresh_)
+      if (measure(corners(m_, k)) < floors[repair_class(k)]) return false;
     return true;
   }
 
-  /// Worst measure of the tets with no fixed point among `tets`, capped at 1.
-  double free_floor(std::span<const Index> tets) const {
-    double q = 1.0;
-    for (Index t : tets)
-      if (free_tet(t)) q = std::min(q, measure(corners(m_, m_.tet(t))));
+  /// The repair's class of tet k: 0 no fixed point, 1 a point on the surface
+  /// (surface_), 2 fixed points elsewhere only (a leaf's interface, which is
+  /// inside the final mesh: such tets are held like those with no fixed point).
+  int repair_class(const Tet& k) const {
+    int c = 0;
+    for (Index v : k) {
+      if (v < surface_.size() && surface_[v] != 0) return 1;
+      if (v < fixed_.size() && fixed_[v] != 0) c = 2;
+    }
+    return c;
+  }
+
+  /// The floors of a repair operation replacing `tets`, per repair_class: the
+  /// worst measure of the class, capped at 1 (at kRepairFloor for class 1).
+  std::array<double, 3> repair_floors(std::span<const Index> tets) const {
+    std::array<double, 3> q{1.0, kRepairFloor, 1.0};
+    for (Index t : tets) {
+      double& f = q[static_cast<std::size_t>(repair_class(m_.tet(t)))];
+      f = std::min(f, measure(corners(m_, m_.tet(t))));
+    }
     return q;
   }
 
@@ -421,7 +456,7 @@ class Optimizer {
         }
       }
     if (!(best[0][n - 1] > old_q)) return false;
-    const double floor = free_floor(std::span<const Index>(r.tets.data(), static_cast<std::size_t>(n)));
+    const auto floors = repair_floors(std::span<const Index>(r.tets.data(), static_cast<std::size_t>(n)));
     fresh_.clear();
     std::array<std::array<int, 2>, kM> stack{};
     int top = 0;
@@ -435,7 +470,7 @@ class Optimizer {
       stack[top++] = {i, k};
       stack[top++] = {k, j};
     }
-    if (!free_tets_hold(floor)) return false;
+    if (!fresh_holds(floors)) return false;
     parent_.assign(fresh_.size(), 0);
     m_.replace_cavity(std::span<const Index>(r.tets.data(), static_cast<std::size_t>(n)), fresh_, parent_);
     forget_created();
@@ -457,7 +492,7 @@ class Optimizer {
     for (const Tet& k : fresh_)
       if (!(measured(k) > old_q)) return false;
     const std::array<Index, 2> old{t, u};
-    if (!free_tets_hold(free_floor(old))) return false;
+    if (!fresh_holds(repair_floors(old))) return false;
     parent_.assign(3, 0);
     m_.replace_cavity(old, fresh_, parent_);
     forget_created();
@@ -668,7 +703,8 @@ class Optimizer {
     if (profile_old_.front() >= 1.0) return false;  // the star is good already
     lower_.resize(link_.size());
     for (std::size_t i = 0; i < link_.size(); ++i)
-      lower_[i] = pinned_[i] && !all_pinned_ ? std::min(measures_old_[i], pin_floor_) : profile_old_.front();
+      lower_[i] = pinned_[i] && !all_pinned_ ? std::min(measures_old_[i], on_surface(link_[i]) ? pin_floor_ : 1.0)
+                                             : profile_old_.front();
     // Targets and line search as best_position, but compared by the star's
     // profile (smoothing_accepts): a move may improve a bad tet while the
     // star's worst tet, which v cannot help (e.g. a tet on the boundary), stays
@@ -742,12 +778,12 @@ class Optimizer {
     const double h = sizing_->at(x);
     for (Index u : link_points_)
       if (norm(m_.point(u) - x) < o_.insert_min_distance * h) return false;
-    if (guard_free) {  // the repair: no new tet with no fixed point below the old ones
-      const double floor = free_floor(cavity);
+    if (guard_free) {  // the repair: the new tets hold the old ones' floors (fresh_holds)
+      const auto floors = repair_floors(cavity);
       for (const Tri& f : link_) {
-        bool free = true;
-        for (Index v : f) free = free && !(v < fixed_.size() && fixed_[v] != 0);
-        if (free && measure({m_.point(f[0]), m_.point(f[1]), m_.point(f[2]), x}) < floor) return false;
+        const int c = repair_class({f[0], f[1], f[2], kNoIndex});  // the new point is free
+        if (measure({m_.point(f[0]), m_.point(f[1]), m_.point(f[2]), x}) < floors[static_cast<std::size_t>(c)])
+          return false;
       }
     }
     const Index p = m_.add_point(x);
@@ -769,7 +805,9 @@ class Optimizer {
   std::vector<Tri> link_;  ///< faces of the star being optimised, turned towards its apex
   std::vector<Index> link_points_;
   std::vector<double> measures_old_, measures_new_;  ///< smoothing scratch
-  std::vector<char> fixed_;     ///< per point, set by smooth(): on a frozen, hull or region face
+  std::vector<char> fixed_;     ///< per point, set by find_fixed(): on a frozen, hull or region face
+  std::vector<char> surface_;   ///< per point, set by find_fixed(): on a surface triangle
+  bool fixed_known_ = false;    ///< find_fixed() has run once
   bool interior_only_ = false;  ///< see set_interior_only
   bool pin_fixed_ = false;      ///< smoothing: tets with a fixed point are pinned
   double pin_floor_ = 1.0;      ///< smoothing: a pinned tet may fall to min(its measure, this)

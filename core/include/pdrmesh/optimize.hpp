@@ -82,13 +82,20 @@
 //     each judged by the measure above instead of the largest dihedral angle
 //     alone (so that a tet bad by a small angle only is seen too), min-max
 //     over the tets it replaces (the new worst strictly above the old worst);
+//     when no flip applies, a point in the cavity of the tet and its face
+//     neighbours as in 2. (for any bad tet, not only slivers);
 //     (b) smoothing of their free vertices as in the polishing rounds, aimed
-//     at the worst tet with no fixed point, where a tet with a fixed point may
-//     now give way down to min(its measure, 0.67) (about 10 degrees, or 160
-//     on the obtuse side, at the default targets) instead of min(its
-//     measure, 1): a tet next to the boundary keeps above that but need not
-//     stay within the targets for an interior tet to get there. A tet whose
-//     repair would need a fixed point to move stays as it is.
+//     at the worst tet with no fixed point, where a tet with a point on the
+//     surface (a TetMesh::boundary() triangle with a non-zero id, or any when
+//     there are no ids; not a leaf's interface) may now give way down to
+//     min(its measure, 0.67) (about 10 degrees, or 160 on the obtuse side, at
+//     the default targets) instead of min(its measure, 1): a tet next to the
+//     surface keeps above that but need not stay within the targets for an
+//     interior tet to get there. The flips and insertions of (a) hold the same
+//     floors: a new tet with no fixed point, or with fixed points on a leaf's
+//     interface only, is no worse than the worst such old tet (capped at 1),
+//     one with a surface point no worse than min(0.67, the worst such old
+//     tet). A tet whose repair would need a fixed point to move stays as it is.
 //
 // Guarantees: frozen faces keep their vertices and coordinates (flips and
 // insertion refuse them; their points are fixed); hull faces and region
