@@ -7,15 +7,16 @@
 // wall time together, tets per CPU second of refinement + optimization, the share of interior edges (no boundary
 // endpoint) with length in [0.6, 1.5] h(midpoint) (and the shares below/above),
 // dihedral extremes over all tets and over interior tets (no boundary vertex),
-// and the share of interior tets with every dihedral angle in [15, 150].
+// the share of interior tets with every dihedral angle in [15, 150], and the
+// share of all tets with a dihedral angle under 10 degrees.
 // Not a test: it asserts nothing.
 //   usage: pdrmesh_bench_refine [CORPUS_DIR [NAME...]]
 //   environment: PDRMESH_BENCH_SIZES=dflt|d100 (one size only), PDRMESH_BENCH_VERBOSE
 //   (per-pass lines), PDRMESH_BENCH_NO_OPTIMIZE, PDRMESH_BENCH_NO_MIN_MAX,
 //   PDRMESH_BENCH_EACH_INSERTION (min-max step after each insertion), PDRMESH_BENCH_MIN_MAX_ANGLE=A,
-//   PDRMESH_BENCH_SWEEPS=N (optimization sweeps), PDRMESH_BENCH_LONG_EDGE_RATIO=R,
+//   PDRMESH_BENCH_SWEEPS=N (optimization sweeps), PDRMESH_BENCH_NO_REPAIR (no interior repair), PDRMESH_BENCH_LONG_EDGE_RATIO=R,
 //   PDRMESH_BENCH_NO_VOID_MIDPOINTS, PDRMESH_BENCH_SPATIAL_ORDER (RefineOptions::spatial_order),
-//   PDRMESH_BENCH_DUMP_BAD (stderr: up to 40 interior tets outside
+//   PDRMESH_BENCH_DUMP_BAD (stderr: the 40 worst interior tets outside
 //   [15, 150] with their edge lengths over h and their vertices' stars)
 #include <fmt/format.h>
 
@@ -88,6 +89,7 @@ void run(const std::string& dir, const std::string& name, bool fine) {
   if (std::getenv("PDRMESH_BENCH_NO_OPTIMIZE") == nullptr) {
     OptimizeOptions oo;
     if (const char* v = std::getenv("PDRMESH_BENCH_SWEEPS")) oo.sweeps = std::atoi(v);
+    if (std::getenv("PDRMESH_BENCH_NO_REPAIR") != nullptr) oo.interior_repair = false;
     auto ostats = optimize(*mesh, &*field, oo);
     if (verbose && ostats.ok())
       fmt::print(stderr, "  optimize: {} sweeps, bad {} -> {}, {} flips, {} slivers removed, {} points inserted, {} moved\n",
@@ -124,11 +126,12 @@ void run(const std::string& dir, const std::string& name, bool fine) {
     else ++good;
   }
   AngleRange all{180, 0}, inner{180, 0};
-  std::size_t inner_tets = 0, inner_good = 0;
+  std::size_t inner_tets = 0, inner_good = 0, under10 = 0;
   for (const Tet& k : out.tets) {
     const auto r = dihedral_range(out.points[k[0]], out.points[k[1]], out.points[k[2]], out.points[k[3]]);
     all.min = std::min(all.min, r.min);
     all.max = std::max(all.max, r.max);
+    if (r.min < 10) ++under10;
     if (on_boundary[k[0]] || on_boundary[k[1]] || on_boundary[k[2]] || on_boundary[k[3]]) continue;
     ++inner_tets;
     if (r.min >= 15 && r.max <= 150) ++inner_good;
@@ -139,13 +142,20 @@ void run(const std::string& dir, const std::string& name, bool fine) {
     std::vector<std::vector<Index>> vt(out.points.size());
     for (Index t = 0; t < out.tets.size(); ++t)
       for (Index v : out.tets[t]) vt[v].push_back(t);
-    int shown = 0;
-    for (Index t = 0; t < out.tets.size() && shown < 40; ++t) {
+    // The 40 worst (smallest of min and 180 - max first).
+    std::vector<std::pair<double, Index>> worst;
+    for (Index t = 0; t < out.tets.size(); ++t) {
       const Tet& k = out.tets[t];
       if (on_boundary[k[0]] || on_boundary[k[1]] || on_boundary[k[2]] || on_boundary[k[3]]) continue;
       const auto r = dihedral_range(out.points[k[0]], out.points[k[1]], out.points[k[2]], out.points[k[3]]);
       if (r.min >= 15 && r.max <= 150) continue;
-      ++shown;
+      worst.push_back({std::min(r.min, 180.0 - r.max), t});
+    }
+    std::sort(worst.begin(), worst.end());
+    if (worst.size() > 40) worst.resize(40);
+    for (const auto& [score, t] : worst) {
+      const Tet& k = out.tets[t];
+      const auto r = dihedral_range(out.points[k[0]], out.points[k[1]], out.points[k[2]], out.points[k[3]]);
       const Vec3 c = 0.25 * (out.points[k[0]] + out.points[k[1]] + out.points[k[2]] + out.points[k[3]]);
       const double h = field->at(c);
       std::string el;
@@ -168,11 +178,12 @@ void run(const std::string& dir, const std::string& name, bool fine) {
   }
   const double n = edges.empty() ? 1.0 : double(edges.size());
   const double cpu = refine_cpu + optimize_cpu;
-  fmt::print("{:<13} {:>5} {:>9} {:>4} {:>6.2f} {:>6.2f} {:>6.2f} {:>9.0f} {:>6.1f}% {:>5.1f}% {:>5.1f}% {:>6.1f} {:>6.1f} {:>6.1f} {:>6.1f} {:>6.1f}% {}\n",
+  fmt::print("{:<13} {:>5} {:>9} {:>4} {:>6.2f} {:>6.2f} {:>6.2f} {:>9.0f} {:>6.1f}% {:>5.1f}% {:>5.1f}% {:>6.1f} {:>6.1f} {:>6.1f} {:>6.1f} {:>6.1f}% {:>6.3f}% {}\n",
              name, fine ? "d/100" : "dflt", out.tets.size(), stats->passes.size(), refine_cpu, optimize_cpu,
              seconds, double(out.tets.size()) / cpu, 100.0 * double(good) / n, 100.0 * double(shorter) / n,
              100.0 * double(longer) / n, all.min, all.max, inner.min, inner.max,
              inner_tets ? 100.0 * double(inner_good) / double(inner_tets) : 0.0,
+             out.tets.empty() ? 0.0 : 100.0 * double(under10) / double(out.tets.size()),
              report.ok() ? "valid" : "INVALID: " + (report.errors.empty() ? std::string() : report.errors[0]));
   std::fflush(stdout);
 }
@@ -186,9 +197,9 @@ int main(int argc, char** argv) {
   if (names.empty())
     names = {"sphere966", "bunny_npm", "hinge", "elephant", "couplingdown",
              "knot2", "fandisk", "primitives13", "armadillo", "frame"};
-  fmt::print("{:<13} {:>5} {:>9} {:>4} {:>6} {:>6} {:>6} {:>9} {:>7} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>7} {}\n", "surface",
+  fmt::print("{:<13} {:>5} {:>9} {:>4} {:>6} {:>6} {:>6} {:>9} {:>7} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>7} {:>7} {}\n", "surface",
              "size", "tets", "pass", "ref_s", "opt_s", "wall_s", "tets/cpu_s", "in[.6,1.5]", "<.6", ">1.5", "dmin", "dmax", "idmin",
-             "idmax", "i[15,150]", "validate");
+             "idmax", "i[15,150]", "<10deg", "validate");
   const char* sizes = std::getenv("PDRMESH_BENCH_SIZES");  // "dflt", "d100" or both (unset)
   for (const std::string& name : names)
     for (bool fine : {false, true})

@@ -393,6 +393,7 @@ TEST(Optimize, PolishingPinsTetsWithAFixedPoint) {
     TetMesh m = refined;
     OptimizeOptions o;
     o.polish_pins_fixed = pin == 1;
+    o.interior_repair = false;  // the polishing rounds alone
     auto st = optimize(m, &*h, o);
     ASSERT_TRUE(st.ok());
     rounds[pin] = st->polish_rounds;
@@ -406,6 +407,63 @@ TEST(Optimize, PolishingPinsTetsWithAFixedPoint) {
   }
   EXPECT_GE(rounds[1], 1);
   EXPECT_LT(bad[1], bad[0]);
+}
+
+TEST(Optimize, InteriorRepairFixesInteriorTetsTheSweepsLeave) {
+  // With strict targets the sweeps and polishing rounds leave bad tets with no
+  // hull point in the jittered grid; the interior repair (flips judged by the
+  // full measure, smoothing where tets with a hull point may give way down to
+  // the repair floor) leaves fewer, moves no hull point, keeps the volume, and
+  // never lowers the smallest dihedral angle over the interior tets.
+  const VolumeMesh v = jittered_grid(5, 0.45);
+  const auto on_hull = hull_points(v);
+  const SizingField h = uniform_sizing(v, 1.0);
+  std::array<std::size_t, 2> bad{};
+  std::array<double, 2> inner_min{};
+  for (int repair = 0; repair < 2; ++repair) {
+    TetMesh m = fixtures::build(v);
+    const double volume = fixtures::total_volume(m);
+    OptimizeOptions o;
+    o.target_min_dihedral = 35;
+    o.target_max_dihedral = 110;
+    o.interior_repair = repair == 1;
+    auto st = optimize(m, &h, o);
+    ASSERT_TRUE(st.ok()) << st.status().to_string();
+    EXPECT_EQ(st->repair_rounds > 0, repair == 1);
+    bad[repair] = interior_bad(m, on_hull, 35, 110);
+    inner_min[repair] = min_dihedral(m, &on_hull);
+    expect_hull_points_kept(m, v);
+    EXPECT_NEAR(fixtures::total_volume(m), volume, 1e-12 * volume);
+    expect_valid(m, nullptr);
+  }
+  EXPECT_GT(bad[0], 0u);
+  EXPECT_LT(bad[1], bad[0]);
+  EXPECT_GE(inner_min[1], inner_min[0]);
+}
+
+TEST(Optimize, InteriorRepairLeavesTetsThatNeedAHullPointToMove) {
+  // A slab 0.1 thick: every tet is flat, the interior ones (whose points lie
+  // between the two hull planes) too, and making them good would need the
+  // hull points to move. The repair must leave the hull points and every tet
+  // with a hull point as they are (those are below its floor already, so they
+  // may not get worse) and keep the mesh valid, whatever it does inside.
+  VolumeMesh v = kuhn_grid_with_hull(3);
+  for (Vec3& p : v.points) p[2] *= 0.1;
+  ASSERT_TRUE(all_positive(v));
+  const auto on_hull = hull_points(v);
+  TetMesh m = fixtures::build(v);
+  const SizingField h = uniform_sizing(v, 1.0);
+  const std::size_t before = interior_bad(m, on_hull, 15, 150);
+  const double volume = fixtures::total_volume(m);
+  auto st = optimize(m, &h, {});
+  ASSERT_TRUE(st.ok()) << st.status().to_string();
+  EXPECT_GT(before, 0u);
+  EXPECT_GE(st->repair_rounds, 1);
+  EXPECT_EQ(interior_bad(m, on_hull, 15, 150), before);
+  expect_hull_points_kept(m, v);
+  EXPECT_NEAR(fixtures::total_volume(m), volume, 1e-12 * volume);
+  EXPECT_GE(st->min_dihedral_after, st->min_dihedral_before);
+  expect_valid(m, nullptr);
 }
 
 TEST(Optimize, ElephantInteriorWithinTargets) { expect_interior_within_targets("elephant"); }

@@ -81,6 +81,13 @@ constexpr std::size_t kSmoothRetriesMin = 2000;  ///< ... but at least this many
 constexpr int kPolishRounds = 4;
 /// Line-search steps towards each smoothing target: 1, 1/2, ..., 1/64.
 constexpr int kLineSteps = 7;
+/// Most rounds of the interior repair (see optimize.hpp).
+constexpr int kRepairRounds = 4;
+/// Interior repair: a tet with a fixed point may fall to this measure (about
+/// 10 degrees, or 160 on the obtuse side, at the default targets) when a
+/// smoothing move repairs a tet with no fixed point; above it, it may not get
+/// worse.
+constexpr double kRepairFloor = 0.67;
 
 class Optimizer {
  public:
@@ -178,12 +185,41 @@ class Optimizer {
     return inserted;
   }
 
+  /// Marks in fixed_ the points on a frozen, hull or region face, and in
+  /// surface_ those on a boundary triangle that is not a leaf's interface
+  /// (TetMesh::boundary() with a non-zero id, or any when there are no ids).
+  void find_fixed() {
+    // No operation of the optimizer changes which points are fixed (flips and
+    // insertions refuse frozen, hull and region faces; a new point is free),
+    // so the marks are found once and only grow with the points after that.
+    if (fixed_known_) {
+      fixed_.resize(m_.num_points(), 0);
+      surface_.resize(m_.num_points(), 0);
+      return;
+    }
+    fixed_known_ = true;
+    surface_.assign(m_.num_points(), 0);
+    for (std::size_t i = 0; i < m_.boundary().size(); ++i)
+      if (m_.boundary_ids().size() != m_.boundary().size() || m_.boundary_ids()[i] != 0)
+        for (Index v : m_.boundary()[i]) surface_[v] = 1;
+    fixed_.assign(m_.num_points(), 0);
+    for (Index t = 0; t < m_.num_slots(); ++t) {
+      if (!m_.alive(t)) continue;
+      const Tet& k = m_.tet(t);
+      for (int f = 0; f < 4; ++f) {
+        const Index n = m_.neighbour(t, f);
+        if (n == kNoIndex || m_.frozen(t, f) || m_.region(face_tet(n)) != m_.region(t))
+          for (int j = 0; j < 3; ++j) fixed_[k[topo::kFaceVertex[f][j]]] = 1;
+      }
+    }
+  }
+
   /// One smoothing pass over the free vertices of bad tets, ascending.
   std::size_t smooth() {
     const Index np = m_.num_points();
     std::vector<Index> one_tet(np, kNoIndex);
-    fixed_.assign(np, 0);
-    std::vector<char>& fixed = fixed_;
+    find_fixed();
+    const std::vector<char>& fixed = fixed_;
     std::vector<char> wanted(np, 0);
     std::vector<Index> bad;
     for (Index t = 0; t < m_.num_slots(); ++t) {
@@ -191,11 +227,6 @@ class Optimizer {
       const Tet& k = m_.tet(t);
       for (int i = 0; i < 4; ++i)
         if (one_tet[k[i]] == kNoIndex) one_tet[k[i]] = t;
-      for (int f = 0; f < 4; ++f) {
-        const Index n = m_.neighbour(t, f);
-        if (n == kNoIndex || m_.frozen(t, f) || m_.region(face_tet(n)) != m_.region(t))
-          for (int j = 0; j < 3; ++j) fixed[k[topo::kFaceVertex[f][j]]] = 1;
-      }
       if (badness(t) != Badness::kGood) bad.push_back(t);
     }
     if (interior_only_) bad = interior(bad);
@@ -253,9 +284,33 @@ class Optimizer {
   /// Restricts smooth() to the vertices of bad tets with no fixed point.
   /// With `pin` (the polishing rounds' polish_pins_fixed), smoothing also pins
   /// the tets with a fixed point (see optimize.hpp).
-  void set_interior_only(bool on, bool pin = false) {
+  void set_interior_only(bool on, bool pin = false, double pin_floor = 1.0) {
     interior_only_ = on;
     pin_fixed_ = on && pin;
+    pin_floor_ = pin_floor;
+  }
+
+  /// Interior repair flips (see optimize.hpp): for each bad tet with no fixed
+  /// point in `seeds` (slot order), one edge removal or 2-3 flip judged by
+  /// measure() (min-max over the tets replaced) on its edges, its faces, then
+  /// its face neighbours' other edges; created bad tets with no fixed point
+  /// join the queue. Returns the flips done.
+  std::size_t repair_flips(std::vector<Index> seeds) {
+    std::size_t done = 0;
+    for (std::size_t head = 0; head < seeds.size(); ++head) {
+      if (flips_this_sweep_ >= flip_budget_) break;
+      const Index t = seeds[head];
+      if (!m_.alive(t) || badness(t) == Badness::kGood || !free_tet(t)) continue;
+      if (!repair_tet(t)) continue;
+      ++done;
+      ++flips_this_sweep_;
+      for (Index c : m_.last_created())
+        if (badness(c) != Badness::kGood && free_tet(c)) seeds.push_back(c);
+      if (m_.alive(t)) seeds.push_back(t);
+    }
+    st_.flips += done;
+    st_.repair_flips += done;
+    return done;
   }
 
   void start_sweep() {
@@ -274,6 +329,174 @@ class Optimizer {
   void forget_created() {
     for (Index c : m_.last_created())
       if (c < known_.size()) known_[c] = 0;
+  }
+
+  /// No vertex of tet t is fixed (fixed_ as find_fixed left it; later points are free).
+  bool free_tet(Index t) const {
+    for (Index v : m_.tet(t))
+      if (v < fixed_.size() && fixed_[v] != 0) return false;
+    return true;
+  }
+
+  /// Whether a point of face f is on the surface (surface_).
+  bool on_surface(const Tri& f) const {
+    for (Index v : f)
+      if (v < surface_.size() && surface_[v] != 0) return true;
+    return false;
+  }
+
+  /// measure() of tet k, or -inf when k is not positive (exact).
+  double measured(const Tet& k) const {
+    const auto p = corners(m_, k);
+    if (exact::orient3d(p[0], p[1], p[2], p[3]) <= 0) return -std::numeric_limits<double>::infinity();
+    return measure(p);
+  }
+
+  /// Whether the tets of fresh_ hold the floors of the tets they replace
+  /// (repair_floors): a repair flip must not trade an interior tet for a worse
+  /// one, nor make a tet with a fixed point worse than kRepairFloor where the
+  /// old ones with a fixed point were not.
+  bool fresh_holds(const std::array<double, 3>& floors) const {
+    for (const Tet& k : fresh_)
+      if (measure(corners(m_, k)) < floors[repair_class(k)]) return false;
+    return true;
+  }
+
+  /// The repair's class of tet k: 0 no fixed point, 1 a point on the surface
+  /// (surface_), 2 fixed points elsewhere only (a leaf's interface, which is
+  /// inside the final mesh: such tets are held like those with no fixed point).
+  int repair_class(const Tet& k) const {
+    int c = 0;
+    for (Index v : k) {
+      if (v < surface_.size() && surface_[v] != 0) return 1;
+      if (v < fixed_.size() && fixed_[v] != 0) c = 2;
+    }
+    return c;
+  }
+
+  /// The floors of a repair operation replacing `tets`, per repair_class: the
+  /// worst measure of the class, capped at 1 (at kRepairFloor for class 1).
+  std::array<double, 3> repair_floors(std::span<const Index> tets) const {
+    std::array<double, 3> q{1.0, kRepairFloor, 1.0};
+    for (Index t : tets) {
+      double& f = q[static_cast<std::size_t>(repair_class(m_.tet(t)))];
+      f = std::min(f, measure(corners(m_, m_.tet(t))));
+    }
+    return q;
+  }
+
+  /// One repair flip around the bad tet t (repair_flips).
+  bool repair_tet(Index t) {
+    const auto p = corners(m_, m_.tet(t));
+    const auto angles = dihedral_angles(p[0], p[1], p[2], p[3]);
+    std::array<int, 6> edges{0, 1, 2, 3, 4, 5};
+    std::stable_sort(edges.begin(), edges.end(), [&](int a, int b) {
+      return std::abs(angles[a] - 90.0) > std::abs(angles[b] - 90.0);  // most extreme first
+    });
+    for (int e : edges)
+      if (remove_edge_measured(t, e)) return true;
+    for (int f = 0; f < 4; ++f)
+      if (flip23_measured(t, f)) return true;
+    for (int f = 0; f < 4; ++f) {
+      const Index n = m_.neighbour(t, f);
+      if (n == kNoIndex) continue;
+      const Index u = face_tet(n);
+      const int apex = face_local(n);
+      for (int j = 0; j < 4; ++j)
+        if (j != apex && remove_edge_measured(u, topo::kEdgeIndex[apex][j])) return true;
+    }
+    // No flip: a point in the cavity of t and its face neighbours (as for slivers).
+    if (sizing_ != nullptr && o_.insert_points && insert_into(t, /*guard_free=*/true)) {
+      ++st_.points_inserted;
+      return true;
+    }
+    return false;
+  }
+
+  /// Edge removal as flips.hpp's remove_edge (ring of 3..kMaxRemovalRing
+  /// tets, Klincsek's triangulation of the ring), but maximising the smallest
+  /// measure() of the new tets, and done only when it beats the old tets' smallest.
+  bool remove_edge_measured(Index t, int e) {
+    for (int s = 0; s < 2; ++s) {
+      const int f = topo::edge_face(e, s);
+      if (m_.neighbour(t, f) == kNoIndex || m_.frozen(t, f)) return false;
+    }
+    EdgeRing r;
+    if (!m_.edge_ring(t, e, r, kMaxRemovalRing) || !r.closed) return false;
+    const int n = r.size;
+    if (n < 3 || n > kMaxRemovalRing) return false;
+    double old_q = std::numeric_limits<double>::infinity();
+    for (int i = 0; i < n; ++i) {
+      const Index u = r.tets[static_cast<std::size_t>(i)];
+      if (m_.frozen(u, topo::local_vertex(m_.tet(u), r.ring[static_cast<std::size_t>(i)]))) return false;
+      if (m_.region(u) != m_.region(r.tets[0])) return false;
+      old_q = std::min(old_q, measure(corners(m_, m_.tet(u))));
+    }
+    constexpr double kNone = -std::numeric_limits<double>::infinity();
+    constexpr int kM = kMaxRemovalRing;
+    std::array<std::array<double, kM>, kM> best{};
+    std::array<std::array<int, kM>, kM> apex{};
+    const auto& q = r.ring;
+    for (int i = 0; i + 1 < n; ++i) best[i][i + 1] = std::numeric_limits<double>::infinity();
+    for (int len = 2; len < n; ++len)
+      for (int i = 0; i + len < n; ++i) {
+        const int j = i + len;
+        best[i][j] = kNone;
+        apex[i][j] = -1;
+        for (int k = i + 1; k < j; ++k) {
+          double v = std::min(best[i][k], best[k][j]);
+          if (v <= best[i][j] || v <= old_q) continue;
+          v = std::min(v, measured({q[i], q[k], q[j], r.b}));
+          if (v <= best[i][j] || v <= old_q) continue;
+          v = std::min(v, measured({q[k], q[i], q[j], r.a}));
+          if (v > best[i][j] && v > old_q) {
+            best[i][j] = v;
+            apex[i][j] = k;
+          }
+        }
+      }
+    if (!(best[0][n - 1] > old_q)) return false;
+    const auto floors = repair_floors(std::span<const Index>(r.tets.data(), static_cast<std::size_t>(n)));
+    fresh_.clear();
+    std::array<std::array<int, 2>, kM> stack{};
+    int top = 0;
+    stack[top++] = {0, n - 1};
+    while (top > 0) {
+      const auto [i, j] = stack[--top];
+      if (j - i < 2) continue;
+      const int k = apex[i][j];
+      fresh_.push_back({q[i], q[k], q[j], r.b});
+      fresh_.push_back({q[k], q[i], q[j], r.a});
+      stack[top++] = {i, k};
+      stack[top++] = {k, j};
+    }
+    if (!fresh_holds(floors)) return false;
+    parent_.assign(fresh_.size(), 0);
+    m_.replace_cavity(std::span<const Index>(r.tets.data(), static_cast<std::size_t>(n)), fresh_, parent_);
+    forget_created();
+    return true;
+  }
+
+  /// 2-3 flip of face f of t as flips.hpp's flip23, judged by measure().
+  bool flip23_measured(Index t, int f) {
+    const Index n = m_.neighbour(t, f);
+    if (n == kNoIndex || m_.frozen(t, f)) return false;
+    const Index u = face_tet(n);
+    if (m_.region(t) != m_.region(u)) return false;
+    const Tet& kt = m_.tet(t);
+    const Index a = kt[topo::kFaceVertex[f][0]], b = kt[topo::kFaceVertex[f][1]];
+    const Index c = kt[topo::kFaceVertex[f][2]], d = kt[f];
+    const Index e = m_.tet(u)[face_local(n)];
+    const double old_q = std::min(measure(corners(m_, kt)), measure(corners(m_, m_.tet(u))));
+    fresh_.assign({Tet{a, b, d, e}, Tet{b, c, d, e}, Tet{c, a, d, e}});
+    for (const Tet& k : fresh_)
+      if (!(measured(k) > old_q)) return false;
+    const std::array<Index, 2> old{t, u};
+    if (!fresh_holds(repair_floors(old))) return false;
+    parent_.assign(3, 0);
+    m_.replace_cavity(old, fresh_, parent_);
+    forget_created();
+    return true;
   }
 
   /// One flip that improves the neighbourhood of the bad tet t, or none.
@@ -368,7 +591,11 @@ class Optimizer {
     // Target 3: the apex that would make the star's worst tet regular.
     Vec3 worst_ideal = old;
     double worst_q = std::numeric_limits<double>::infinity();
-    for (const Tri& f : link_) {
+    for (std::size_t i = 0; i < link_.size(); ++i) {
+      // The repair's smoothing aims at the worst judged tet (a pinned one
+      // only leads when all are).
+      if (profile && pin_floor_ < 1.0 && pinned_[i] && !all_pinned_) continue;
+      const Tri& f = link_[i];
       const Vec3 &a = m_.point(f[0]), &b = m_.point(f[1]), &c = m_.point(f[2]);
       const double q = measure({a, b, c, old});
       if (!(q < worst_q)) continue;
@@ -476,7 +703,8 @@ class Optimizer {
     if (profile_old_.front() >= 1.0) return false;  // the star is good already
     lower_.resize(link_.size());
     for (std::size_t i = 0; i < link_.size(); ++i)
-      lower_[i] = pinned_[i] && !all_pinned_ ? std::min(measures_old_[i], 1.0) : profile_old_.front();
+      lower_[i] = pinned_[i] && !all_pinned_ ? std::min(measures_old_[i], on_surface(link_[i]) ? pin_floor_ : 1.0)
+                                             : profile_old_.front();
     // Targets and line search as best_position, but compared by the star's
     // profile (smoothing_accepts): a move may improve a bad tet while the
     // star's worst tet, which v cannot help (e.g. a tet on the boundary), stays
@@ -495,7 +723,7 @@ class Optimizer {
   /// Replaces the sliver t and its four face neighbours by the star of a new
   /// point over the cavity's boundary, when the new tets are all positive, beat
   /// the cavity's worst measure, and the point keeps its distance.
-  bool insert_into(Index t) {
+  bool insert_into(Index t, bool guard_free = false) {
     if ((m_.flags(t) & TetMesh::kFrozenMask) != 0) return false;
     std::array<Index, 5> cavity{t, 0, 0, 0, 0};
     for (int f = 0; f < 4; ++f) {
@@ -550,6 +778,14 @@ class Optimizer {
     const double h = sizing_->at(x);
     for (Index u : link_points_)
       if (norm(m_.point(u) - x) < o_.insert_min_distance * h) return false;
+    if (guard_free) {  // the repair: the new tets hold the old ones' floors (fresh_holds)
+      const auto floors = repair_floors(cavity);
+      for (const Tri& f : link_) {
+        const int c = repair_class({f[0], f[1], f[2], kNoIndex});  // the new point is free
+        if (measure({m_.point(f[0]), m_.point(f[1]), m_.point(f[2]), x}) < floors[static_cast<std::size_t>(c)])
+          return false;
+      }
+    }
     const Index p = m_.add_point(x);
     std::vector<Tet> fresh;
     for (const Tri& f : link_) fresh.push_back({f[0], f[1], f[2], p});
@@ -569,9 +805,14 @@ class Optimizer {
   std::vector<Tri> link_;  ///< faces of the star being optimised, turned towards its apex
   std::vector<Index> link_points_;
   std::vector<double> measures_old_, measures_new_;  ///< smoothing scratch
-  std::vector<char> fixed_;     ///< per point, set by smooth(): on a frozen, hull or region face
+  std::vector<char> fixed_;     ///< per point, set by find_fixed(): on a frozen, hull or region face
+  std::vector<char> surface_;   ///< per point, set by find_fixed(): on a surface triangle
+  bool fixed_known_ = false;    ///< find_fixed() has run once
   bool interior_only_ = false;  ///< see set_interior_only
   bool pin_fixed_ = false;      ///< smoothing: tets with a fixed point are pinned
+  double pin_floor_ = 1.0;      ///< smoothing: a pinned tet may fall to min(its measure, this)
+  std::vector<Tet> fresh_;      ///< repair flips' scratch
+  std::vector<Index> parent_;
   std::vector<double> profile_old_, profile_new_, profile_best_;
   std::vector<char> pinned_;    ///< smoothing: per link_ face, the tet over it is pinned
   bool all_pinned_ = false;     ///< smoothing: every tet of the star is pinned
@@ -648,23 +889,44 @@ Result<OptimizeStats> optimize(TetMesh& mesh, const SizingField* sizing,
       break;
     }
   }
-  // Polishing rounds: reconnection and smoothing of the bad tets with no fixed
-  // point alone, while their number falls (their work is small; the full sweeps
-  // spend theirs on tets next to the boundary, many beyond repair).
-  if (options.smooth && st.sweeps_run > 0 && !settled) {
+  // Runs `round` up to `rounds` times while the number of bad tets with no
+  // fixed point falls (the polishing and the repair rounds).
+  const auto while_interior_falls = [&](int rounds, int& count, const auto& round) {
     std::size_t inner = opt.interior(bad).size();
-    for (int round = 0; round < kPolishRounds && inner > 0; ++round) {
-      ++st.polish_rounds;
+    for (int r = 0; r < rounds && inner > 0; ++r) {
+      ++count;
       opt.start_sweep();
-      opt.reconnect(opt.interior(bad));
-      opt.set_interior_only(true, options.polish_pins_fixed);
-      opt.smooth();
-      opt.set_interior_only(false);
+      round();
       bad = opt.bad_tets();
       const std::size_t now = opt.interior(bad).size();
       if (now >= inner) break;
       inner = now;
     }
+  };
+  // Polishing rounds: reconnection and smoothing of the bad tets with no fixed
+  // point alone, while their number falls (their work is small; the full sweeps
+  // spend theirs on tets next to the boundary, many beyond repair).
+  if (options.smooth && st.sweeps_run > 0 && !settled) {
+    while_interior_falls(kPolishRounds, st.polish_rounds, [&] {
+      opt.reconnect(opt.interior(bad));
+      opt.set_interior_only(true, options.polish_pins_fixed);
+      opt.smooth();
+      opt.set_interior_only(false);
+    });
+  }
+  // Interior repair: flips judged by the full measure, then smoothing of the
+  // vertices of the bad tets with no fixed point, where a tet with a fixed
+  // point may give way down to kRepairFloor, while their number falls.
+  if (options.interior_repair && st.sweeps_run > 0) {
+    opt.find_fixed();
+    while_interior_falls(kRepairRounds, st.repair_rounds, [&] {
+      opt.repair_flips(opt.interior(bad));
+      if (options.smooth) {
+        opt.set_interior_only(true, true, kRepairFloor);
+        opt.smooth();
+        opt.set_interior_only(false);
+      }
+    });
   }
   st.bad_after = bad.size();
   const AngleRange after = mesh_range(mesh);

@@ -74,6 +74,29 @@
 //     adjacency from one incident tet (a vertex -> tet map built per smoothing
 //     step). Moved points have their tets' quality cache reset.
 //
+//  4. Interior repair (interior_repair, on), after the polishing rounds, up to
+//     four rounds while the number of bad tets with no fixed point falls:
+//     (a) flips for each such tet (slot order, then the created ones): edge
+//     removal of its edges (the most extreme dihedral angle first), 2-3 flips
+//     of its faces, then edge removal of its face neighbours' other edges,
+//     each judged by the measure above instead of the largest dihedral angle
+//     alone (so that a tet bad by a small angle only is seen too), min-max
+//     over the tets it replaces (the new worst strictly above the old worst);
+//     when no flip applies, a point in the cavity of the tet and its face
+//     neighbours as in 2. (for any bad tet, not only slivers);
+//     (b) smoothing of their free vertices as in the polishing rounds, aimed
+//     at the worst tet with no fixed point, where a tet with a point on the
+//     surface (a TetMesh::boundary() triangle with a non-zero id, or any when
+//     there are no ids; not a leaf's interface) may now give way down to
+//     min(its measure, 0.67) (about 10 degrees, or 160 on the obtuse side, at
+//     the default targets) instead of min(its measure, 1): a tet next to the
+//     surface keeps above that but need not stay within the targets for an
+//     interior tet to get there. The flips and insertions of (a) hold the same
+//     floors: a new tet with no fixed point, or with fixed points on a leaf's
+//     interface only, is no worse than the worst such old tet (capped at 1),
+//     one with a surface point no worse than min(0.67, the worst such old
+//     tet). A tet whose repair would need a fixed point to move stays as it is.
+//
 // Guarantees: frozen faces keep their vertices and coordinates (flips and
 // insertion refuse them; their points are fixed); hull faces and region
 // interfaces likewise; the total volume is conserved up to rounding (points
@@ -113,6 +136,8 @@ struct OptimizeOptions {
   /// instead of leading the smoothing comparison (see above). Off: the
   /// polishing smoothing compares whole stars as in 3.
   bool polish_pins_fixed = true;
+  /// Interior repair rounds after the polishing rounds (see above).
+  bool interior_repair = true;
   /// Safety cap on successful flips per sweep, times the number of tets at the
   /// start of the sweep (the min-max rule already guarantees an end).
   double max_flips_per_tet = 20;
@@ -127,6 +152,8 @@ struct OptimizeStats {
   std::size_t bad_after = 0;
   int sweeps_run = 0;
   int polish_rounds = 0;  ///< polishing rounds run after the sweeps
+  int repair_rounds = 0;  ///< interior repair rounds run after them
+  std::size_t repair_flips = 0;  ///< flips of the interior repair (counted in flips too)
   double min_dihedral_before = 0, min_dihedral_after = 0;  ///< degrees, over all alive tets
   double max_dihedral_before = 0, max_dihedral_after = 0;
   double seconds = 0;  ///< wall time, measured only for reporting
