@@ -55,8 +55,6 @@ Status write_volume(const VolumeMesh& mesh, const std::filesystem::path& path);
 class StagedVolume {
  public:
   StagedVolume() = default;
-  StagedVolume(std::filesystem::path staged, std::filesystem::path destination)
-      : staged_(std::move(staged)), destination_(std::move(destination)) {}
   StagedVolume(StagedVolume&& other) noexcept { *this = std::move(other); }
   StagedVolume& operator=(StagedVolume&& other) noexcept;
   StagedVolume(const StagedVolume&) = delete;
@@ -69,6 +67,10 @@ class StagedVolume {
   void discard() noexcept;
 
  private:
+  friend Result<StagedVolume> stage_volume(const VolumeMesh& mesh, const std::filesystem::path& path);
+  StagedVolume(std::filesystem::path staged, std::filesystem::path destination)
+      : staged_(std::move(staged)), destination_(std::move(destination)) {}
+
   std::filesystem::path staged_;
   std::filesystem::path destination_;
 };
