@@ -6,7 +6,8 @@
 #    decomposition, fix-ups, leaf refinement, interface rounds, optimization, serial share);
 #  * the same figures (2 workers) for the native kernel without the interface rounds and for the
 #    TetGen kernel, so that the gain of the interface rounds is visible.
-#   bench/parallel.sh [DEPTH] [SURFACE...]     (default: depth 2, the small corpus surfaces)
+#   bench/parallel.sh [DEPTH] [SURFACE...]     (default: DEPTH "auto", pdrmesh's own default depth per
+#                                               surface; the small corpus surfaces)
 #   VARIANTS="native" bench/parallel.sh ...    (a subset of: native no-iface tetgen)
 # Each run also writes its profile JSON; pdrmesh_bench_replay projects it to P workers.
 set -euo pipefail
@@ -14,7 +15,8 @@ root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 corpus=${CORPUS:-$root/../shared/corpus}
 pdrmesh=${PDRMESH:-$root/build/client/pdrmesh}
 replay=${REPLAY:-$root/build/bench/pdrmesh_bench_replay}
-depth=${1:-2}; shift || true
+depth=${1:-auto}; shift || true
+depth_args=(); [[ $depth == auto ]] || depth_args=(--depth "$depth")
 names=("$@"); ((${#names[@]})) || names=(sphere966 bunny_npm hinge elephant couplingdown knot2 fandisk primitives13)
 tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
 
@@ -38,7 +40,7 @@ quality() {  # quality PREFIX SERIAL_TETS: tets ratio min max under10
 }
 
 echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'); $(date -u +%F); load $(cut -d' ' -f1-3 /proc/loadavg)"
-echo "serial: pdrmesh mesh; parallel: pdrmesh run --depth $depth (optimization on); timings are wall seconds on a shared machine"
+echo "serial: pdrmesh mesh; parallel: pdrmesh run ${depth_args[*]:-(default depth)} (optimization on); timings are wall seconds on a shared machine"
 printf '%-13s %9s %6s %6s %6s | %-8s %9s %5s %6s %6s %7s %6s %6s %6s %7s | %s\n' surface ser_tets ser_s min max \
   run tets ratio min max under10 w1_s w2_s spdup tets/s "shares: init decomp fixup leaves iface opt serial"
 for n in "${names[@]}"; do
@@ -48,8 +50,8 @@ for n in "${names[@]}"; do
   ser=$(printf '%-13s %9d %6.2f %6.2f %6.2f' "$n" "$st" "$(cat "$tmp/ser.s")" "$(field min_dihedral "$tmp/ser.q")" \
         "$(field max_dihedral "$tmp/ser.q")")
   for variant in ${VARIANTS:-native no-iface tetgen}; do
-    args=(--depth "$depth" --kernel native); [[ $variant == no-iface ]] && args+=(--no-interface-round)
-    [[ $variant == tetgen ]] && args=(--depth "$depth" --kernel tetgen)
+    args=("${depth_args[@]}" --kernel native); [[ $variant == no-iface ]] && args+=(--no-interface-round)
+    [[ $variant == tetgen ]] && args=("${depth_args[@]}" --kernel tetgen)
     measure "$tmp/w2" "$pdrmesh" run -q "$s" -o "$tmp/w2.meshb" "${args[@]}" --workers 2 --profile-json "$tmp/w2.json" ||
       { printf '%s | %-8s failed\n' "$ser" "$variant"; continue; }
     w1=-; spd=-
