@@ -593,7 +593,7 @@ TEST(Pdr, ACallerMadeInitialMeshGivesRunPdrsResult) {
   const PdrOptions o = depth2(2);
   Result<VolumeMesh> whole = run_pdr(sp->surface, *sp->sizing, kernel, o, nullptr);
   ASSERT_TRUE(whole.ok()) << whole.status().to_string();
-  Result<PdrPlan> plan = plan_pdr(sp->surface, surface_spacing(sp->surface, *sp->sizing), o);
+  Result<PdrPlan> plan = plan_pdr(sp->surface, surface_spacing(sp->surface, *sp->sizing), o, kernel);
   ASSERT_TRUE(plan.ok()) << plan.status().to_string();
   EXPECT_EQ(plan->depth, 2);
   Result<VolumeMesh> initial = tetrahedralize(sp->surface, plan->tetgen);

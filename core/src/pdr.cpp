@@ -595,7 +595,8 @@ double surface_spacing(const SurfaceMesh& surface, const SizingField& sizing) {
   return sum_h / static_cast<double>(surface.points.size());
 }
 
-Result<PdrPlan> plan_pdr(const SurfaceMesh& surface, double surface_h, const PdrOptions& options) {
+Result<PdrPlan> plan_pdr(const SurfaceMesh& surface, double surface_h, const PdrOptions& options,
+                         const LeafKernel& kernel) {
   if (options.depth > kMaxDepth) {
     return invalid_input(fmt::format("octree depth {} is outside [0, {}] (or -1)", options.depth, kMaxDepth));
   }
@@ -623,7 +624,7 @@ Result<PdrPlan> plan_pdr(const SurfaceMesh& surface, double surface_h, const Pdr
                            options.initial_min_volume_factor * regular_tet_volume(surface_h));
   tg.time_limit_s = options.tetgen_time_limit_s;
   tg.radius_edge = options.initial_radius_edge;
-  tg.seeds_only = options.initial_seeds_only;
+  tg.seeds_only = options.initial_seeds_only.value_or(!kernel.needs_manifold_hull());
   if (!(*tg.max_volume > 0) || !std::isfinite(*tg.max_volume)) tg.max_volume.reset();
   return plan;
 }
@@ -634,7 +635,7 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
   if (surface.points.empty() || surface.triangles.empty()) {
     return invalid_input(fmt::format("{}: the surface is empty", surface.name));
   }
-  PDR_ASSIGN_OR_RETURN(const PdrPlan plan, plan_pdr(surface, surface_spacing(surface, sizing), options));
+  PDR_ASSIGN_OR_RETURN(const PdrPlan plan, plan_pdr(surface, surface_spacing(surface, sizing), options, kernel));
   if (options.progress && !options.progress({"initial mesh", 0, 0, 0})) {
     return cancelled("stopped before the initial mesh");
   }

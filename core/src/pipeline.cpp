@@ -23,7 +23,8 @@ using Clock = std::chrono::steady_clock;
 /// run_pdr's plan from the surface alone (SizingField::surface_values gives h
 /// at the surface points, summed in point order as surface_spacing does), or
 /// none when those values are not all finite or the plan fails.
-std::optional<PdrPlan> plan_from_surface(const SurfaceMesh& surface, const ParallelOptions& options) {
+std::optional<PdrPlan> plan_from_surface(const SurfaceMesh& surface, const ParallelOptions& options,
+                                         const LeafKernel& kernel) {
   Result<std::vector<double>> h = SizingField::surface_values(surface, options.sizing);
   if (!h.ok()) return std::nullopt;
   double sum_h = 0;
@@ -31,7 +32,7 @@ std::optional<PdrPlan> plan_from_surface(const SurfaceMesh& surface, const Paral
     if (!std::isfinite(v)) return std::nullopt;
     sum_h += v;
   }
-  Result<PdrPlan> plan = plan_pdr(surface, sum_h / static_cast<double>(h->size()), options.pdr);
+  Result<PdrPlan> plan = plan_pdr(surface, sum_h / static_cast<double>(h->size()), options.pdr, kernel);
   if (!plan.ok()) return std::nullopt;
   return std::move(*plan);
 }
@@ -100,7 +101,7 @@ Result<ParallelResult> mesh_parallel(const SurfaceMesh& surface, const ParallelO
   std::optional<PdrPlan> plan;  // set: `initial` was made from it, beside the sizing field
   std::optional<VolumeMesh> initial;
   double initial_s = 0, overlapped_s = 0;
-  if (options.pdr.workers >= 2) plan = plan_from_surface(surface, options);
+  if (options.pdr.workers >= 2) plan = plan_from_surface(surface, options, *kernel);
   if (plan) {
     if (options.pdr.progress && !options.pdr.progress({"initial mesh", 0, 0, 0}))
       return cancelled("stopped before the initial mesh");

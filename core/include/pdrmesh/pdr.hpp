@@ -74,8 +74,12 @@ struct PdrOptions {
   /// without this bound, 1.07 with 2, 0.52 with 8: too coarse a start leaves
   /// small leaves nothing to refine between their frozen hulls).
   double initial_min_volume_factor = 2;
-  /// The initial mesh is the boundary-conforming mesh plus the seed lattice of
-  /// max_volume (TetgenOptions::seeds_only): no TetGen refinement. TetGen's
+  /// Unset: true for a kernel that refines the volume it is given (native),
+  /// false for one that needs the fix-ups (tetgen: they were tuned on TetGen's
+  /// refined initial mesh and take 3x longer on the seeded one, primitives13 at
+  /// depth 2: 188 s against 57 s). true: the initial mesh is the
+  /// boundary-conforming mesh plus the seed lattice of max_volume
+  /// (TetgenOptions::seeds_only): no TetGen refinement. TetGen's
   /// -a and -q place points next to the boundary, closer than the target
   /// spacing where the body is thin, and the refiner never removes a point:
   /// couplingdown at its default depth (1) made 1.058 times the serial tets
@@ -83,7 +87,7 @@ struct PdrOptions {
   /// default depths stay within 1.8% of serial either way, frame and armadillo
   /// within 0.6% without. false: TetGen refines with
   /// -a max_volume and -q initial_radius_edge.
-  bool initial_seeds_only = true;
+  std::optional<bool> initial_seeds_only;
   /// TetGen -q for the initial mesh when !initial_seeds_only (radius-edge
   /// bound); unset: none. Without it the dense initial mesh holds flat tets of
   /// four surface points that no round refines and no optimization can flip
@@ -222,8 +226,10 @@ double surface_spacing(const SurfaceMesh& surface, const SizingField& sizing);
 
 /// The plan run_pdr makes for this surface_h: depth (options.depth, or the
 /// default from the estimated tet count) and the initial mesh's volume bound.
-/// invalid_input on a bad depth or divisor or an empty surface.
-Result<PdrPlan> plan_pdr(const SurfaceMesh& checked_surface, double surface_h, const PdrOptions& options);
+/// invalid_input on a bad depth or divisor or an empty surface. `kernel`
+/// decides an unset PdrOptions::initial_seeds_only.
+Result<PdrPlan> plan_pdr(const SurfaceMesh& checked_surface, double surface_h, const PdrOptions& options,
+                         const LeafKernel& kernel);
 
 /// run_pdr from an initial mesh the caller made with tetrahedralize(surface,
 /// plan.tetgen) (in initial_s seconds, counted in the profile), plan from
