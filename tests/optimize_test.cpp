@@ -466,6 +466,56 @@ TEST(Optimize, InteriorRepairLeavesTetsThatNeedAHullPointToMove) {
   expect_valid(m, nullptr);
 }
 
+/// A 2x2x2 Kuhn grid with a flat cap on its top: the corners A = (0, 0, 2)
+/// and C = (1, 1, 2) of one top square are lowered by `dip`, and the tet
+/// (A, B, C, D) over the square (B = (1, 0, 2), D = (0, 1, 2)) fills the dent:
+/// two faces on the surface (A B D, B C D, split along B D), two inside (on the
+/// grid's old top triangles A B C, A C D), all four points on the surface.
+VolumeMesh grid_with_cap(double dip) {
+  VolumeMesh v = kuhn_grid_with_hull(2);
+  const auto id = [](int x, int y, int z) { return static_cast<Index>(x + 3 * (y + 3 * z)); };
+  const Index a = id(0, 0, 2), b = id(1, 0, 2), c = id(1, 1, 2), d = id(0, 1, 2);
+  v.points[a][2] -= dip;
+  v.points[c][2] -= dip;
+  Tet cap{a, b, c, d};
+  if (signed_volume(v.points[a], v.points[b], v.points[c], v.points[d]) < 0) std::swap(cap[1], cap[3]);
+  v.tets.push_back(cap);
+  return fixtures::with_hull_boundary(v);
+}
+
+TEST(Optimize, CapRepairReplacesAFlatTetOnTheSurface) {
+  const VolumeMesh v = grid_with_cap(0.04);
+  ASSERT_TRUE(all_positive(v));
+  const SurfaceMesh surface = surface_of(v);
+  const SizingField h = uniform_sizing(v, 1.0);
+  OptimizeOptions o;
+  o.reconnect = false;  // a 3-2 flip of the edge A C would do here; the caps of the engine have no such flip
+  {
+    TetMesh m = fixtures::build(v);  // without the cap repair nothing can touch it: all its points are fixed
+    o.repair_caps = false;
+    auto st = optimize(m, &h, o);
+    ASSERT_TRUE(st.ok()) << st.status().to_string();
+    EXPECT_LT(st->min_dihedral_after, 10.0);
+    EXPECT_EQ(st->caps_repaired, 0u);
+  }
+  TetMesh m = fixtures::build(v);
+  const auto frozen = frozen_faces(m);
+  const double volume = fixtures::total_volume(m);
+  o.repair_caps = true;
+  auto st = optimize(m, &h, o);
+  ASSERT_TRUE(st.ok()) << st.status().to_string();
+  EXPECT_LT(st->min_dihedral_before, 10.0);
+  EXPECT_GT(st->max_dihedral_before, 160.0);
+  EXPECT_EQ(st->caps_repaired, 1u);
+  EXPECT_EQ(m.num_points(), v.points.size() + 1);
+  EXPECT_GT(st->min_dihedral_after, 20.0);
+  EXPECT_LT(st->max_dihedral_after, st->max_dihedral_before);
+  expect_hull_points_kept(m, v);
+  EXPECT_EQ(frozen_faces(m), frozen);  // the surface triangles, exactly
+  EXPECT_NEAR(fixtures::total_volume(m), volume, 1e-12 * volume);
+  expect_valid(m, &surface);
+}
+
 TEST(Optimize, ElephantInteriorWithinTargets) { expect_interior_within_targets("elephant"); }
 
 TEST(Optimize, BoundaryAndFrozenFacesStayAndVolumeIsKept) {

@@ -12,6 +12,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <span>
 #include <vector>
 
 #include "pdrmesh/flips.hpp"
@@ -88,6 +89,10 @@ constexpr int kRepairRounds = 4;
 /// smoothing move repairs a tet with no fixed point; above it, it may not get
 /// worse.
 constexpr double kRepairFloor = 0.67;
+/// Cap repair: heights (times h) above the kept faces at which the new point is tried.
+constexpr std::array<double, 7> kCapHeights{0.1, 0.2, 0.3, 0.45, 0.6, 0.75, 0.9};
+/// Cap repair: most tets in a cavity.
+constexpr std::size_t kCapMaxCavity = 24;
 
 class Optimizer {
  public:
@@ -310,6 +315,40 @@ class Optimizer {
     }
     st_.flips += done;
     st_.repair_flips += done;
+    return done;
+  }
+
+  /// Cap repair (optimize.hpp, 5.): one point inserted into a cavity around
+  /// each bad tet with two or three kept faces (kept_face), two of them
+  /// surface triangles, in slot order (insert_cap). Returns the points inserted.
+  std::size_t repair_caps() {
+    if (sizing_ == nullptr || !o_.insert_points) return 0;
+    // The surface triangles (TetMesh::boundary() with a non-zero id, or all
+    // when there are no ids; not a leaf's interface), as sorted keys.
+    std::vector<Tri> surface;
+    const bool ids = m_.boundary_ids().size() == m_.boundary().size();
+    for (std::size_t i = 0; i < m_.boundary().size(); ++i)
+      if (!ids || m_.boundary_ids()[i] != 0) surface.push_back(topo::sorted_key(m_.boundary()[i]));
+    std::sort(surface.begin(), surface.end());
+    std::vector<Index> caps;
+    for (Index t = 0; t < m_.num_slots(); ++t) {
+      if (!m_.alive(t) || badness(t) == Badness::kGood) continue;
+      int kept = 0, on_surface = 0;
+      for (int f = 0; f < 4; ++f) {
+        if (!kept_face(t, f)) continue;
+        ++kept;
+        on_surface += std::binary_search(surface.begin(), surface.end(),
+                                         topo::sorted_key(topo::face_of(m_.tet(t), f)))
+                          ? 1
+                          : 0;
+      }
+      if (kept < 4 && on_surface >= 2) caps.push_back(t);
+    }
+    std::size_t done = 0;
+    for (Index t : caps)
+      if (m_.alive(t) && badness(t) != Badness::kGood && insert_cap(t)) ++done;
+    st_.points_inserted += done;
+    st_.caps_repaired += done;
     return done;
   }
 
@@ -720,6 +759,164 @@ class Optimizer {
     return true;
   }
 
+  /// Face f of t stays as it is in a cap repair: a hull face, a frozen face or
+  /// a face between two regions.
+  bool kept_face(Index t, int f) const {
+    const Index n = m_.neighbour(t, f);
+    return n == kNoIndex || m_.frozen(t, f) || m_.region(face_tet(n)) != m_.region(t);
+  }
+
+  /// Smallest and largest dihedral angle of the tets (link_ face, x), or of the
+  /// tets `tets` when x is null.
+  AngleRange angle_range(const Vec3* x, std::span<const Index> tets) const {
+    AngleRange r{180.0, 0.0};
+    const auto add = [&r](const std::array<Vec3, 4>& p) {
+      const AngleRange a = dihedral_range(p[0], p[1], p[2], p[3]);
+      r.min = std::min(r.min, a.min);
+      r.max = std::max(r.max, a.max);
+    };
+    if (x == nullptr) {
+      for (Index u : tets) add(corners(m_, m_.tet(u)));
+    } else {
+      for (const Tri& f : link_) add({m_.point(f[0]), m_.point(f[1]), m_.point(f[2]), *x});
+    }
+    return r;
+  }
+
+  /// The tets of `cavity` grown until every outer face is seen from x (the
+  /// new tet over it positive by exact::orient3d): a tet across a face that is
+  /// not seen joins, unless the face is kept (then false). The outer faces,
+  /// turned into the cavity, go to link_. False too when the cavity would
+  /// pass kCapMaxCavity tets, leave a region, hold a frozen face inside, or
+  /// lose a vertex (one with no outer face, see insert_into).
+  bool grow_cavity(std::vector<Index>& cavity, const Vec3& x) {
+    const auto inside = [&cavity](Index u) { return std::find(cavity.begin(), cavity.end(), u) != cavity.end(); };
+    for (bool grown = true; grown;) {
+      grown = false;
+      link_.clear();
+      for (std::size_t i = 0; i < cavity.size() && !grown; ++i) {
+        const Index u = cavity[i];
+        for (int g = 0; g < 4 && !grown; ++g) {
+          const Index n = m_.neighbour(u, g);
+          if (n != kNoIndex && inside(face_tet(n))) {
+            if (m_.frozen(u, g)) return false;
+            continue;
+          }
+          const Tri k = topo::face_of(m_.tet(u), g);
+          if (exact::orient3d(m_.point(k[0]), m_.point(k[2]), m_.point(k[1]), x) > 0) {
+            link_.push_back({k[0], k[2], k[1]});
+            continue;
+          }
+          if (kept_face(u, g) || cavity.size() >= kCapMaxCavity) return false;
+          cavity.push_back(face_tet(n));
+          grown = true;
+        }
+      }
+    }
+    for (Index u : cavity)
+      for (Index v : m_.tet(u))
+        if (std::none_of(link_.begin(), link_.end(),
+                         [v](const Tri& f) { return f[0] == v || f[1] == v || f[2] == v; }))
+          return false;
+    return true;
+  }
+
+  /// Replaces the cap t (a bad tet with two or three kept faces) and the tets
+  /// around it by the star of one new point x over the cavity's boundary, the
+  /// kept faces included (each becomes a face of a new tet). The cavity starts
+  /// as the ring of the edge that t's two other faces share (with three kept
+  /// faces: t and its neighbour across the fourth) and grows by grow_cavity.
+  /// x is tried above the mean centroid of the kept faces, along their mean
+  /// inward normal, at kCapHeights times h there, and then moved as in
+  /// best_position; the best x by the worst measure of its star is taken,
+  /// when that beats the old tets' worst measure, the smallest dihedral angle
+  /// rises and the largest does not.
+  bool insert_cap(Index t) {
+    const Tet kt = m_.tet(t);
+    Vec3 mid{0, 0, 0}, inward{0, 0, 0};
+    std::array<int, 2> open{};  // the faces of t that are not kept
+    int kept = 0, n_open = 0;
+    for (int f = 0; f < 4; ++f) {
+      if (!kept_face(t, f)) {
+        if (n_open < 2) open[static_cast<std::size_t>(n_open)] = f;
+        ++n_open;
+        continue;
+      }
+      const Tri k = topo::face_of(kt, f);
+      const Vec3 &a = m_.point(k[0]), &b = m_.point(k[2]), &c = m_.point(k[1]);
+      const Vec3 n = cross(b - a, c - a);  // into t
+      const double ln = norm(n);
+      if (!(ln > 0.0)) return false;
+      mid = mid + (1.0 / 3.0) * (a + b + c);
+      inward = inward + (1.0 / ln) * n;
+      ++kept;
+    }
+    if (kept < 2 || kept == 4) return false;
+    std::vector<Index> seed{t};
+    if (kept == 2) {
+      // The faces opposite local vertices open[0], open[1] share the edge of
+      // the other two vertices.
+      std::array<int, 2> ends{};
+      int m = 0;
+      for (int v = 0; v < 4; ++v)
+        if (v != open[0] && v != open[1]) ends[static_cast<std::size_t>(m++)] = v;
+      EdgeRing r;
+      if (!m_.edge_ring(t, topo::kEdgeIndex[ends[0]][ends[1]], r, static_cast<int>(kCapMaxCavity)) || !r.closed) return false;
+      seed.assign(r.tets.begin(), r.tets.begin() + r.size);
+    } else {
+      seed.push_back(face_tet(m_.neighbour(t, open[0])));
+    }
+    for (Index u : seed)
+      if (m_.region(u) != m_.region(t)) return false;
+    mid = (1.0 / static_cast<double>(kept)) * mid;
+    const double ln = norm(inward);
+    if (!(ln > 0.0)) return false;
+    inward = (1.0 / ln) * inward;
+    const double h = sizing_->at(mid);
+    // The best candidate: its point, cavity and worst new measure.
+    double best_q = -std::numeric_limits<double>::infinity();
+    Vec3 best_x{0, 0, 0};
+    std::vector<Index> best_cavity, cavity;
+    for (double height : kCapHeights) {
+      Vec3 x = mid + (height * h) * inward;
+      cavity = seed;
+      if (!grow_cavity(cavity, x)) continue;
+      double q = star_quality(x);
+      Vec3 moved;
+      const double q_moved = best_position(x, q, moved);
+      if (q_moved > q) {
+        x = moved;
+        q = q_moved;
+      }
+      if (!(q > best_q)) continue;
+      double q_old = std::numeric_limits<double>::infinity();
+      for (Index u : cavity) q_old = std::min(q_old, measure(corners(m_, m_.tet(u))));
+      if (!(q > q_old)) continue;
+      const AngleRange old_range = angle_range(nullptr, cavity);
+      const AngleRange new_range = angle_range(&x, {});
+      if (!(new_range.min > old_range.min) || new_range.max > old_range.max) continue;
+      best_q = q;
+      best_x = x;
+      best_cavity = cavity;
+    }
+    if (best_cavity.empty()) return false;
+    cavity = best_cavity;
+    if (!grow_cavity(cavity, best_x) || cavity.size() != best_cavity.size()) return false;  // link_ for best_x
+    fill_cavity(cavity, best_x);
+    return true;
+  }
+
+  /// Replaces the tets of `cavity` by the star of a new point x over link_
+  /// (the new tets take the region of cavity[0] and the outer faces' marks).
+  void fill_cavity(std::span<const Index> cavity, const Vec3& x) {
+    const Index p = m_.add_point(x);
+    std::vector<Tet> fresh;
+    for (const Tri& f : link_) fresh.push_back({f[0], f[1], f[2], p});
+    const std::vector<Index> parent(fresh.size(), 0);
+    m_.replace_cavity(cavity, fresh, parent);
+    forget_created();
+  }
+
   /// Replaces the sliver t and its four face neighbours by the star of a new
   /// point over the cavity's boundary, when the new tets are all positive, beat
   /// the cavity's worst measure, and the point keeps its distance.
@@ -786,12 +983,7 @@ class Optimizer {
           return false;
       }
     }
-    const Index p = m_.add_point(x);
-    std::vector<Tet> fresh;
-    for (const Tri& f : link_) fresh.push_back({f[0], f[1], f[2], p});
-    const std::vector<Index> parent(fresh.size(), 0);
-    m_.replace_cavity(cavity, fresh, parent);
-    forget_created();
+    fill_cavity(cavity, x);
     return true;
   }
 
@@ -928,6 +1120,11 @@ Result<OptimizeStats> optimize(TetMesh& mesh, const SizingField* sizing,
       }
     });
   }
+  // Cap repair: a point into a cavity around each bad tet with two or three
+  // kept faces, two of them on the surface (a flat tet on a nearly flat patch
+  // of the surface). No smoothing follows (it may trade an angle near 180
+  // degrees elsewhere for the worst tet of a star).
+  if (options.repair_caps && opt.repair_caps() > 0) bad = opt.bad_tets();
   st.bad_after = bad.size();
   const AngleRange after = mesh_range(mesh);
   st.min_dihedral_after = after.min;

@@ -97,6 +97,29 @@
 //     one with a surface point no worse than min(0.67, the worst such old
 //     tet). A tet whose repair would need a fixed point to move stays as it is.
 //
+//  5. Cap repair (repair_caps, on; needs sizing and insert_points), last: a
+//     bad tet with two or three kept faces (hull, frozen or region faces),
+//     two of them surface triangles (TetMesh::boundary() with a non-zero id,
+//     or any when there are no ids; not a leaf's interface), e.g. a flat
+//     tet lying on a nearly flat patch of the surface with all its points
+//     fixed, which the steps above cannot change. One new point x goes
+//     into a cavity around it, re-tiled as the star of x over the cavity's
+//     outer faces; the kept faces stay exactly as they are (each becomes a
+//     face of a new tet with x). The cavity starts as the ring of the edge
+//     that the tet's two other faces share (with three kept faces: the tet
+//     and its neighbour across the fourth; the tet and its neighbours alone
+//     are not star-shaped from any point inside: that edge is reflex) and
+//     grows across every outer face that x does not see (exact::orient3d)
+//     until all are seen; it fails at a kept face, at 24 tets, or when a
+//     vertex would be left out. x is tried above the mean centroid of the
+//     kept faces along their mean inward normal, at 0.1 .. 0.9 times h there,
+//     each then moved as in 2.; the best by the star's worst measure is done
+//     when every new tet is positive, the worst measure rises over the
+//     cavity's, its smallest dihedral angle rises and its largest does not.
+//     Such tets form where the parallel engine's leaves meet the surface at
+//     depths beyond the default. No smoothing follows (it could trade an
+//     angle near 180 degrees elsewhere for a star's worst tet).
+//
 // Guarantees: frozen faces keep their vertices and coordinates (flips and
 // insertion refuse them; their points are fixed); hull faces and region
 // interfaces likewise; the total volume is conserved up to rounding (points
@@ -138,6 +161,9 @@ struct OptimizeOptions {
   bool polish_pins_fixed = true;
   /// Interior repair rounds after the polishing rounds (see above).
   bool interior_repair = true;
+  /// Cap repair after the interior repair rounds (5. above; needs a sizing
+  /// field and insert_points).
+  bool repair_caps = true;
   /// Safety cap on successful flips per sweep, times the number of tets at the
   /// start of the sweep (the min-max rule already guarantees an end).
   double max_flips_per_tet = 20;
@@ -154,6 +180,7 @@ struct OptimizeStats {
   int polish_rounds = 0;  ///< polishing rounds run after the sweeps
   int repair_rounds = 0;  ///< interior repair rounds run after them
   std::size_t repair_flips = 0;  ///< flips of the interior repair (counted in flips too)
+  std::size_t caps_repaired = 0;  ///< cap repairs (counted in points_inserted too)
   double min_dihedral_before = 0, min_dihedral_after = 0;  ///< degrees, over all alive tets
   double max_dihedral_before = 0, max_dihedral_after = 0;
   double seconds = 0;  ///< wall time, measured only for reporting
