@@ -205,17 +205,15 @@ class Optimizer {
     fixed_known_ = true;
     surface_.assign(m_.num_points(), 0);
     for (std::size_t i = 0; i < m_.boundary().size(); ++i)
-      if (m_.boundary_ids().size() != m_.boundary().size() || m_.boundary_ids()[i] != 0)
+      if (surface_triangle(i))
         for (Index v : m_.boundary()[i]) surface_[v] = 1;
     fixed_.assign(m_.num_points(), 0);
     for (Index t = 0; t < m_.num_slots(); ++t) {
       if (!m_.alive(t)) continue;
       const Tet& k = m_.tet(t);
-      for (int f = 0; f < 4; ++f) {
-        const Index n = m_.neighbour(t, f);
-        if (n == kNoIndex || m_.frozen(t, f) || m_.region(face_tet(n)) != m_.region(t))
+      for (int f = 0; f < 4; ++f)
+        if (kept_face(t, f))
           for (int j = 0; j < 3; ++j) fixed_[k[topo::kFaceVertex[f][j]]] = 1;
-      }
     }
   }
 
@@ -326,9 +324,8 @@ class Optimizer {
     // The surface triangles (TetMesh::boundary() with a non-zero id, or all
     // when there are no ids; not a leaf's interface), as sorted keys.
     std::vector<Tri> surface;
-    const bool ids = m_.boundary_ids().size() == m_.boundary().size();
     for (std::size_t i = 0; i < m_.boundary().size(); ++i)
-      if (!ids || m_.boundary_ids()[i] != 0) surface.push_back(topo::sorted_key(m_.boundary()[i]));
+      if (surface_triangle(i)) surface.push_back(topo::sorted_key(m_.boundary()[i]));
     std::sort(surface.begin(), surface.end());
     std::vector<Index> caps;
     for (Index t = 0; t < m_.num_slots(); ++t) {
@@ -759,8 +756,14 @@ class Optimizer {
     return true;
   }
 
-  /// Face f of t stays as it is in a cap repair: a hull face, a frozen face or
-  /// a face between two regions.
+  /// Whether boundary triangle i is on the surface, not a leaf's interface: a
+  /// non-zero id, or any triangle when there are no ids.
+  bool surface_triangle(std::size_t i) const {
+    return m_.boundary_ids().size() != m_.boundary().size() || m_.boundary_ids()[i] != 0;
+  }
+
+  /// Face f of t stays as it is (its points are fixed; a cap repair keeps it):
+  /// a hull face, a frozen face or a face between two regions.
   bool kept_face(Index t, int f) const {
     const Index n = m_.neighbour(t, f);
     return n == kNoIndex || m_.frozen(t, f) || m_.region(face_tet(n)) != m_.region(t);
