@@ -166,6 +166,64 @@ TEST(TetgenAdapter, SeedsOnlyAddsLatticePointsAwayFromTheBoundary) {
   EXPECT_GE(nearest, 0.4 * spacing);
 }
 
+/// Winding number of the closed surface s around p (solid angles, Van
+/// Oosterom-Strackee): about 1 inside a body, 0 outside, wherever p is well
+/// away from the surface. An independent check of the adapter's exact inside
+/// test.
+double winding_number(const SurfaceMesh& s, const Vec3& p) {
+  double sum = 0;
+  for (const Tri& t : s.triangles) {
+    const Vec3 a = s.points[t[0]] - p, b = s.points[t[1]] - p, c = s.points[t[2]] - p;
+    const double la = norm(a), lb = norm(b), lc = norm(c);
+    sum += 2 * std::atan2(dot(a, cross(b, c)), la * lb * lc + dot(a, b) * lc + dot(b, c) * la + dot(c, a) * lb);
+  }
+  return sum / (4 * std::acos(-1.0));
+}
+
+TEST(TetgenAdapter, SeedPointsLieInsideTheDomainAndFillIt) {
+  // Two bodies, one with a cavity, whose edges lie on (or within rounding of)
+  // lattice rows (spacing 0.5 from the origin), and a smooth body.
+  SurfaceMesh boxes;
+  add_box(boxes, {0, 0, 0}, {3, 3, 3}, 1);
+  add_box(boxes, {1, 1, 1}, {2, 2, 2}, 2, /*inward=*/true);
+  add_box(boxes, {4, 0, 0}, {5, 1, 2}, 3);
+  const SurfaceMesh sphere = fixtures::corpus_surface("sphere966");
+  struct Case {
+    const SurfaceMesh* surface;
+    double volume, max_volume;
+  };
+  // Lattice spacing 0.8 cbrt(12 max_volume): 0.5 for the boxes.
+  for (const Case& c : {Case{&boxes, 28.0, std::pow(0.5 / 0.8, 3) / 12},
+                        Case{&sphere, enclosed_volume(sphere), enclosed_volume(sphere) / 2000}}) {
+    const SurfaceMesh* s = c.surface;
+    const Result<std::vector<Vec3>> seeds = seed_points(*s, c.max_volume);
+    ASSERT_TRUE(seeds.ok()) << seeds.status().to_string();
+    std::size_t in_first = 0;
+    for (const Vec3& p : *seeds) {
+      EXPECT_NEAR(winding_number(*s, p), 1.0, 1e-6) << "seed (" << p[0] << ", " << p[1] << ", " << p[2] << ")";
+      in_first += p[0] < 3.5;
+    }
+    // A body-centred cubic lattice has 2 points per h^3; the 0.4 h layer along
+    // the boundary holds none.
+    const double spacing = 0.8 * std::cbrt(12.0 * c.max_volume);
+    EXPECT_GT(static_cast<double>(seeds->size()), 0.4 * 2 * c.volume / std::pow(spacing, 3)) << s->name;
+    if (s == &boxes) {
+      EXPECT_GT(in_first, 0u);
+      EXPECT_LT(in_first, seeds->size());  // both bodies get seeds
+    }
+    // TetGen is given these points, and every one is a vertex of the mesh.
+    TetgenOptions o;
+    o.max_volume = c.max_volume;
+    o.seeds_only = true;
+    const VolumeMesh m = mesh_ok(*s, o);
+    expect_valid(*s, m);
+    ASSERT_GE(m.points.size(), s->points.size() + seeds->size());
+    std::vector<Vec3> added(m.points.begin() + static_cast<std::ptrdiff_t>(s->points.size()), m.points.end());
+    std::sort(added.begin(), added.end());
+    for (const Vec3& p : *seeds) ASSERT_TRUE(std::binary_search(added.begin(), added.end(), p));
+  }
+}
+
 TEST(TetgenAdapter, RadiusEdgeKeepsBoundary) {
   const SurfaceMesh s = fixtures::corpus_surface("hinge");
   TetgenOptions o;

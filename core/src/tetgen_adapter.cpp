@@ -31,6 +31,8 @@
 #include <vector>
 
 #include <fmt/format.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include "pdrmesh/predicates.hpp"
 #include "pdrmesh/topology.hpp"
@@ -430,6 +432,27 @@ class SeedLattice {
   }
   double size() const { return 2.0 * static_cast<double>(n_[0]) * static_cast<double>(n_[1]) * static_cast<double>(n_[2]); }
   std::size_t slots() const { return n_[0] * n_[1] * n_[2] * 2; }
+  /// Cells along axis k.
+  std::size_t cells(std::size_t k) const { return n_[k]; }
+  /// Coordinate `axis` of the unjittered point of index `i` along that axis
+  /// (c = 1: a cell centre); point(slot) lies within 0.05 h of it per axis.
+  double nominal(std::size_t axis, std::size_t i, std::size_t c) const {
+    return box_.lo[axis] + h_ * (static_cast<double>(i) + 0.5 * static_cast<double>(c));
+  }
+  /// The indices i along `axis` whose unjittered coordinate (sublattice c) may
+  /// lie in [lo, hi]: up to `slack` h beyond it, to absorb rounding (and the
+  /// jitter, for callers that test jittered points). False when there is none.
+  bool index_range(std::size_t axis, double lo, double hi, std::size_t c, double slack, std::size_t& from,
+                   std::size_t& to) const {
+    const double shift = 0.5 * static_cast<double>(c);
+    const double first = std::ceil((lo - box_.lo[axis]) / h_ - shift - slack);
+    const double last = std::floor((hi - box_.lo[axis]) / h_ - shift + slack);
+    const double top = static_cast<double>(n_[axis] - 1);
+    if (!(first <= last) || last < 0 || first > top) return false;
+    from = first <= 0 ? 0 : static_cast<std::size_t>(first);
+    to = last >= top ? n_[axis] - 1 : static_cast<std::size_t>(last);
+    return true;
+  }
   std::size_t slot(const std::array<std::size_t, 3>& ijk, std::size_t c) const {
     return ((ijk[0] * n_[1] + ijk[1]) * n_[2] + ijk[2]) * 2 + c;
   }
@@ -447,18 +470,19 @@ class SeedLattice {
     }
     return p;
   }
-  /// Calls f(slot) for every lattice point that may lie in [lo - pad, hi + pad].
+  /// Calls f(slot) for every lattice point that may lie in [lo - pad, hi + pad]
+  /// (its unjittered point within 0.06 h of that box: the jitter is at most 0.05 h).
   template <class F>
   void for_each_near(const Vec3& lo, const Vec3& hi, double pad, F&& f) const {
-    std::array<std::size_t, 3> from{}, to{};
-    for (std::size_t k = 0; k < 3; ++k) {
-      from[k] = static_cast<std::size_t>(std::max(0.0, std::floor((lo[k] - pad - box_.lo[k]) / h_) - 1));
-      to[k] = std::min(n_[k] - 1, static_cast<std::size_t>(std::max(0.0, std::ceil((hi[k] + pad - box_.lo[k]) / h_) + 1)));
+    for (std::size_t c = 0; c < 2; ++c) {
+      std::array<std::size_t, 3> from{}, to{};
+      bool any = true;
+      for (std::size_t k = 0; k < 3; ++k) any = any && index_range(k, lo[k] - pad, hi[k] + pad, c, 0.06, from[k], to[k]);
+      if (!any) continue;
+      for (std::size_t i = from[0]; i <= to[0]; ++i)
+        for (std::size_t j = from[1]; j <= to[1]; ++j)
+          for (std::size_t k = from[2]; k <= to[2]; ++k) f(slot({i, j, k}, c));
     }
-    for (std::size_t i = from[0]; i <= to[0]; ++i)
-      for (std::size_t j = from[1]; j <= to[1]; ++j)
-        for (std::size_t k = from[2]; k <= to[2]; ++k)
-          for (std::size_t c = 0; c < 2; ++c) f(slot({i, j, k}, c));
   }
 
  private:
@@ -467,60 +491,99 @@ class SeedLattice {
   std::array<std::size_t, 3> n_{};
 };
 
-/// Seeds for a dense mesh. TetGen 1.5 with -Y rejects every refinement point
-/// that encroaches on a boundary face, so -a alone hardly refines near coarse
-/// boundaries (on hinge it adds no point at all). We therefore add the points
-/// of a lattice over the bounding box, whose Delaunay tets have about half the
-/// volume bound, to TetGen's input points (after the surface's points), except
-/// those closer than 0.4 spacing to a triangle's plane within the triangle's
-/// box (no seed on or next to the boundary). Seeds outside the domain go with
-/// the exterior tets and are dropped as unused. (TetGen's own -i for added
-/// points crashes in TetGen 1.5 on some inputs, e.g. elephant, even with only
-/// interior points.)
-Result<std::vector<double>> seed_points(const SurfaceMesh& s, double max_volume) {
-  const double h = 0.8 * std::cbrt(12.0 * max_volume);
-  const SeedLattice lattice(s.bounds(), h);
-  if (lattice.size() > 2e8)
-    return resource_exhausted(fmt::format("max_volume {} asks for {:.3g} seed points over the bounding box, more "
-                                          "than the supported 2e8",
-                                          max_volume, lattice.size()));
-  std::vector<char> keep(lattice.slots(), 1);
-  const double gap = 0.4 * h;
-  for (const Tri& t : s.triangles) {
-    const Vec3 &a = s.points[t[0]], &b = s.points[t[1]], &c = s.points[t[2]];
+/// Sign of orient2d(a, b, q) in the (y, z) plane for q moved by (eps, eps^2),
+/// eps -> 0 (simulation of simplicity): never 0 unless a and b project to the
+/// same point, and opposite for (b, a), so that a line through q crosses
+/// exactly one of two triangles that share an edge or a vertex it meets.
+int perturbed_orient_yz(const Vec3& a, const Vec3& b, const Vec3& q) {
+  if (const int s = exact::orient2d(a, b, q, 0); s != 0) return s;
+  if (a[2] != b[2]) return a[2] > b[2] ? 1 : -1;
+  if (a[1] != b[1]) return b[1] > a[1] ? 1 : -1;
+  return 0;
+}
+
+/// Clears keep[slot] for the lattice points outside the domain, so that TetGen
+/// is not given the empty part of the bounding box (95% of the lattice on
+/// frame, whose Delaunay mesh took 8 of 11 s). The kept points lie at least
+/// 0.4 h from every triangle, so each is on the same side as its unjittered
+/// point (within 0.09 h), which lies on a lattice row: a line parallel to x.
+/// A row's crossings with the surface are found exactly (orient2d in the
+/// (y, z) plane with simulated perturbation), and for each crossed triangle
+/// the first point of the row beyond it by a binary search on orient3d (its
+/// sign is monotone along the row). A point is inside when an odd number of
+/// triangles lie before it on its row: several bodies and cavities are
+/// counted right, whatever their orientation.
+void drop_outside(const SurfaceMesh& s, const SeedLattice& lattice, std::vector<char>& keep) {
+  const std::size_t nx = lattice.cells(0), ny = lattice.cells(1), nz = lattice.cells(2);
+  const std::size_t rows = ny * nz * 2;
+  const auto row_of = [&](std::size_t j, std::size_t k, std::size_t c) { return (j * nz + k) * 2 + c; };
+  // Crossings as (row, triangle), rows in CSR form.
+  std::vector<std::pair<std::size_t, Index>> crossings;
+  for (std::size_t t = 0; t < s.triangles.size(); ++t) {
+    const Vec3 &a = s.points[s.triangles[t][0]], &b = s.points[s.triangles[t][1]], &c = s.points[s.triangles[t][2]];
+    const int area = exact::orient2d(a, b, c, 0);
+    if (area == 0) continue;  // parallel to x: no row crosses it (only touches, which the perturbation resolves)
     Box tb;
     for (const Vec3* p : {&a, &b, &c}) tb.add(*p);
-    Vec3 normal = cross(b - a, c - a);
-    const double len = norm(normal);
-    normal = len > 0 ? (1.0 / len) * normal : Vec3{0, 0, 0};
-    lattice.for_each_near(tb.lo, tb.hi, gap, [&](std::size_t slot) {
-      if (!keep[slot]) return;
-      const Vec3 p = lattice.point(slot);
-      for (std::size_t q = 0; q < 3; ++q)
-        if (p[q] < tb.lo[q] - gap || p[q] > tb.hi[q] + gap) return;
-      if (len == 0 || std::fabs(dot(p - a, normal)) < gap) keep[slot] = 0;
-    });
+    for (std::size_t sub = 0; sub < 2; ++sub) {
+      std::size_t j0 = 0, j1 = 0, k0 = 0, k1 = 0;
+      if (!lattice.index_range(1, tb.lo[1], tb.hi[1], sub, 0.01, j0, j1) ||
+          !lattice.index_range(2, tb.lo[2], tb.hi[2], sub, 0.01, k0, k1))
+        continue;
+      for (std::size_t j = j0; j <= j1; ++j)
+        for (std::size_t k = k0; k <= k1; ++k) {
+          const Vec3 q{0.0, lattice.nominal(1, j, sub), lattice.nominal(2, k, sub)};
+          if (perturbed_orient_yz(a, b, q) == area && perturbed_orient_yz(b, c, q) == area &&
+              perturbed_orient_yz(c, a, q) == area)
+            crossings.emplace_back(row_of(j, k, sub), static_cast<Index>(t));
+        }
+    }
   }
-  std::vector<double> seeds;
-  for (std::size_t slot = 0; slot < keep.size(); ++slot) {
-    if (!keep[slot]) continue;
-    const Vec3 p = lattice.point(slot);
-    seeds.insert(seeds.end(), p.begin(), p.end());
-  }
-  if (seeds.size() / 3 > static_cast<std::size_t>(INT_MAX / 3))
-    return unsupported(fmt::format("{} seed points exceed TetGen's int indices", seeds.size() / 3));
-  return seeds;
+  std::sort(crossings.begin(), crossings.end());
+  std::vector<std::size_t> start(rows + 1, 0);
+  for (const auto& x : crossings) ++start[x.first + 1];
+  for (std::size_t r = 0; r < rows; ++r) start[r + 1] += start[r];
+  // Rows are independent and write disjoint slots: any schedule gives the same keep.
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, rows, 64), [&](const tbb::blocked_range<std::size_t>& range) {
+    std::vector<std::uint32_t> before(nx + 1);
+    for (std::size_t r = range.begin(); r != range.end(); ++r) {
+      const std::size_t sub = r % 2, k = (r / 2) % nz, j = r / 2 / nz;
+      std::fill(before.begin(), before.end(), 0u);
+      for (std::size_t x = start[r]; x < start[r + 1]; ++x) {
+        const Tri& t = s.triangles[crossings[x].second];
+        const Vec3 &a = s.points[t[0]], &b = s.points[t[1]], &c = s.points[t[2]];
+        const auto at = [&](double px) { return Vec3{px, lattice.nominal(1, j, sub), lattice.nominal(2, k, sub)}; };
+        // Past every vertex of the triangle, hence beyond where the row crosses it.
+        const double far = std::max({a[0], b[0], c[0]}) + std::fabs(std::max({a[0], b[0], c[0]})) + 1.0;
+        const int beyond = exact::orient3d(a, b, c, at(far));
+        std::size_t lo = 0, hi = nx;  // first i whose point is beyond the triangle
+        while (lo < hi) {
+          const std::size_t mid = lo + (hi - lo) / 2;
+          if (exact::orient3d(a, b, c, at(lattice.nominal(0, mid, sub))) == beyond)
+            hi = mid;
+          else
+            lo = mid + 1;
+        }
+        ++before[lo];
+      }
+      std::uint32_t parity = 0;
+      for (std::size_t i = 0; i < nx; ++i) {
+        parity ^= before[i] & 1u;
+        if (parity == 0) keep[lattice.slot({i, j, k}, sub)] = 0;
+      }
+    }
+  });
 }
 
 /// Writes the helper's request (tetgen_wire.hpp) into an unlinked in-memory
 /// file, rewound, which becomes the helper's stdin: nothing to interleave with
 /// reading its answer, and nothing left on disk.
-Result<Fd> write_request(const SurfaceMesh& s, const TetgenOptions& o, const std::vector<double>& seeds) {
+Result<Fd> write_request(const SurfaceMesh& s, const TetgenOptions& o, const std::vector<Vec3>& seeds) {
   Fd fd(::memfd_create("pdrmesh-tetgen-request", MFD_CLOEXEC));
   if (fd.get() < 0) return internal_error(fmt::format("cannot create TetGen's request file: {}", std::strerror(errno)));
   const std::string sw = tetgen_switches(o);
   wire::RequestHeader h;
-  h.n_points = s.points.size() + seeds.size() / 3;
+  h.n_points = s.points.size() + seeds.size();
   h.n_triangles = s.triangles.size();
   h.switches_len = sw.size();
   h.memory_limit = o.memory_limit_bytes;
@@ -532,7 +595,7 @@ Result<Fd> write_request(const SurfaceMesh& s, const TetgenOptions& o, const std
   static_assert(sizeof(Vec3) == 3 * sizeof(double));
   if (!wire::write_all(fd.get(), &h, sizeof h) ||
       !wire::write_all(fd.get(), s.points.data(), s.points.size() * sizeof(Vec3)) ||
-      !wire::write_all(fd.get(), seeds.data(), seeds.size() * sizeof(double)) ||
+      !wire::write_all(fd.get(), seeds.data(), seeds.size() * sizeof(Vec3)) ||
       !wire::write_all(fd.get(), corners.data(), corners.size() * sizeof(std::int32_t)) ||
       !wire::write_all(fd.get(), sw.data(), sw.size()) || ::lseek(fd.get(), 0, SEEK_SET) != 0)
     return internal_error(fmt::format("cannot write TetGen's request: {}", std::strerror(errno)));
@@ -612,6 +675,48 @@ Result<pid_t> spawn_helper(const std::string& path, Fd& request, Fd& log, Fd& an
 
 }  // namespace
 
+// Seeds for a dense mesh. TetGen 1.5 with -Y rejects every refinement point
+// that encroaches on a boundary face, so -a alone hardly refines near coarse
+// boundaries (on hinge it adds no point at all). We therefore add the points
+// of a lattice over the bounding box, whose Delaunay tets have about half the
+// volume bound, to TetGen's input points (after the surface's points), except
+// those closer than 0.4 spacing to a triangle's plane within the triangle's
+// box (no seed on or next to the boundary), and those outside the domain
+// (drop_outside). (TetGen's own -i for added points crashes in TetGen 1.5 on
+// some inputs, e.g. elephant, even with only interior points.)
+Result<std::vector<Vec3>> seed_points(const SurfaceMesh& s, double max_volume) {
+  const double h = 0.8 * std::cbrt(12.0 * max_volume);
+  const SeedLattice lattice(s.bounds(), h);
+  if (lattice.size() > 2e8)
+    return resource_exhausted(fmt::format("max_volume {} asks for {:.3g} seed points over the bounding box, more "
+                                          "than the supported 2e8",
+                                          max_volume, lattice.size()));
+  std::vector<char> keep(lattice.slots(), 1);
+  const double gap = 0.4 * h;
+  for (const Tri& t : s.triangles) {
+    const Vec3 &a = s.points[t[0]], &b = s.points[t[1]], &c = s.points[t[2]];
+    Box tb;
+    for (const Vec3* p : {&a, &b, &c}) tb.add(*p);
+    Vec3 normal = cross(b - a, c - a);
+    const double len = norm(normal);
+    normal = len > 0 ? (1.0 / len) * normal : Vec3{0, 0, 0};
+    lattice.for_each_near(tb.lo, tb.hi, gap, [&](std::size_t slot) {
+      if (!keep[slot]) return;
+      const Vec3 p = lattice.point(slot);
+      for (std::size_t q = 0; q < 3; ++q)
+        if (p[q] < tb.lo[q] - gap || p[q] > tb.hi[q] + gap) return;
+      if (len == 0 || std::fabs(dot(p - a, normal)) < gap) keep[slot] = 0;
+    });
+  }
+  drop_outside(s, lattice, keep);
+  std::vector<Vec3> seeds;
+  for (std::size_t slot = 0; slot < keep.size(); ++slot)
+    if (keep[slot]) seeds.push_back(lattice.point(slot));
+  if (seeds.size() + s.points.size() > static_cast<std::size_t>(INT_MAX / 3))
+    return unsupported(fmt::format("{} seed points exceed TetGen's int indices", seeds.size()));
+  return seeds;
+}
+
 // Switches, letter by letter:
 //   p  the input is a piecewise linear complex (our triangles), tetrahedralize
 //      its interior and remove the tets outside it;
@@ -639,7 +744,7 @@ namespace {
 
 /// One isolated TetGen run (see the file comment) and the validation of its output.
 Result<VolumeMesh> run_tetgen(const SurfaceMesh& surface, const TetgenOptions& options,
-                              const std::vector<double>& seeds) {
+                              const std::vector<Vec3>& seeds) {
   PDR_ASSIGN_OR_RETURN(const std::string helper, helper_path());
   PDR_ASSIGN_OR_RETURN(Fd request, write_request(surface, options, seeds));
 
@@ -701,7 +806,7 @@ Result<VolumeMesh> run_tetgen(const SurfaceMesh& surface, const TetgenOptions& o
 
 Result<VolumeMesh> tetrahedralize(const SurfaceMesh& surface, const TetgenOptions& options) {
   PDR_TRY(check_input(surface, options));
-  std::vector<double> seeds;
+  std::vector<Vec3> seeds;
   if (options.max_volume) {
     PDR_ASSIGN_OR_RETURN(seeds, seed_points(surface, *options.max_volume));
   }

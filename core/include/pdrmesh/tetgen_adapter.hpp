@@ -25,6 +25,7 @@
 #include <cstddef>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "pdrmesh/status.hpp"
 #include "pdrmesh/surface.hpp"
@@ -72,6 +73,13 @@ struct TetgenOptions {
 /// memory_limit_bytes, internal_error when TetGen crashes or returns a mesh that
 /// fails validation (the message says what differs).
 Result<VolumeMesh> tetrahedralize(const SurfaceMesh& surface, const TetgenOptions& options = {});
+
+/// The interior points added for `max_volume` (TetGenOptions::max_volume): the
+/// points of a jittered body-centred cubic lattice whose Delaunay tets have
+/// about half that volume, inside the domain and at least 0.4 lattice spacing
+/// from every triangle, in lattice order. Deterministic. resource_exhausted
+/// when the lattice over the bounding box would exceed 2e8 points.
+Result<std::vector<Vec3>> seed_points(const SurfaceMesh& surface, double max_volume);
 
 /// The TetGen switch string used for `options`, e.g. "pYzQMJF" or
 /// "pYzQMJFa0.5" (letters documented in tetgen_adapter.cpp).
