@@ -11,9 +11,12 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <memory>
+#include <new>
 #include <numeric>
 #include <span>
 #include <tuple>
+#include <utility>
 #include <vector>
 
 #include <oneapi/tbb/blocked_range.h>
@@ -37,11 +40,37 @@ void for_each_chunk(std::size_t n, std::size_t grain, Body&& body) {
                     });
 }
 
+/// An allocator that leaves a resized vector's new items default-initialised
+/// (trivial items: not written), so that a parallel pass writing every item
+/// first touches the memory, rather than a serial zero fill.
+template <class T>
+struct NoInitAllocator : std::allocator<T> {
+  template <class U>
+  struct rebind {
+    using other = NoInitAllocator<U>;
+  };
+  NoInitAllocator() = default;
+  template <class U>
+  NoInitAllocator(const NoInitAllocator<U>&) noexcept {}
+  template <class U, class... Args>
+  void construct(U* p, Args&&... args) {
+    if constexpr (sizeof...(Args) == 0) {
+      ::new (static_cast<void*>(p)) U;
+    } else {
+      ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+    }
+  }
+};
+
+/// A vector whose resize does not initialise trivial items (see NoInitAllocator).
+template <class T>
+using UninitVector = std::vector<T, NoInitAllocator<T>>;
+
 /// Items grouped by a key in [0, keys): key k's items are items[first[k] .. first[k + 1]).
 template <class T>
 struct Buckets {
   std::vector<std::size_t> first;
-  std::vector<T> items;
+  UninitVector<T> items;
 };
 
 /// A counting sort, in parallel: each(i, emit) for every i in [0, n) calls

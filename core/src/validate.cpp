@@ -177,7 +177,7 @@ ValidationReport validate_mesh(const VolumeMesh& mesh, const SurfaceMesh* surfac
   // 2. Orientation, exactly; volume in doubles. The tet volumes are summed in
   // tet order after the parallel pass, so the sum is the serial one, bit for bit.
   {
-    std::vector<double> volume(nt);
+    detail::UninitVector<double> volume(nt);  // every item written below
     scan(rec, "orientation", nt, kTetGrain, [&](ChunkLog& log, std::size_t, std::size_t t) {
       const Tet& k = T[t];
       const int o = exact::orient3d(P[k[0]], P[k[1]], P[k[2]], P[k[3]]);
