@@ -7,7 +7,14 @@
 #include <algorithm>
 #include <cstdlib>
 #include <map>
+#include <array>
+#include <functional>
 #include <set>
+#include <string>
+
+#include <fmt/format.h>
+
+#include <oneapi/tbb/task_arena.h>
 
 #include "octree_fixtures.hpp"
 
@@ -285,6 +292,96 @@ TEST(Decomposition, LeavesOnlyMatchesTheFullDecompositionWithoutInterfaces) {
   EXPECT_EQ(lean->interface_faces.size(), full->size());
   for (const auto& f : lean->interface_faces) EXPECT_TRUE(f.empty());
   EXPECT_FALSE(decompose_leaves(g, kMaxDepth + 1, full->box).ok());
+}
+
+/// `make()` inside an arena of `threads` threads.
+Result<Decomposition> in_arena(int threads, const std::function<Result<Decomposition>()>& make) {
+  tbb::task_arena arena(threads);
+  return arena.execute(make);
+}
+
+void expect_same_decomposition(const Result<Decomposition>& a, const Result<Decomposition>& b) {
+  ASSERT_EQ(a.ok(), b.ok());
+  if (!a.ok()) {
+    EXPECT_EQ(a.status().to_string(), b.status().to_string());
+    return;
+  }
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_EQ(a->box.lo[k], b->box.lo[k]);
+    EXPECT_EQ(a->box.hi[k], b->box.hi[k]);
+  }
+  EXPECT_EQ(a->depth, b->depth);
+  EXPECT_EQ(a->per_side, b->per_side);
+  EXPECT_EQ(a->leaves, b->leaves);
+  EXPECT_EQ(a->leaf_tets, b->leaf_tets);
+  EXPECT_EQ(a->tet_leaf, b->tet_leaf);
+  EXPECT_EQ(a->n1, b->n1);
+  EXPECT_EQ(a->n2, b->n2);
+  EXPECT_EQ(a->interface_faces, b->interface_faces);
+}
+
+TEST(Decomposition, SameOnOneAndFourThreads) {
+  // 166,374 tets and 24,389 points: many chunks of every parallel pass. The
+  // grid is shuffled so that leaves' tets and faces' points are scattered.
+  VolumeMesh g = kuhn_grid(28);
+  for (std::size_t t = 0; t < g.tets.size(); ++t) std::swap(g.tets[t], g.tets[(t * 7919) % g.tets.size()]);
+  for (int depth : {0, 3, 5}) {
+    const auto full = in_arena(1, [&] { return decompose(g, depth); });
+    ASSERT_TRUE(full.ok()) << full.status().to_string();
+    expect_same_decomposition(full, in_arena(4, [&] { return decompose(g, depth); }));
+    // Every tet is listed once, in its leaf, ascending (the serial order).
+    std::size_t listed = 0;
+    for (std::size_t l = 0; l < full->size(); ++l) {
+      EXPECT_TRUE(std::is_sorted(full->leaf_tets[l].begin(), full->leaf_tets[l].end()));
+      for (Index t : full->leaf_tets[l]) EXPECT_EQ(full->tet_leaf[t], l);
+      listed += full->leaf_tets[l].size();
+    }
+    EXPECT_EQ(listed, g.tets.size());
+    if (depth > 0) {
+      EXPECT_FALSE(full->interface_faces[0].empty());
+    }
+    Box shifted = full->box;
+    for (int k = 0; k < 3; ++k) shifted.lo[k] += 0.7, shifted.hi[k] += 0.7;
+    expect_same_decomposition(in_arena(1, [&] { return decompose_leaves(g, depth, shifted); }),
+                              in_arena(4, [&] { return decompose_leaves(g, depth, shifted); }));
+  }
+}
+
+TEST(Decomposition, SameErrorOnOneAndFourThreads) {
+  // Several over-shared faces and several bad points: the first in the
+  // serial order is reported, whatever the threads.
+  VolumeMesh three = kuhn_grid(24);
+  const std::size_t nt = three.tets.size();
+  for (std::size_t k = 0; k < 4; ++k) three.tets.push_back(three.tets[nt - 1 - k * (nt / 5)]);
+  std::map<std::array<Index, 3>, int> uses;  // the oracle: the smallest face of more than two tets
+  for (const Tet& t : three.tets) {
+    for (int f = 0; f < 4; ++f) {
+      std::array<Index, 3> key{t[(f + 1) % 4], t[(f + 2) % 4], t[(f + 3) % 4]};
+      std::sort(key.begin(), key.end());
+      ++uses[key];
+    }
+  }
+  const auto over = std::find_if(uses.begin(), uses.end(), [](const auto& u) { return u.second > 2; });
+  ASSERT_NE(over, uses.end());
+  const auto r3 = in_arena(1, [&] { return decompose(three, 2); });
+  EXPECT_EQ(r3.status().code(), StatusCode::kInvalidInput);
+  EXPECT_NE(r3.status().message().find(fmt::format("face ({}, {}, {}) is shared by 3 tets", over->first[0],
+                                                   over->first[1], over->first[2])),
+            std::string::npos)
+      << r3.status().message();
+  expect_same_decomposition(r3, in_arena(4, [&] { return decompose(three, 2); }));
+
+  VolumeMesh bad = kuhn_grid(24);
+  for (std::size_t k = 0; k < 5; ++k) {
+    const std::size_t t = nt - 1 - k * (nt / 6);
+    bad.tets[t][2] = static_cast<Index>(bad.points.size() + t);
+  }
+  const Box cube = root_cube(Box{{0, 0, 0}, {24, 24, 24}});
+  const auto rb = in_arena(1, [&] { return decompose_leaves(bad, 2, cube); });
+  EXPECT_EQ(rb.status().code(), StatusCode::kInvalidInput);
+  EXPECT_NE(rb.status().message().find(fmt::format("tet {} refers", nt - 1 - 4 * (nt / 6))), std::string::npos)
+      << rb.status().message();
+  expect_same_decomposition(rb, in_arena(4, [&] { return decompose_leaves(bad, 2, cube); }));
 }
 
 }  // namespace

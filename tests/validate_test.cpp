@@ -4,7 +4,17 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <functional>
+#include <limits>
+#include <string>
+#include <vector>
+#include <utility>
 
+#include <oneapi/tbb/task_arena.h>
+
+#include "pdrmesh/predicates.hpp"
+#include "pdrmesh/tetgen_adapter.hpp"
+#include "octree_fixtures.hpp"
 #include "test_fixtures.hpp"
 
 namespace pdrmesh {
@@ -113,6 +123,101 @@ TEST(Validate, StopsSafelyOnOutOfRangeIndex) {
   mesh.tets[1][2] = 99;
   const auto r = validate_mesh(mesh);
   EXPECT_TRUE(has_error(r, "index")) << format_validation(r);
+}
+
+/// validate_mesh inside an arena of `threads` threads.
+ValidationReport validate_in_arena(int threads, const VolumeMesh& mesh, const SurfaceMesh* surface,
+                                   const ValidationOptions& options = {}) {
+  tbb::task_arena arena(threads);
+  return arena.execute([&] { return validate_mesh(mesh, surface, options); });
+}
+
+/// Every field equal, the volume to the bit, and the same text.
+void expect_same_report(const ValidationReport& a, const ValidationReport& b) {
+  EXPECT_EQ(a.tets, b.tets);
+  EXPECT_EQ(a.points, b.points);
+  EXPECT_EQ(a.boundary_faces, b.boundary_faces);
+  EXPECT_EQ(a.volume, b.volume);
+  EXPECT_EQ(a.enclosed_volume, b.enclosed_volume);
+  EXPECT_EQ(a.euler_volume, b.euler_volume);
+  EXPECT_EQ(a.euler_boundary, b.euler_boundary);
+  EXPECT_EQ(a.error_count, b.error_count);
+  EXPECT_EQ(a.errors, b.errors);
+  EXPECT_EQ(format_validation(a), format_validation(b));
+}
+
+/// hinge's TetGen mesh with a seed lattice: about 60,000 tets, many chunks of
+/// every parallel pass.
+VolumeMesh hinge_mesh(const SurfaceMesh& surface) {
+  TetgenOptions o;
+  o.max_volume = enclosed_volume(surface) / 30000;
+  o.seeds_only = true;
+  auto m = tetrahedralize(surface, o);
+  EXPECT_TRUE(m.ok()) << m.status().to_string();
+  return m.ok() ? std::move(m).value() : VolumeMesh{};
+}
+
+TEST(Validate, SameReportOnOneAndFourThreads) {
+  const SurfaceMesh surface = fixtures::corpus_surface("hinge");
+  const VolumeMesh mesh = hinge_mesh(surface);
+  ASSERT_GT(mesh.tets.size(), 40000u);
+  const ValidationReport one = validate_in_arena(1, mesh, &surface);
+  EXPECT_TRUE(one.ok()) << format_validation(one);
+  expect_same_report(one, validate_in_arena(4, mesh, &surface));
+  // A structured grid with more points than the point passes' chunks hold.
+  const VolumeMesh grid = fixtures::kuhn_grid(28);
+  const ValidationReport g1 = validate_in_arena(1, grid, nullptr);
+  EXPECT_TRUE(g1.ok()) << format_validation(g1);
+  EXPECT_EQ(g1.tets, 6u * 28 * 28 * 28);
+  expect_same_report(g1, validate_in_arena(4, grid, nullptr));
+}
+
+TEST(Validate, SameErrorsInTheSameOrderOnOneAndFourThreads) {
+  SurfaceMesh surface = fixtures::corpus_surface("hinge");
+  VolumeMesh mesh = hinge_mesh(surface);
+  const std::size_t nt = mesh.tets.size();
+  ASSERT_GT(nt, 40000u);
+  // Inverted tets spread over the whole tet range (orientation, conformity,
+  // volume), tets removed (holes: boundary, surface, Euler), a duplicate and an
+  // unused point, a wrong surface id and a flipped input triangle.
+  for (std::size_t t = 3; t < nt; t += nt / 23) std::swap(mesh.tets[t][0], mesh.tets[t][1]);
+  for (std::size_t k = 0; k < 6; ++k) mesh.tets.erase(mesh.tets.begin() + static_cast<std::ptrdiff_t>(nt - 5 - k * (nt / 7)));
+  mesh.points.push_back(mesh.points[mesh.tets[nt / 2][0]]);
+  mesh.points.push_back({1e6, 1e6, 1e6});
+  ASSERT_EQ(mesh.boundary_ids.size(), mesh.boundary.size());
+  ASSERT_EQ(surface.surface_ids.size(), surface.triangles.size());
+  mesh.boundary_ids[mesh.boundary.size() / 2] += 1;
+  std::swap(surface.triangles.back()[0], surface.triangles.back()[1]);
+  for (const std::size_t cap : {std::size_t{10}, std::size_t{100000}}) {
+    ValidationOptions options;
+    options.max_messages_per_check = cap;
+    const ValidationReport one = validate_in_arena(1, mesh, &surface, options);
+    for (const char* check : {"orientation", "conformity", "points", "boundary", "surface", "volume"}) {
+      EXPECT_TRUE(has_error(one, check)) << check << "\n" << format_validation(one);
+    }
+    EXPECT_GT(one.error_count, 50u);
+    if (cap > one.error_count) {  // every inverted tet listed, in tet order (the serial order)
+      std::vector<std::size_t> inverted;
+      for (const std::string& e : one.errors) {
+        if (e.rfind("orientation: tet ", 0) == 0) inverted.push_back(std::stoul(e.substr(17)));
+      }
+      std::size_t expected = 0;
+      for (const Tet& k : mesh.tets) {
+        expected += exact::orient3d(mesh.points[k[0]], mesh.points[k[1]], mesh.points[k[2]], mesh.points[k[3]]) <= 0;
+      }
+      EXPECT_GT(expected, 20u);
+      EXPECT_EQ(inverted.size(), expected);
+      EXPECT_TRUE(std::is_sorted(inverted.begin(), inverted.end()));
+    }
+    expect_same_report(one, validate_in_arena(4, mesh, &surface, options));
+  }
+  // Index errors over many chunks stop the validator early, the same way.
+  VolumeMesh bad = fixtures::kuhn_grid(20);
+  for (std::size_t t = 7; t < bad.tets.size(); t += 3001) bad.tets[t][t % 4] = static_cast<Index>(bad.points.size() + t);
+  bad.points[5][1] = std::numeric_limits<double>::quiet_NaN();
+  const ValidationReport b1 = validate_in_arena(1, bad, nullptr);
+  EXPECT_TRUE(has_error(b1, "index") && has_error(b1, "coordinates")) << format_validation(b1);
+  expect_same_report(b1, validate_in_arena(4, bad, nullptr));
 }
 
 }  // namespace

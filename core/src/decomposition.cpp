@@ -5,24 +5,20 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <tuple>
 
 #include <fmt/format.h>
 #include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/parallel_sort.h>
 
+#include "fixed_chunks.hpp"
+
 namespace pdrmesh {
 namespace {
 
-
-/// One face of one tet, keyed by its sorted vertices; `packed` = 4 * tet + face.
-struct FaceRecord {
-  std::array<Index, 3> key;
-  Index packed;
-  bool operator<(const FaceRecord& o) const {
-    return std::tie(key, packed) < std::tie(o.key, o.packed);
-  }
-};
+constexpr std::size_t kTetGrain = 16384;
+constexpr std::size_t kPointGrain = 8192;
 
 Result<Decomposition> decompose_impl(const VolumeMesh& mesh, int depth, const Box& box, bool interfaces);
 
@@ -90,15 +86,26 @@ Result<Decomposition> decompose_impl(const VolumeMesh& mesh, int depth, const Bo
     return invalid_input(fmt::format("octree depth {} is outside [0, {}]", depth, kMaxDepth));
   }
   const std::size_t nt = mesh.tets.size();
+  const std::size_t np = mesh.points.size();
   if (nt >= (std::size_t{1} << 30)) {
     return resource_exhausted(fmt::format("{} tets are too many for one decomposition", nt));
   }
-  for (std::size_t t = 0; t < nt; ++t) {
-    for (Index v : mesh.tets[t]) {
-      if (v >= mesh.points.size()) {
-        return invalid_input(fmt::format("tet {} refers to point {}, but the mesh has {} points",
-                                         t, v, mesh.points.size()));
+  // Every pass below runs over fixed chunks (fixed_chunks.hpp), combined in
+  // chunk order: the result does not depend on the number of threads.
+  {
+    std::vector<std::size_t> first_bad(detail::chunk_count(nt, kTetGrain), nt);  // per chunk
+    detail::for_each_chunk(nt, kTetGrain, [&](std::size_t c, std::size_t lo, std::size_t hi) {
+      for (std::size_t t = lo; t < hi && first_bad[c] == nt; ++t) {
+        for (Index v : mesh.tets[t]) {
+          if (v >= np) first_bad[c] = t;
+        }
       }
+    });
+    for (const std::size_t t : first_bad) {
+      if (t == nt) continue;
+      const Tet& k = mesh.tets[t];
+      const Index v = *std::find_if(k.begin(), k.end(), [&](Index x) { return x >= np; });
+      return invalid_input(fmt::format("tet {} refers to point {}, but the mesh has {} points", t, v, np));
     }
   }
 
@@ -107,28 +114,59 @@ Result<Decomposition> decompose_impl(const VolumeMesh& mesh, int depth, const Bo
   d.per_side = 1 << depth;
   d.box = box;
 
-  // Leaf assignment by barycenter.
+  // Leaf assignment by barycenter; the non-empty leaves from each chunk's own.
   std::vector<LeafId> grid_of_tet(nt);
-  tbb::parallel_for(std::size_t{0}, nt, [&](std::size_t t) {
-    grid_of_tet[t] = leaf_of_point(d.box, depth, tet_barycenter(mesh, static_cast<Index>(t)));
-  });
-  d.leaves = grid_of_tet;
-  tbb::parallel_sort(d.leaves.begin(), d.leaves.end());
-  d.leaves.erase(std::unique(d.leaves.begin(), d.leaves.end()), d.leaves.end());
+  {
+    std::vector<std::vector<LeafId>> chunk_leaves(detail::chunk_count(nt, kTetGrain));
+    detail::for_each_chunk(nt, kTetGrain, [&](std::size_t c, std::size_t lo, std::size_t hi) {
+      for (std::size_t t = lo; t < hi; ++t) {
+        grid_of_tet[t] = leaf_of_point(d.box, depth, tet_barycenter(mesh, static_cast<Index>(t)));
+      }
+      auto& own = chunk_leaves[c];  // runs of one leaf first (neighbouring tets share leaves), then sorted
+      std::unique_copy(grid_of_tet.begin() + static_cast<std::ptrdiff_t>(lo),
+                       grid_of_tet.begin() + static_cast<std::ptrdiff_t>(hi), std::back_inserter(own));
+      std::sort(own.begin(), own.end());
+      own.erase(std::unique(own.begin(), own.end()), own.end());
+    });
+    for (const auto& own : chunk_leaves) d.leaves.insert(d.leaves.end(), own.begin(), own.end());
+    tbb::parallel_sort(d.leaves.begin(), d.leaves.end());
+    d.leaves.erase(std::unique(d.leaves.begin(), d.leaves.end()), d.leaves.end());
+  }
   const std::size_t nl = d.leaves.size();
   auto index_of = [&](LeafId id) -> Index {
     const auto it = std::lower_bound(d.leaves.begin(), d.leaves.end(), id);
     return it != d.leaves.end() && *it == id ? static_cast<Index>(it - d.leaves.begin()) : kNoIndex;
   };
   d.tet_leaf.resize(nt);
-  d.leaf_tets.assign(nl, {});
   tbb::parallel_for(std::size_t{0}, nt, [&](std::size_t t) { d.tet_leaf[t] = index_of(grid_of_tet[t]); });
+  // leaf_tets: a stable counting sort. at[c * nl + l] counts chunk c's tets in
+  // leaf l, then becomes where they start in leaf_tets[l]. Chunks of at least
+  // 16 nl tets keep the table within nt / 16 entries.
+  d.leaf_tets.assign(nl, {});
   {
-    std::vector<std::size_t> count(nl, 0);
-    for (Index l : d.tet_leaf) ++count[l];
-    for (std::size_t l = 0; l < nl; ++l) d.leaf_tets[l].reserve(count[l]);
+    const std::size_t grain = std::max(kTetGrain, 16 * nl);
+    std::vector<Index> at(detail::chunk_count(nt, grain) * nl, 0);
+    detail::for_each_chunk(nt, grain, [&](std::size_t c, std::size_t lo, std::size_t hi) {
+      Index* row = at.data() + c * nl;
+      for (std::size_t t = lo; t < hi; ++t) ++row[d.tet_leaf[t]];
+    });
+    tbb::parallel_for(std::size_t{0}, nl, [&](std::size_t l) {
+      Index sum = 0;
+      for (std::size_t i = l; i < at.size(); i += nl) {
+        const Index k = at[i];
+        at[i] = sum;
+        sum += k;
+      }
+      d.leaf_tets[l].resize(sum);
+    });
+    detail::for_each_chunk(nt, grain, [&](std::size_t c, std::size_t lo, std::size_t hi) {
+      Index* row = at.data() + c * nl;
+      for (std::size_t t = lo; t < hi; ++t) {
+        const Index l = d.tet_leaf[t];
+        d.leaf_tets[l][row[l]++] = static_cast<Index>(t);
+      }
+    });
   }
-  for (std::size_t t = 0; t < nt; ++t) d.leaf_tets[d.tet_leaf[t]].push_back(static_cast<Index>(t));
 
   d.n1 = grid_n1(d.leaves, depth);
   // N2: n1 of the n1 members, less {L} and n1 (stamp[x] == l: x seen for l).
@@ -152,43 +190,54 @@ Result<Decomposition> decompose_impl(const VolumeMesh& mesh, int depth, const Bo
 
   d.interface_faces.assign(nl, {});
   if (!interfaces) return d;
-  // Interface faces: pair up equal face keys after a sort (a total order, so the
-  // outcome does not depend on the sort algorithm or thread count).
-  std::vector<FaceRecord> faces;
-  faces.reserve(4 * nt);
-  for (std::size_t t = 0; t < nt; ++t) {
-    const Tet& v = mesh.tets[t];
-    for (int f = 0; f < 4; ++f) {
-      std::array<Index, 3> key;
-      int m = 0;
-      for (int q = 0; q < 4; ++q) {
-        if (q != f) key[static_cast<std::size_t>(m++)] = v[static_cast<std::size_t>(q)];
+  // Interface faces: equal faces are adjacent once grouped by their smallest
+  // point and sorted (a total order); the points are scanned in chunks, each
+  // stopping at its first face of more than two tets. The first such face in
+  // that order is the error.
+  struct Interface {
+    Index leaf, tet;
+    int face;
+    bool operator<(const Interface& o) const { return std::tie(leaf, tet, face) < std::tie(o.leaf, o.tet, o.face); }
+  };
+  const auto faces = detail::faces_by_smallest_point(mesh.tets, np);
+  const auto& F = faces.items;
+  const std::size_t chunks = detail::chunk_count(np, kPointGrain);
+  std::vector<std::vector<Interface>> found(chunks);
+  std::vector<std::pair<Index, std::size_t>> over_shared(chunks, {kNoIndex, 0});  // (point, first face) per chunk
+  detail::for_each_chunk(np, kPointGrain, [&](std::size_t c, std::size_t lo, std::size_t hi) {
+    for (std::size_t a = lo; a < hi && over_shared[c].first == kNoIndex; ++a) {
+      for (std::size_t i = faces.first[a], end = faces.first[a + 1]; i < end;) {
+        std::size_t j = i + 1;
+        while (j < end && F[j].b == F[i].b && F[j].c == F[i].c) ++j;
+        if (j - i > 2) {
+          over_shared[c] = {static_cast<Index>(a), i};
+          break;
+        }
+        if (j - i == 2) {
+          const Index la = d.tet_leaf[F[i].tet], lb = d.tet_leaf[F[i + 1].tet];
+          if (la != lb) {
+            found[c].push_back({la, F[i].tet, static_cast<int>(F[i].slot)});
+            found[c].push_back({lb, F[i + 1].tet, static_cast<int>(F[i + 1].slot)});
+          }
+        }
+        i = j;
       }
-      std::sort(key.begin(), key.end());
-      faces.push_back({key, static_cast<Index>(4 * t + static_cast<std::size_t>(f))});
     }
-  }
-  tbb::parallel_sort(faces.begin(), faces.end());
-  for (std::size_t i = 0; i < faces.size();) {
+  });
+  for (const auto& [a, i] : over_shared) {
+    if (a == kNoIndex) continue;
     std::size_t j = i + 1;
-    while (j < faces.size() && faces[j].key == faces[i].key) ++j;
-    if (j - i > 2) {
-      const auto& k = faces[i].key;
-      return invalid_input(fmt::format("face ({}, {}, {}) is shared by {} tets (tets {}, {}, {}, ...)",
-                                       k[0], k[1], k[2], j - i, faces[i].packed / 4,
-                                       faces[i + 1].packed / 4, faces[i + 2].packed / 4));
-    }
-    if (j - i == 2) {
-      const Index a = faces[i].packed, b = faces[i + 1].packed;
-      const Index la = d.tet_leaf[a / 4], lb = d.tet_leaf[b / 4];
-      if (la != lb) {
-        d.interface_faces[la].emplace_back(a / 4, static_cast<int>(a % 4));
-        d.interface_faces[lb].emplace_back(b / 4, static_cast<int>(b % 4));
-      }
-    }
-    i = j;
+    while (j < faces.first[a + 1] && F[j].b == F[i].b && F[j].c == F[i].c) ++j;
+    return invalid_input(fmt::format("face ({}, {}, {}) is shared by {} tets (tets {}, {}, {}, ...)", a, F[i].b, F[i].c,
+                                     j - i, F[i].tet, F[i + 1].tet, F[i + 2].tet));
   }
-  for (auto& list : d.interface_faces) std::sort(list.begin(), list.end());
+  std::vector<Interface> all;
+  for (auto& part : found) {
+    all.insert(all.end(), part.begin(), part.end());
+    part = {};
+  }
+  tbb::parallel_sort(all.begin(), all.end());
+  for (const Interface& x : all) d.interface_faces[x.leaf].emplace_back(x.tet, x.face);
   return d;
 }
 

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <functional>
@@ -19,6 +20,8 @@
 #include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/parallel_reduce.h>
 #include <oneapi/tbb/parallel_sort.h>
+
+#include "fixed_chunks.hpp"
 
 #include "pdrmesh/predicates.hpp"
 #include "pdrmesh/topology.hpp"
@@ -51,11 +54,20 @@ std::string point_str(const Vec3& p) { return fmt::format("({}, {}, {})", p[0], 
 class Recorder {
  public:
   Recorder(ValidationReport& report, std::size_t cap) : report_(report), cap_(cap) {}
+  std::size_t cap() const { return cap_; }
   template <class... Args>
   void add(std::string_view check, fmt::format_string<Args...> f, Args&&... args) {
     ++report_.error_count;
     auto& n = kept_[std::string(check)];
     if (n++ < cap_) report_.errors.push_back(fmt::format("{}: {}", check, fmt::format(f, std::forward<Args>(args)...)));
+  }
+  /// `count` errors of `check` whose first messages are `messages`, as if added one by one.
+  void add_formatted(std::string_view check, std::size_t count, const std::vector<std::string>& messages) {
+    report_.error_count += count;
+    auto& n = kept_[std::string(check)];
+    const std::size_t keep = n < cap_ ? std::min({cap_ - n, count, messages.size()}) : 0;
+    for (std::size_t i = 0; i < keep; ++i) report_.errors.push_back(fmt::format("{}: {}", check, messages[i]));
+    n += count;
   }
 
  private:
@@ -64,25 +76,60 @@ class Recorder {
   std::map<std::string, std::size_t, std::less<>> kept_;
 };
 
-/// The offsets of a counting sort by a key in [0, keys): `each(add)` calls
-/// add(key) once per item; key k's items go to [start[k], start[k + 1]).
-template <class Each>
-std::vector<std::size_t> bucket_starts(std::size_t keys, Each&& each) {
-  std::vector<std::size_t> start(keys + 1, 0);
-  each([&](Index key) { ++start[key + 1]; });
-  std::partial_sum(start.begin(), start.end(), start.begin());
-  return start;
+/// One chunk's errors of one check: all counted, the first `cap` formatted.
+struct ChunkLog {
+  std::size_t cap = 0;
+  std::size_t count = 0;
+  std::vector<std::string> kept;
+  template <class... Args>
+  void add(fmt::format_string<Args...> f, Args&&... args) {
+    if (count++ < cap) kept.push_back(fmt::format(f, std::forward<Args>(args)...));
+  }
+};
+
+constexpr std::size_t kTetGrain = 16384;
+constexpr std::size_t kItemGrain = 8192;
+
+/// Runs body(log, chunk, i) for every i in [0, n) in fixed chunks of `grain`, in
+/// parallel, then records each chunk's errors of `check` in chunk order: the
+/// messages, their order and the caps are those of a serial loop. Returns the
+/// number of errors.
+template <class Body>
+std::size_t scan(Recorder& rec, std::string_view check, std::size_t n, std::size_t grain, Body&& body) {
+  std::vector<ChunkLog> logs(detail::chunk_count(n, grain), ChunkLog{rec.cap(), 0, {}});
+  detail::for_each_chunk(n, grain, [&](std::size_t c, std::size_t lo, std::size_t hi) {
+    for (std::size_t i = lo; i < hi; ++i) body(logs[c], c, i);
+  });
+  std::size_t errors = 0;
+  for (const ChunkLog& log : logs) {
+    rec.add_formatted(check, log.count, log.kept);
+    errors += log.count;
+  }
+  return errors;
 }
 
-/// Sorts each bucket [start[k], start[k + 1]) of `items` by `less`, buckets in parallel.
-template <class T, class Less>
-void sort_buckets(std::vector<T>& items, const std::vector<std::size_t>& start, Less less) {
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, start.size() - 1), [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t k = r.begin(); k != r.end(); ++k) {
-      std::sort(items.begin() + static_cast<std::ptrdiff_t>(start[k]),
-                items.begin() + static_cast<std::ptrdiff_t>(start[k + 1]), less);
-    }
+/// The per-chunk vectors concatenated in chunk order.
+template <class T>
+std::vector<T> concatenate(std::vector<std::vector<T>>& parts) {
+  std::size_t n = 0;
+  for (const auto& p : parts) n += p.size();
+  std::vector<T> all;
+  all.reserve(n);
+  for (auto& p : parts) {
+    all.insert(all.end(), p.begin(), p.end());
+    p = {};
+  }
+  return all;
+}
+
+/// out[i] = f(i) for i in [0, n), in parallel.
+template <class T, class F>
+std::vector<T> tabulate(std::size_t n, F&& f) {
+  std::vector<T> out(n);
+  detail::for_each_chunk(n, kItemGrain, [&](std::size_t, std::size_t lo, std::size_t hi) {
+    for (std::size_t i = lo; i < hi; ++i) out[i] = f(i);
   });
+  return out;
 }
 
 bool same_point(const Vec3& a, const Vec3& b) { return a[0] == b[0] && a[1] == b[1] && a[2] == b[2]; }
@@ -98,120 +145,106 @@ double enclosed_volume(const SurfaceMesh& surface) {
   return v;
 }
 
+// Every pass runs over fixed chunks (fixed_chunks.hpp) and combines the chunks
+// in order, so the report is the same for any number of threads, and the same
+// as one serial pass would give.
 ValidationReport validate_mesh(const VolumeMesh& mesh, const SurfaceMesh* surface,
                                const ValidationOptions& options) {
   ValidationReport report;
   Recorder rec(report, options.max_messages_per_check);
   const auto& P = mesh.points;
+  const auto& T = mesh.tets;
   const std::size_t np = P.size();
-  report.tets = mesh.tets.size();
+  const std::size_t nt = T.size();
+  report.tets = nt;
   report.points = np;
 
   // 1. Indices, distinct vertices, finite coordinates.
-  bool indices_ok = true;
-  for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
-    const Tet& k = mesh.tets[t];
+  std::size_t bad = scan(rec, "index", nt, kTetGrain, [&](ChunkLog& log, std::size_t, std::size_t t) {
+    const Tet& k = T[t];
     for (Index v : k) {
-      if (v >= np) {
-        rec.add("index", "tet {} refers to point {} of {}", t, v, np);
-        indices_ok = false;
-      }
+      if (v >= np) log.add("tet {} refers to point {} of {}", t, v, np);
     }
     if (k[0] == k[1] || k[0] == k[2] || k[0] == k[3] || k[1] == k[2] || k[1] == k[3] || k[2] == k[3]) {
-      rec.add("index", "tet {} repeats a vertex ({}, {}, {}, {})", t, k[0], k[1], k[2], k[3]);
-      indices_ok = false;
+      log.add("tet {} repeats a vertex ({}, {}, {}, {})", t, k[0], k[1], k[2], k[3]);
     }
-  }
-  for (std::size_t i = 0; i < np; ++i) {
-    if (!is_finite(P[i])) {
-      rec.add("coordinates", "point {} is not finite {}", i, point_str(P[i]));
-      indices_ok = false;
-    }
-  }
-  if (!indices_ok) return report;  // nothing below is safe
+  });
+  bad += scan(rec, "coordinates", np, kItemGrain, [&](ChunkLog& log, std::size_t, std::size_t i) {
+    if (!is_finite(P[i])) log.add("point {} is not finite {}", i, point_str(P[i]));
+  });
+  if (bad > 0) return report;  // nothing below is safe
 
-  // 2. Orientation, exactly; volume in doubles.
-  for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
-    const Tet& k = mesh.tets[t];
-    const int o = exact::orient3d(P[k[0]], P[k[1]], P[k[2]], P[k[3]]);
-    if (o <= 0) {
-      rec.add("orientation", "tet {} is {} near {}", t, o == 0 ? "degenerate (zero volume)" : "inverted",
-              point_str(P[k[0]]));
-    }
-    report.volume += signed_volume(P[k[0]], P[k[1]], P[k[2]], P[k[3]]);
+  // 2. Orientation, exactly; volume in doubles. The tet volumes are summed in
+  // tet order after the parallel pass, so the sum is the serial one, bit for bit.
+  {
+    detail::UninitVector<double> volume(nt);  // every item written below
+    scan(rec, "orientation", nt, kTetGrain, [&](ChunkLog& log, std::size_t, std::size_t t) {
+      const Tet& k = T[t];
+      const int o = exact::orient3d(P[k[0]], P[k[1]], P[k[2]], P[k[3]]);
+      if (o <= 0) log.add("tet {} is {} near {}", t, o == 0 ? "degenerate (zero volume)" : "inverted", point_str(P[k[0]]));
+      volume[t] = signed_volume(P[k[0]], P[k[1]], P[k[2]], P[k[3]]);
+    });
+    for (const double v : volume) report.volume += v;
   }
 
   // 3. Faces: shared by at most two tets, with opposite orientations. The
-  // faces are grouped by their smallest point (a counting sort) and each group
-  // sorted by its other two points, then the tet: the order of one sort by
-  // (sorted points, tet), in linear time plus small sorts, 16 bytes a face.
-  struct FaceRef {
-    Index b, c;     // the face's other two points, b < c
-    Index tet;
-    std::uint32_t slot;  // topo::face_of(mesh.tets[tet], slot)
-  };
-  const std::vector<std::size_t> face_first = bucket_starts(np, [&](auto&& add) {
-    for (const Tet& k : mesh.tets)
-      for (int f = 0; f < 4; ++f) add(std::min({k[(f + 1) % 4], k[(f + 2) % 4], k[(f + 3) % 4]}));  // face f: all but k[f]
-  });
-  std::vector<FaceRef> faces(face_first[np]);
-  {
-    std::vector<std::size_t> next(face_first.begin(), face_first.end() - 1);
-    for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
-      for (int f = 0; f < 4; ++f) {
-        const Tri s = topo::sorted_key(topo::face_of(mesh.tets[t], f));
-        faces[next[s[0]]++] = {s[1], s[2], static_cast<Index>(t), static_cast<std::uint32_t>(f)};
-      }
-    }
-  }
-  sort_buckets(faces, face_first, [](const FaceRef& x, const FaceRef& y) {
-    return std::tie(x.b, x.c, x.tet) < std::tie(y.b, y.c, y.tet);
-  });
-  const auto oriented = [&](const FaceRef& r) { return topo::face_of(mesh.tets[r.tet], static_cast<int>(r.slot)); };
+  // faces are grouped by their smallest point a; each point's faces are then
+  // scanned in parallel, chunks of points concatenated in order.
   std::vector<Tri> boundary;  // derived: faces of exactly one tet, outward
   std::size_t unique_faces = 0;
-  for (Index a = 0; a < np; ++a) {
-    for (std::size_t i = face_first[a], end = face_first[a + 1]; i < end;) {
-      std::size_t j = i;
-      while (j < end && faces[j].b == faces[i].b && faces[j].c == faces[i].c) ++j;
-      ++unique_faces;
-      const Index b = faces[i].b, c = faces[i].c;
-      if (j - i == 1) {
-        boundary.push_back(oriented(faces[i]));
-      } else if (j - i == 2) {
-        if (face_key(oriented(faces[i])).even == face_key(oriented(faces[i + 1])).even) {
-          rec.add("conformity", "tets {} and {} overlap across face ({}, {}, {}) at {}", faces[i].tet,
-                  faces[i + 1].tet, a, b, c, point_str(P[a]));
+  {
+    const detail::Buckets<detail::FaceRef> faces = detail::faces_by_smallest_point(T, np);
+    const auto oriented = [&](const detail::FaceRef& r) { return topo::face_of(T[r.tet], static_cast<int>(r.slot)); };
+    const std::size_t chunks = detail::chunk_count(np, kItemGrain);
+    std::vector<std::vector<Tri>> chunk_boundary(chunks);
+    std::vector<std::size_t> chunk_unique(chunks, 0);
+    scan(rec, "conformity", np, kItemGrain, [&](ChunkLog& log, std::size_t chunk, std::size_t a) {
+      const auto& F = faces.items;
+      for (std::size_t i = faces.first[a], end = faces.first[a + 1]; i < end;) {
+        std::size_t j = i;
+        while (j < end && F[j].b == F[i].b && F[j].c == F[i].c) ++j;
+        ++chunk_unique[chunk];
+        const Index b = F[i].b, c = F[i].c;
+        if (j - i == 1) {
+          chunk_boundary[chunk].push_back(oriented(F[i]));
+        } else if (j - i == 2) {
+          if (face_key(oriented(F[i])).even == face_key(oriented(F[i + 1])).even) {
+            log.add("tets {} and {} overlap across face ({}, {}, {}) at {}", F[i].tet, F[i + 1].tet, a, b, c,
+                    point_str(P[a]));
+          }
+        } else {
+          log.add("face ({}, {}, {}) at {} is shared by {} tets", a, b, c, point_str(P[a]), j - i);
         }
-      } else {
-        rec.add("conformity", "face ({}, {}, {}) at {} is shared by {} tets", a, b, c, point_str(P[a]), j - i);
+        i = j;
       }
-      i = j;
-    }
+    });
+    boundary = concatenate(chunk_boundary);
+    unique_faces = std::accumulate(chunk_unique.begin(), chunk_unique.end(), std::size_t{0});
   }
-  faces = {};
   report.boundary_faces = boundary.size();
 
   // 4. Points: used, and no two with the same coordinates. (The parallel sorts
   // here and below use total orders, ties broken by an index, so they give
   // exactly what std::sort gives.)
-  {
-    std::vector<char> used(np, 0);
-    for (const Tet& k : mesh.tets)
-      for (Index v : k) used[v] = 1;
-    for (std::size_t i = 0; i < np; ++i)
-      if (!used[i]) rec.add("points", "point {} {} is used by no tet", i, point_str(P[i]));
-    std::vector<Index> order(np);
-    for (std::size_t i = 0; i < np; ++i) order[i] = static_cast<Index>(i);
-    tbb::parallel_sort(order.begin(), order.end(), [&](Index a, Index b) {
-      return point_less(P[a], P[b]) || (!point_less(P[b], P[a]) && a < b);
-    });
-    for (std::size_t i = 1; i < np; ++i)
-      if (same_point(P[order[i - 1]], P[order[i]]))
-        rec.add("points", "points {} and {} are both at {}", order[i - 1], order[i], point_str(P[order[i]]));
-  }
+  std::vector<char> used(np, 0);
+  detail::for_each_chunk(nt, kTetGrain, [&](std::size_t, std::size_t lo, std::size_t hi) {
+    for (std::size_t t = lo; t < hi; ++t)
+      for (Index v : T[t]) std::atomic_ref<char>(used[v]).store(1, std::memory_order_relaxed);
+  });
+  scan(rec, "points", np, kItemGrain, [&](ChunkLog& log, std::size_t, std::size_t i) {
+    if (!used[i]) log.add("point {} {} is used by no tet", i, point_str(P[i]));
+  });
+  std::vector<Index> by_coord = tabulate<Index>(np, [](std::size_t i) { return static_cast<Index>(i); });
+  tbb::parallel_sort(by_coord.begin(), by_coord.end(), [&](Index a, Index b) {
+    return point_less(P[a], P[b]) || (!point_less(P[b], P[a]) && a < b);
+  });
+  scan(rec, "points", np > 0 ? np - 1 : 0, kItemGrain, [&](ChunkLog& log, std::size_t, std::size_t i) {
+    if (same_point(P[by_coord[i]], P[by_coord[i + 1]]))
+      log.add("points {} and {} are both at {}", by_coord[i], by_coord[i + 1], point_str(P[by_coord[i + 1]]));
+  });
 
-  // 5. Boundary: closed 2-manifold.
+  // 5. Boundary: closed 2-manifold. Groups of a sorted list are scanned in
+  // parallel by their first item, so a chunk finishes the group it starts.
   std::size_t boundary_edges = 0, boundary_vertices = 0;
   {
     struct DirectedEdge {
@@ -219,43 +252,44 @@ ValidationReport validate_mesh(const VolumeMesh& mesh, const SurfaceMesh* surfac
       bool forward;  // lo -> hi
       Index face;
     };
-    std::vector<DirectedEdge> edges;
-    edges.reserve(3 * boundary.size());
-    for (std::size_t f = 0; f < boundary.size(); ++f) {
-      for (int e = 0; e < 3; ++e) {
-        const Index u = boundary[f][e], v = boundary[f][(e + 1) % 3];
-        edges.push_back({std::min(u, v), std::max(u, v), u < v, static_cast<Index>(f)});
-      }
-    }
+    std::vector<DirectedEdge> edges = tabulate<DirectedEdge>(3 * boundary.size(), [&](std::size_t i) {
+      const Index u = boundary[i / 3][i % 3], v = boundary[i / 3][(i + 1) % 3];
+      return DirectedEdge{std::min(u, v), std::max(u, v), u < v, static_cast<Index>(i / 3)};
+    });
     tbb::parallel_sort(edges.begin(), edges.end(), [](const DirectedEdge& a, const DirectedEdge& b) {
       return std::tie(a.lo, a.hi, a.face, a.forward) < std::tie(b.lo, b.hi, b.face, b.forward);
     });
-    for (std::size_t i = 0; i < edges.size();) {
+    const auto same_edge = [&](std::size_t i, std::size_t j) { return edges[j].lo == edges[i].lo && edges[j].hi == edges[i].hi; };
+    std::vector<std::size_t> edge_groups(detail::chunk_count(edges.size(), kItemGrain), 0);
+    scan(rec, "boundary", edges.size(), kItemGrain, [&](ChunkLog& log, std::size_t chunk, std::size_t i) {
+      if (i > 0 && same_edge(i - 1, i)) return;
       std::size_t j = i;
-      while (j < edges.size() && edges[j].lo == edges[i].lo && edges[j].hi == edges[i].hi) ++j;
-      ++boundary_edges;
+      while (j < edges.size() && same_edge(i, j)) ++j;
+      ++edge_groups[chunk];
       if (j - i != 2 || edges[i].forward == edges[i + 1].forward) {
-        rec.add("boundary", "boundary edge ({}, {}) at {} is used by {} boundary faces{}", edges[i].lo,
-                edges[i].hi, point_str(P[edges[i].lo]), j - i,
-                j - i == 2 ? " with the same direction" : "");
+        log.add("boundary edge ({}, {}) at {} is used by {} boundary faces{}", edges[i].lo, edges[i].hi,
+                point_str(P[edges[i].lo]), j - i, j - i == 2 ? " with the same direction" : "");
       }
-      i = j;
-    }
+    });
+    boundary_edges = std::accumulate(edge_groups.begin(), edge_groups.end(), std::size_t{0});
     // One fan per vertex: around v, each face (v, x, y) links x -> y; a single
     // fan is a single cycle through all of v's faces.
     struct Corner {
       Index v, x, y;
     };
-    std::vector<Corner> corners;
-    corners.reserve(3 * boundary.size());
-    for (const Tri& t : boundary)
-      for (int c = 0; c < 3; ++c) corners.push_back({t[c], t[(c + 1) % 3], t[(c + 2) % 3]});
+    std::vector<Corner> corners = tabulate<Corner>(3 * boundary.size(), [&](std::size_t i) {
+      const Tri& t = boundary[i / 3];
+      const std::size_t c = i % 3;
+      return Corner{t[c], t[(c + 1) % 3], t[(c + 2) % 3]};
+    });
     tbb::parallel_sort(corners.begin(), corners.end(),
                        [](const Corner& a, const Corner& b) { return std::tie(a.v, a.x, a.y) < std::tie(b.v, b.x, b.y); });
-    for (std::size_t i = 0; i < corners.size();) {
+    std::vector<std::size_t> vertex_groups(detail::chunk_count(corners.size(), kItemGrain), 0);
+    scan(rec, "boundary", corners.size(), kItemGrain, [&](ChunkLog& log, std::size_t chunk, std::size_t i) {
+      if (i > 0 && corners[i - 1].v == corners[i].v) return;
       std::size_t j = i;
       while (j < corners.size() && corners[j].v == corners[i].v) ++j;
-      ++boundary_vertices;
+      ++vertex_groups[chunk];
       std::size_t steps = 0;
       Index x = corners[i].x;
       do {
@@ -267,11 +301,10 @@ ValidationReport validate_mesh(const VolumeMesh& mesh, const SurfaceMesh* surfac
         ++steps;
       } while (x != corners[i].x && steps <= j - i);
       if (steps != j - i) {
-        rec.add("boundary", "boundary vertex {} at {} is not a single fan of faces", corners[i].v,
-                point_str(P[corners[i].v]));
+        log.add("boundary vertex {} at {} is not a single fan of faces", corners[i].v, point_str(P[corners[i].v]));
       }
-      i = j;
-    }
+    });
+    boundary_vertices = std::accumulate(vertex_groups.begin(), vertex_groups.end(), std::size_t{0});
   }
   report.euler_boundary = static_cast<long long>(boundary_vertices) - static_cast<long long>(boundary_edges) +
                           static_cast<long long>(boundary.size());
@@ -280,36 +313,26 @@ ValidationReport validate_mesh(const VolumeMesh& mesh, const SurfaceMesh* surfac
   {
     // Edges grouped by their smaller point (a counting sort), each group's
     // larger points sorted and counted once.
-    const std::vector<std::size_t> edge_first = bucket_starts(np, [&](auto&& add) {
-      for (const Tet& k : mesh.tets)
-        for (int a = 0; a < 4; ++a)
-          for (int b = a + 1; b < 4; ++b) add(std::min(k[a], k[b]));
+    detail::Buckets<Index> ends = detail::bucket_items<Index>(nt, np, kTetGrain, [&](std::size_t t, auto&& emit) {
+      const Tet& k = T[t];
+      for (int a = 0; a < 4; ++a)
+        for (int b = a + 1; b < 4; ++b) emit(std::min(k[a], k[b]), std::max(k[a], k[b]));
     });
-    std::vector<Index> ends(edge_first[np]);
-    {
-      std::vector<std::size_t> next(edge_first.begin(), edge_first.end() - 1);
-      for (const Tet& k : mesh.tets)
-        for (int a = 0; a < 4; ++a)
-          for (int b = a + 1; b < 4; ++b) ends[next[std::min(k[a], k[b])]++] = std::max(k[a], k[b]);
-    }
-    sort_buckets(ends, edge_first, std::less<Index>());
+    detail::sort_buckets(ends, std::less<Index>());
     const std::size_t ne = tbb::parallel_reduce(
         tbb::blocked_range<std::size_t>(0, np), std::size_t{0},
         [&](const tbb::blocked_range<std::size_t>& r, std::size_t n) {
           for (std::size_t v = r.begin(); v != r.end(); ++v) {
-            const auto lo = ends.begin() + static_cast<std::ptrdiff_t>(edge_first[v]);
-            const auto hi = ends.begin() + static_cast<std::ptrdiff_t>(edge_first[v + 1]);
+            const auto lo = ends.items.begin() + static_cast<std::ptrdiff_t>(ends.first[v]);
+            const auto hi = ends.items.begin() + static_cast<std::ptrdiff_t>(ends.first[v + 1]);
             n += static_cast<std::size_t>(std::unique(lo, hi) - lo);
           }
           return n;
         },
         std::plus<>());
-    std::vector<char> used(np, 0);
-    std::size_t nv = 0;
-    for (const Tet& k : mesh.tets)
-      for (Index v : k) nv += used[v] ? 0 : (used[v] = 1);
+    const auto nv = static_cast<std::size_t>(std::count(used.begin(), used.end(), char{1}));
     report.euler_volume = static_cast<long long>(nv) - static_cast<long long>(ne) +
-                          static_cast<long long>(unique_faces) - static_cast<long long>(mesh.tets.size());
+                          static_cast<long long>(unique_faces) - static_cast<long long>(nt);
     if (2 * report.euler_volume != report.euler_boundary) {
       rec.add("topology", "V - E + F - T = {} but the boundary's Euler characteristic is {} (expected twice as much)",
               report.euler_volume, report.euler_boundary);
@@ -322,47 +345,40 @@ ValidationReport validate_mesh(const VolumeMesh& mesh, const SurfaceMesh* surfac
     if (mesh.boundary_ids.size() != mesh.boundary.size()) {
       rec.add("boundary", "{} boundary faces but {} boundary ids", mesh.boundary.size(), mesh.boundary_ids.size());
     }
-    std::vector<Tri> derived;
-    derived.reserve(boundary.size());
-    for (const Tri& t : boundary) derived.push_back(canonical(t));
+    std::vector<Tri> derived = tabulate<Tri>(boundary.size(), [&](std::size_t f) { return canonical(boundary[f]); });
     tbb::parallel_sort(derived.begin(), derived.end());
-    for (std::size_t f = 0; f < mesh.boundary.size(); ++f) {
+    std::vector<std::vector<std::pair<Tri, int>>> chunk_declared(detail::chunk_count(mesh.boundary.size(), kItemGrain));
+    scan(rec, "boundary", mesh.boundary.size(), kItemGrain, [&](ChunkLog& log, std::size_t chunk, std::size_t f) {
       const Tri& t = mesh.boundary[f];
       if (t[0] >= np || t[1] >= np || t[2] >= np) {
-        rec.add("boundary", "boundary face {} refers to a point out of range", f);
-        continue;
+        log.add("boundary face {} refers to a point out of range", f);
+        return;
       }
       const Tri c = canonical(t);
-      declared.emplace_back(c, f < mesh.boundary_ids.size() ? mesh.boundary_ids[f] : 0);
+      chunk_declared[chunk].emplace_back(c, f < mesh.boundary_ids.size() ? mesh.boundary_ids[f] : 0);
       if (!std::binary_search(derived.begin(), derived.end(), c)) {
-        rec.add("boundary", "listed boundary face {} ({}, {}, {}) at {} is not an outward boundary face of the tets",
-                f, t[0], t[1], t[2], point_str(P[t[0]]));
+        log.add("listed boundary face {} ({}, {}, {}) at {} is not an outward boundary face of the tets", f, t[0], t[1],
+                t[2], point_str(P[t[0]]));
       }
-    }
+    });
+    declared = concatenate(chunk_declared);
     if (mesh.boundary.size() != boundary.size()) {
       rec.add("boundary", "the mesh lists {} boundary faces, its tets have {}", mesh.boundary.size(), boundary.size());
     }
-    std::sort(declared.begin(), declared.end());
+    tbb::parallel_sort(declared.begin(), declared.end());  // equal items are identical: the order of std::sort
   }
 
   // 8. Against the input surface: same triangles, same orientation, same ids, same volume.
   if (surface != nullptr) {
     report.enclosed_volume = enclosed_volume(*surface);
-    std::vector<Index> by_coord(np);
-    for (std::size_t i = 0; i < np; ++i) by_coord[i] = static_cast<Index>(i);
-    tbb::parallel_sort(by_coord.begin(), by_coord.end(), [&](Index a, Index b) {
-      return point_less(P[a], P[b]) || (!point_less(P[b], P[a]) && a < b);
-    });
-    std::vector<Index> to_mesh(surface->points.size(), kNoIndex);
-    for (std::size_t i = 0; i < surface->points.size(); ++i) {
+    const std::vector<Index> to_mesh = tabulate<Index>(surface->points.size(), [&](std::size_t i) {
       const Vec3& q = surface->points[i];
       const auto it = std::lower_bound(by_coord.begin(), by_coord.end(), q,
                                        [&](Index a, const Vec3& key) { return point_less(P[a], key); });
-      if (it != by_coord.end() && same_point(P[*it], q)) to_mesh[i] = *it;
-    }
-    std::vector<Tri> expected;
-    expected.reserve(surface->triangles.size());
-    for (std::size_t f = 0; f < surface->triangles.size(); ++f) {
+      return it != by_coord.end() && same_point(P[*it], q) ? *it : kNoIndex;
+    });
+    std::vector<std::vector<Tri>> chunk_expected(detail::chunk_count(surface->triangles.size(), kItemGrain));
+    scan(rec, "surface", surface->triangles.size(), kItemGrain, [&](ChunkLog& log, std::size_t chunk, std::size_t f) {
       const Tri& t = surface->triangles[f];
       Tri m{};
       bool found = true;
@@ -371,22 +387,20 @@ ValidationReport validate_mesh(const VolumeMesh& mesh, const SurfaceMesh* surfac
         if (m[c] == kNoIndex) found = false;
       }
       if (!found) {
-        rec.add("surface", "input triangle {} has a vertex that is not a mesh point", f);
-        continue;
+        log.add("input triangle {} has a vertex that is not a mesh point", f);
+        return;
       }
       const Tri c = canonical(m);
-      expected.push_back(c);
+      chunk_expected[chunk].push_back(c);
       if (!declared.empty() && f < surface->surface_ids.size()) {
         const auto it = std::lower_bound(declared.begin(), declared.end(), std::make_pair(c, std::numeric_limits<int>::min()));
         if (it != declared.end() && it->first == c && it->second != surface->surface_ids[f]) {
-          rec.add("surface", "input triangle {} has surface id {} but the mesh gives {}", f, surface->surface_ids[f],
-                  it->second);
+          log.add("input triangle {} has surface id {} but the mesh gives {}", f, surface->surface_ids[f], it->second);
         }
       }
-    }
-    std::vector<Tri> actual;
-    actual.reserve(boundary.size());
-    for (const Tri& t : boundary) actual.push_back(canonical(t));
+    });
+    std::vector<Tri> expected = concatenate(chunk_expected);
+    std::vector<Tri> actual = tabulate<Tri>(boundary.size(), [&](std::size_t f) { return canonical(boundary[f]); });
     tbb::parallel_sort(expected.begin(), expected.end());
     tbb::parallel_sort(actual.begin(), actual.end());
     std::vector<Tri> missing, extra;

@@ -76,7 +76,7 @@ Vec3 tet_barycenter(const VolumeMesh& mesh, Index t);
 /// Builds the decomposition of `mesh` at `depth`. Errors: depth outside
 /// [0, kMaxDepth]; a tet referring to a missing point; a face shared by more than
 /// two tets. A mesh without tets gives zero leaves. Deterministic: depends only
-/// on the mesh.
+/// on the mesh, not on the number of threads it runs on (oneTBB, fixed chunks).
 Result<Decomposition> decompose(const VolumeMesh& mesh, int depth);
 
 /// The same over a caller-given root box (any box; `box` is stored as is).

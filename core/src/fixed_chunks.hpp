@@ -1,0 +1,139 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// Deterministic parallel building blocks (oneTBB) for the validator and the
+// decompositions: loops over fixed chunks whose bounds do not depend on the
+// thread count (per-chunk results combined in chunk order give the serial
+// result), a parallel counting sort into buckets, and the faces of a tet mesh
+// grouped by their smallest point.
+#pragma once
+
+#include <algorithm>
+#include <atomic>
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <new>
+#include <numeric>
+#include <span>
+#include <tuple>
+#include <utility>
+#include <vector>
+
+#include <oneapi/tbb/blocked_range.h>
+#include <oneapi/tbb/parallel_for.h>
+
+#include "pdrmesh/topology.hpp"
+#include "pdrmesh/types.hpp"
+
+namespace pdrmesh::detail {
+
+/// The number of chunks of `grain` items (grain > 0) covering [0, n).
+constexpr std::size_t chunk_count(std::size_t n, std::size_t grain) { return (n + grain - 1) / grain; }
+
+/// Calls body(chunk, begin, end) for every chunk [chunk * grain, min(n, (chunk + 1) * grain)),
+/// chunks in parallel. The chunks depend only on n and grain, never on the threads.
+template <class Body>
+void for_each_chunk(std::size_t n, std::size_t grain, Body&& body) {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunk_count(n, grain)),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t c = r.begin(); c != r.end(); ++c) body(c, c * grain, std::min(n, (c + 1) * grain));
+                    });
+}
+
+/// An allocator that leaves a resized vector's new items default-initialised
+/// (trivial items: not written), so that a parallel pass writing every item
+/// first touches the memory, rather than a serial zero fill.
+template <class T>
+struct NoInitAllocator : std::allocator<T> {
+  template <class U>
+  struct rebind {
+    using other = NoInitAllocator<U>;
+  };
+  NoInitAllocator() = default;
+  template <class U>
+  NoInitAllocator(const NoInitAllocator<U>&) noexcept {}
+  template <class U, class... Args>
+  void construct(U* p, Args&&... args) {
+    if constexpr (sizeof...(Args) == 0) {
+      ::new (static_cast<void*>(p)) U;
+    } else {
+      ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+    }
+  }
+};
+
+/// A vector whose resize does not initialise trivial items (see NoInitAllocator).
+template <class T>
+using UninitVector = std::vector<T, NoInitAllocator<T>>;
+
+/// Items grouped by a key in [0, keys): key k's items are items[first[k] .. first[k + 1]).
+template <class T>
+struct Buckets {
+  std::vector<std::size_t> first;
+  UninitVector<T> items;
+};
+
+/// A counting sort, in parallel: each(i, emit) for every i in [0, n) calls
+/// emit(key, item) for its items (the same ones on each of its two calls). The
+/// bucket sizes are exact; the order of the items *inside* a bucket depends on
+/// the threads, so a caller sorts each bucket by a total order (sort_buckets),
+/// after which the result is what a serial counting sort plus that sort gives.
+template <class T, class Each>
+Buckets<T> bucket_items(std::size_t n, std::size_t keys, std::size_t grain, Each&& each) {
+  Buckets<T> b;
+  b.first.assign(keys + 1, 0);
+  for_each_chunk(n, grain, [&](std::size_t, std::size_t lo, std::size_t hi) {
+    for (std::size_t i = lo; i < hi; ++i) {
+      each(i, [&](Index key, const T&) { std::atomic_ref<std::size_t>(b.first[key + 1]).fetch_add(1, std::memory_order_relaxed); });
+    }
+  });
+  std::partial_sum(b.first.begin(), b.first.end(), b.first.begin());
+  b.items.resize(b.first[keys]);
+  std::vector<std::size_t> next(b.first.begin(), b.first.end() - 1);
+  for_each_chunk(n, grain, [&](std::size_t, std::size_t lo, std::size_t hi) {
+    for (std::size_t i = lo; i < hi; ++i) {
+      each(i, [&](Index key, const T& item) {
+        b.items[std::atomic_ref<std::size_t>(next[key]).fetch_add(1, std::memory_order_relaxed)] = item;
+      });
+    }
+  });
+  return b;
+}
+
+/// Sorts each bucket of `b` by `less`, buckets in parallel.
+template <class T, class Less>
+void sort_buckets(Buckets<T>& b, Less less) {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, b.first.size() - 1), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t k = r.begin(); k != r.end(); ++k) {
+      std::sort(b.items.begin() + static_cast<std::ptrdiff_t>(b.first[k]),
+                b.items.begin() + static_cast<std::ptrdiff_t>(b.first[k + 1]), less);
+    }
+  });
+}
+
+/// One face of one tet: its sorted points are (the bucket's point, b, c).
+struct FaceRef {
+  Index b, c;  // b <= c
+  Index tet;
+  std::uint32_t slot;  // topo::face_of(tets[tet], slot)
+  friend bool operator<(const FaceRef& x, const FaceRef& y) {
+    return std::tie(x.b, x.c, x.tet, x.slot) < std::tie(y.b, y.c, y.tet, y.slot);
+  }
+};
+
+/// Every face of every tet, bucketed by its smallest point (every index must be
+/// below `points`) and each bucket sorted by (b, c, tet, slot): the order of one
+/// sort of all faces by (sorted points, tet, slot), in linear time plus small
+/// sorts, 16 bytes a face. Equal faces are adjacent.
+inline Buckets<FaceRef> faces_by_smallest_point(std::span<const Tet> tets, std::size_t points) {
+  auto b = bucket_items<FaceRef>(tets.size(), points, 16384, [&](std::size_t t, auto&& emit) {
+    for (int f = 0; f < 4; ++f) {
+      const Tri s = topo::sorted_key(topo::face_of(tets[t], f));
+      emit(s[0], FaceRef{s[1], s[2], static_cast<Index>(t), static_cast<std::uint32_t>(f)});
+    }
+  });
+  sort_buckets(b, std::less<FaceRef>());
+  return b;
+}
+
+}  // namespace pdrmesh::detail
