@@ -30,45 +30,16 @@ double quality_of(TetMesh& m, Index t) {
   return q;
 }
 
-/// A candidate tet's quality: kInvalid when it is not positive, and lowered to
-/// kInvalid too (setting *pruned) when it cannot beat `floor`.
-double candidate_quality(const TetMesh& m, const Tet& k, double floor, bool* pruned) {
-  if (!positive(m, k)) return kInvalid;
-  const double q = tet_quality(m, k);
-  if (q <= floor) {
-    *pruned = true;
-    return kInvalid;
-  }
-  return q;
-}
-
 /// Edge removal (ring size `required`, 0: any). The new tets must all beat the
 /// old ones' worst quality, or, when `floor` is not NaN, beat min(floor, that
 /// worst) and create no edge as long as the removed one (remove_long_edge).
 FlipOutcome remove_edge_of_size(TetMesh& m, Index t, int e, int required,
                                 double floor = std::numeric_limits<double>::quiet_NaN()) {
-  if (t >= m.num_slots() || !m.alive(t)) return FlipOutcome::kNotApplicable;
-  // Cheap rejections first: t's own faces on the edge, and its hull faces.
-  for (int s = 0; s < 2; ++s) {
-    const int f = topo::edge_face(e, s);
-    if (m.neighbour(t, f) == kNoIndex) return FlipOutcome::kNotApplicable;
-    if (m.frozen(t, f)) return FlipOutcome::kConstrained;
-  }
   EdgeRing r;
-  if (!m.edge_ring(t, e, r, required != 0 ? required : kMaxRemovalRing) || !r.closed)
-    return FlipOutcome::kNotApplicable;
+  if (const FlipOutcome why = removable_edge_ring(m, t, e, required, r); why != FlipOutcome::kDone) return why;
   const int n = r.size;
-  if ((required != 0 && n != required) || n < 3 || n > kMaxRemovalRing)
-    return FlipOutcome::kNotApplicable;
-
-  // Faces on the edge: tets[i] and tets[i+1] share the face opposite ring[i] in tets[i].
   double old_quality = kEmpty;
-  for (int i = 0; i < n; ++i) {
-    const Index u = r.tets[i];
-    if (m.frozen(u, topo::local_vertex(m.tet(u), r.ring[i]))) return FlipOutcome::kConstrained;
-    if (m.region(u) != m.region(r.tets[0])) return FlipOutcome::kConstrained;
-    old_quality = std::min(old_quality, quality_of(m, u));
-  }
+  for (int i = 0; i < n; ++i) old_quality = std::min(old_quality, quality_of(m, r.tets[i]));
   const bool shorten = !std::isnan(floor);
   double edge2 = std::numeric_limits<double>::infinity();
   if (shorten) {
@@ -78,73 +49,25 @@ FlipOutcome remove_edge_of_size(TetMesh& m, Index t, int e, int required,
   }
   // A diagonal (ring[i], ring[j]) that is not a side of the ring polygon is a new edge.
   const auto too_long = [&](int i, int j) {
-    if (!shorten || j - i < 2 || (i == 0 && j == r.size - 1)) return false;
+    if (j - i < 2 || (i == 0 && j == n - 1)) return false;
     const Vec3 d = m.point(r.ring[i]) - m.point(r.ring[j]);
     return dot(d, d) >= edge2;
   };
-
-  // Klincsek: best[i][j] = the best smallest quality over triangulations of the
-  // sub-polygon ring[i..j]; triangle (i, k, j) yields the tets
-  // (ring[i], ring[k], ring[j], b) and (ring[k], ring[i], ring[j], a). Tets no
-  // better than the old ones are pruned: they cannot be part of an accepted result.
-  const Index a = r.a, b = r.b;
-  const auto& p = r.ring;
-  using Table = std::array<std::array<double, kMaxRemovalRing>, kMaxRemovalRing>;
-  Table best, quality_b, quality_a;  // filled before read; left uninitialised on purpose
-  std::array<std::array<int, kMaxRemovalRing>, kMaxRemovalRing> apex;
-  bool pruned = false;
-  for (int i = 0; i + 1 < n; ++i) best[i][i + 1] = kEmpty;
-  for (int len = 2; len < n; ++len) {
-    for (int i = 0; i + len < n; ++i) {
-      const int j = i + len;
-      best[i][j] = kInvalid;
-      apex[i][j] = -1;
-      for (int k = i + 1; k < j; ++k) {
-        double v = std::min(best[i][k], best[k][j]);
-        if (v <= best[i][j]) continue;  // cannot win; skip the predicates
-        if (too_long(i, k) || too_long(k, j) || too_long(i, j)) {
-          pruned = true;  // declined for its length: "not better", not "would invert"
-          continue;
-        }
-        const double qb = candidate_quality(m, {p[i], p[k], p[j], b}, old_quality, &pruned);
-        v = std::min(v, qb);
-        if (v <= best[i][j]) continue;
-        const double qa = candidate_quality(m, {p[k], p[i], p[j], a}, old_quality, &pruned);
-        v = std::min(v, qa);
-        if (v > best[i][j]) {
-          best[i][j] = v;
-          apex[i][j] = k;
-          quality_b[i][j] = qb;
-          quality_a[i][j] = qa;
-        }
-      }
-    }
-  }
+  const auto quality = [&m](const Tet& k) { return positive(m, k) ? tet_quality(m, k) : kInvalid; };
+  RingTriangulation best;
+  const bool found =
+      shorten ? best_ring_triangulation(
+                    r, old_quality, quality,
+                    [&](int i, int k, int j) { return too_long(i, k) || too_long(k, j) || too_long(i, j); }, best)
+              : best_ring_triangulation(r, old_quality, quality, [](int, int, int) { return false; }, best);
   // No candidate survived: some tet was merely not better, or every one inverted.
-  if (best[0][n - 1] == kInvalid)
-    return pruned ? FlipOutcome::kNotBetter : FlipOutcome::kWouldInvert;
+  if (!found) return best.pruned ? FlipOutcome::kNotBetter : FlipOutcome::kWouldInvert;
 
-  std::array<Tet, 2 * (kMaxRemovalRing - 2)> fresh{};
-  std::array<double, 2 * (kMaxRemovalRing - 2)> fresh_quality{};
-  std::array<Index, 2 * (kMaxRemovalRing - 2)> parent{};
-  std::array<std::array<int, 2>, kMaxRemovalRing> stack{};
-  int top = 0, count = 0;
-  stack[top++] = {0, n - 1};
-  while (top > 0) {
-    const auto [i, j] = stack[--top];
-    if (j - i < 2) continue;
-    const int k = apex[i][j];
-    fresh_quality[count] = quality_b[i][j];
-    fresh[count++] = {p[i], p[k], p[j], b};
-    fresh_quality[count] = quality_a[i][j];
-    fresh[count++] = {p[k], p[i], p[j], a};
-    stack[top++] = {i, k};
-    stack[top++] = {k, j};
-  }
-  const auto c = static_cast<std::size_t>(count);
+  std::array<Index, RingTriangulation::kMaxTets> parent{};
+  const auto c = static_cast<std::size_t>(best.count);
   m.replace_cavity(std::span<const Index>(r.tets.data(), static_cast<std::size_t>(n)),
-                   std::span<const Tet>(fresh.data(), c), std::span<const Index>(parent.data(), c));
-  for (std::size_t j = 0; j < c; ++j) m.set_cached_quality(m.last_created()[j], fresh_quality[j]);
+                   std::span<const Tet>(best.tets.data(), c), std::span<const Index>(parent.data(), c));
+  for (std::size_t j = 0; j < c; ++j) m.set_cached_quality(m.last_created()[j], best.quality[j]);
   return FlipOutcome::kDone;
 }
 
@@ -196,6 +119,27 @@ double tet_quality(const TetMesh& mesh, const Tet& k) {
   if (odd) std::swap(s[2], s[3]);
   return max_dihedral_cosine(mesh.point(s[0]), mesh.point(s[1]), mesh.point(s[2]),
                              mesh.point(s[3]));
+}
+
+FlipOutcome removable_edge_ring(const TetMesh& m, Index t, int e, int required, EdgeRing& r) {
+  if (t >= m.num_slots() || !m.alive(t)) return FlipOutcome::kNotApplicable;
+  // Cheap rejections first: t's own faces on the edge, and its hull faces.
+  for (int s = 0; s < 2; ++s) {
+    const int f = topo::edge_face(e, s);
+    if (m.neighbour(t, f) == kNoIndex) return FlipOutcome::kNotApplicable;
+    if (m.frozen(t, f)) return FlipOutcome::kConstrained;
+  }
+  if (!m.edge_ring(t, e, r, required != 0 ? required : kMaxRemovalRing) || !r.closed)
+    return FlipOutcome::kNotApplicable;
+  const int n = r.size;
+  if ((required != 0 && n != required) || n < 3 || n > kMaxRemovalRing) return FlipOutcome::kNotApplicable;
+  // Faces on the edge: tets[i] and tets[i+1] share the face opposite ring[i] in tets[i].
+  for (int i = 0; i < n; ++i) {
+    const Index u = r.tets[i];
+    if (m.frozen(u, topo::local_vertex(m.tet(u), r.ring[i]))) return FlipOutcome::kConstrained;
+    if (m.region(u) != m.region(r.tets[0])) return FlipOutcome::kConstrained;
+  }
+  return FlipOutcome::kDone;
 }
 
 FlipOutcome flip23(TetMesh& mesh, Index t, int f) {

@@ -449,66 +449,24 @@ class Optimizer {
     return false;
   }
 
-  /// Edge removal as flips.hpp's remove_edge (ring of 3..kMaxRemovalRing
-  /// tets, Klincsek's triangulation of the ring), but maximising the smallest
-  /// measure() of the new tets, and done only when it beats the old tets' smallest.
+  /// Edge removal as flips.hpp's remove_edge (the same ring and search,
+  /// best_ring_triangulation), but maximising the smallest measure() of the new
+  /// tets, and done only when it beats the old tets' smallest and holds their
+  /// repair floors.
   bool remove_edge_measured(Index t, int e) {
-    for (int s = 0; s < 2; ++s) {
-      const int f = topo::edge_face(e, s);
-      if (m_.neighbour(t, f) == kNoIndex || m_.frozen(t, f)) return false;
-    }
     EdgeRing r;
-    if (!m_.edge_ring(t, e, r, kMaxRemovalRing) || !r.closed) return false;
-    const int n = r.size;
-    if (n < 3 || n > kMaxRemovalRing) return false;
+    if (removable_edge_ring(m_, t, e, 0, r) != FlipOutcome::kDone) return false;
+    const auto old = std::span<const Index>(r.tets.data(), static_cast<std::size_t>(r.size));
     double old_q = std::numeric_limits<double>::infinity();
-    for (int i = 0; i < n; ++i) {
-      const Index u = r.tets[static_cast<std::size_t>(i)];
-      if (m_.frozen(u, topo::local_vertex(m_.tet(u), r.ring[static_cast<std::size_t>(i)]))) return false;
-      if (m_.region(u) != m_.region(r.tets[0])) return false;
-      old_q = std::min(old_q, measure(corners(m_, m_.tet(u))));
-    }
-    constexpr double kNone = -std::numeric_limits<double>::infinity();
-    constexpr int kM = kMaxRemovalRing;
-    std::array<std::array<double, kM>, kM> best{};
-    std::array<std::array<int, kM>, kM> apex{};
-    const auto& q = r.ring;
-    for (int i = 0; i + 1 < n; ++i) best[i][i + 1] = std::numeric_limits<double>::infinity();
-    for (int len = 2; len < n; ++len)
-      for (int i = 0; i + len < n; ++i) {
-        const int j = i + len;
-        best[i][j] = kNone;
-        apex[i][j] = -1;
-        for (int k = i + 1; k < j; ++k) {
-          double v = std::min(best[i][k], best[k][j]);
-          if (v <= best[i][j] || v <= old_q) continue;
-          v = std::min(v, measured({q[i], q[k], q[j], r.b}));
-          if (v <= best[i][j] || v <= old_q) continue;
-          v = std::min(v, measured({q[k], q[i], q[j], r.a}));
-          if (v > best[i][j] && v > old_q) {
-            best[i][j] = v;
-            apex[i][j] = k;
-          }
-        }
-      }
-    if (!(best[0][n - 1] > old_q)) return false;
-    const auto floors = repair_floors(std::span<const Index>(r.tets.data(), static_cast<std::size_t>(n)));
-    fresh_.clear();
-    std::array<std::array<int, 2>, kM> stack{};
-    int top = 0;
-    stack[top++] = {0, n - 1};
-    while (top > 0) {
-      const auto [i, j] = stack[--top];
-      if (j - i < 2) continue;
-      const int k = apex[i][j];
-      fresh_.push_back({q[i], q[k], q[j], r.b});
-      fresh_.push_back({q[k], q[i], q[j], r.a});
-      stack[top++] = {i, k};
-      stack[top++] = {k, j};
-    }
-    if (!fresh_holds(floors)) return false;
+    for (Index u : old) old_q = std::min(old_q, measure(corners(m_, m_.tet(u))));
+    RingTriangulation best;
+    if (!best_ring_triangulation(
+            r, old_q, [this](const Tet& k) { return measured(k); }, [](int, int, int) { return false; }, best))
+      return false;
+    fresh_.assign(best.tets.begin(), best.tets.begin() + best.count);
+    if (!fresh_holds(repair_floors(old))) return false;
     parent_.assign(fresh_.size(), 0);
-    m_.replace_cavity(std::span<const Index>(r.tets.data(), static_cast<std::size_t>(n)), fresh_, parent_);
+    m_.replace_cavity(old, fresh_, parent_);
     forget_created();
     return true;
   }

@@ -21,6 +21,7 @@
 #include <oneapi/tbb/parallel_sort.h>
 
 #include "pdrmesh/leaf_kernels.hpp"
+#include "pdrmesh/surface_ids.hpp"
 #include "pdrmesh/tetgen_adapter.hpp"
 #include "pdrmesh/topology.hpp"
 #include "pdrmesh/validate.hpp"
@@ -659,6 +660,9 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
   prof.initial = initial_s;
   prof.initial_tets = initial.tets.size();
   VolumeMesh cur = std::move(initial);
+  // Leaf tasks mark interfaces with id 0, so the surface gets engine ids >= 1
+  // (surface_ids.hpp), given back to the user's at the end.
+  PDR_ASSIGN_OR_RETURN(const SurfaceIdMap ids, SurfaceIdMap::to_engine(cur.boundary_ids));
   const FaceIdTable boundary(cur.boundary, cur.boundary_ids);
   const bool fixups = options.fixups.value_or(kernel.needs_manifold_hull());
 
@@ -778,6 +782,7 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
   }
   prof.final_tets = cur.tets.size();
   prof.total = initial_s + seconds_since(t_total);
+  ids.to_user(cur.boundary_ids);
   return cur;
 }
 

@@ -12,6 +12,7 @@
 #include "pdrmesh/leaf_kernels.hpp"
 #include "pdrmesh/pdr.hpp"
 #include "pdrmesh/quality.hpp"
+#include "pdrmesh/surface_ids.hpp"
 #include "pdrmesh/tet_mesh.hpp"
 #include "stopwatch.hpp"
 
@@ -47,6 +48,8 @@ Result<SerialResult> mesh_serial(const SurfaceMesh& surface, const SerialOptions
   auto t = Clock::now();
   PDR_ASSIGN_OR_RETURN(VolumeMesh initial, tetrahedralize(surface, options.tetgen));
   out.seconds_initial = seconds_since(t);
+  // The optimizer takes boundary id 0 for "not the surface" (surface_ids.hpp).
+  PDR_ASSIGN_OR_RETURN(const SurfaceIdMap ids, SurfaceIdMap::to_engine(initial.boundary_ids));
   t = Clock::now();
   PDR_ASSIGN_OR_RETURN(SizingField sizing, SizingField::build(surface, initial, options.sizing));
   out.seconds_sizing = seconds_since(t);
@@ -61,6 +64,7 @@ Result<SerialResult> mesh_serial(const SurfaceMesh& surface, const SerialOptions
     out.seconds_optimize = seconds_since(t);
   }
   out.mesh = mesh.to_volume_mesh();
+  ids.to_user(out.mesh.boundary_ids);
   return out;
 }
 

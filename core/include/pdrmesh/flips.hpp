@@ -8,7 +8,10 @@
 // a frozen face is never removed, and an edge on a frozen face is never removed.
 #pragma once
 
+#include <algorithm>
+#include <array>
 #include <cstdint>
+#include <limits>
 #include <string_view>
 
 #include "pdrmesh/tet_mesh.hpp"
@@ -41,6 +44,105 @@ double tet_quality(const TetMesh& mesh, const Tet& k);
 
 /// Longest ring remove_edge handles (Klincsek's O(n^3) triangulation search).
 inline constexpr int kMaxRemovalRing = 8;
+
+/// The ring of the edge e of tet t when edge removal may replace its tets:
+/// kDone (used here as "removable") with r holding the closed ring of
+/// 3..kMaxRemovalRing tets (exactly `required` when it is not 0), or why not:
+/// kNotApplicable (dead tet, hull face or edge, ring size), kConstrained (a
+/// frozen face on the edge, or tets of different regions).
+FlipOutcome removable_edge_ring(const TetMesh& mesh, Index t, int e, int required, EdgeRing& r);
+
+/// A triangulation of an edge ring's polygon, as new tets (see best_ring_triangulation).
+struct RingTriangulation {
+  static constexpr int kMaxTets = 2 * (kMaxRemovalRing - 2);
+  int count = 0;                          ///< new tets, 2 (n - 2); 0 when none was found
+  std::array<Tet, kMaxTets> tets;         ///< the first `count` are set
+  std::array<double, kMaxTets> quality;   ///< quality() of each new tet
+  bool pruned = false;  ///< a candidate was declined by `floor` or `excluded` (not only for inverting)
+};
+
+/// Klincsek's O(n^3) search over the triangulations of the polygon r.ring[0..n)
+/// (n = r.size <= kMaxRemovalRing) of a closed edge ring: the one maximising
+/// the smallest quality of its new tets. Triangle (i, k, j), i < k < j, yields
+/// the tets (ring[i], ring[k], ring[j], b) and (ring[k], ring[i], ring[j], a).
+/// `quality(const Tet&) -> double` is the objective; it returns -infinity for
+/// a tet that is not positive (exact::orient3d) and is called only where the
+/// tet could still win. A tet whose quality is <= `floor` and a triangle for
+/// which `excluded(i, k, j)` holds are never used (both set out.pruned).
+/// Returns whether a triangulation survived (then out.count = 2 (n - 2), the
+/// tets in a fixed order, and every quality > floor). The one search behind
+/// remove_edge, remove_long_edge and the optimizer's measured edge removal: a
+/// template so that the objective inlines into the loop.
+template <class Quality, class Excluded>
+bool best_ring_triangulation(const EdgeRing& r, double floor, Quality&& quality, Excluded&& excluded,
+                             RingTriangulation& out) {
+  constexpr double kInvalid = -std::numeric_limits<double>::infinity();
+  constexpr double kEmpty = std::numeric_limits<double>::infinity();
+  constexpr int kM = kMaxRemovalRing;
+  const int n = r.size;
+  const Index a = r.a, b = r.b;
+  const auto& p = r.ring;
+  out.count = 0;
+  out.pruned = false;
+  // A candidate's quality, kInvalid when not positive or (pruned) not above floor.
+  const auto candidate = [&](const Tet& k) {
+    const double q = quality(k);
+    if (q == kInvalid) return kInvalid;
+    if (q <= floor) {
+      out.pruned = true;
+      return kInvalid;
+    }
+    return q;
+  };
+  // best[i][j]: the best smallest quality over triangulations of the
+  // sub-polygon ring[i..j]; filled before read (left uninitialised on purpose).
+  using Table = std::array<std::array<double, kM>, kM>;
+  Table best, quality_b, quality_a;
+  std::array<std::array<int, kM>, kM> apex;
+  for (int i = 0; i + 1 < n; ++i) best[i][i + 1] = kEmpty;
+  for (int len = 2; len < n; ++len) {
+    for (int i = 0; i + len < n; ++i) {
+      const int j = i + len;
+      best[i][j] = kInvalid;
+      apex[i][j] = -1;
+      for (int k = i + 1; k < j; ++k) {
+        double v = std::min(best[i][k], best[k][j]);
+        if (v <= best[i][j]) continue;  // cannot win; skip the predicates
+        if (excluded(i, k, j)) {
+          out.pruned = true;  // declined as a shape: "not better", not "would invert"
+          continue;
+        }
+        const double qb = candidate({p[i], p[k], p[j], b});
+        v = std::min(v, qb);
+        if (v <= best[i][j]) continue;
+        const double qa = candidate({p[k], p[i], p[j], a});
+        v = std::min(v, qa);
+        if (v > best[i][j]) {
+          best[i][j] = v;
+          apex[i][j] = k;
+          quality_b[i][j] = qb;
+          quality_a[i][j] = qa;
+        }
+      }
+    }
+  }
+  if (best[0][n - 1] == kInvalid) return false;
+  std::array<std::array<int, 2>, kM> stack{};
+  int top = 0;
+  stack[top++] = {0, n - 1};
+  while (top > 0) {
+    const auto [i, j] = stack[--top];
+    if (j - i < 2) continue;
+    const int k = apex[i][j];
+    out.quality[out.count] = quality_b[i][j];
+    out.tets[out.count++] = {p[i], p[k], p[j], b};
+    out.quality[out.count] = quality_a[i][j];
+    out.tets[out.count++] = {p[k], p[i], p[j], a};
+    stack[top++] = {i, k};
+    stack[top++] = {k, j};
+  }
+  return true;
+}
 
 /// 2-3: removes face f of tet t (and its neighbour u), replacing the two tets
 /// by three around the new edge joining their apexes.

@@ -15,6 +15,9 @@
 // Frozen faces are the leaf's hull: every face of a leaf tet that no other leaf
 // tet shares, oriented outward w.r.t. the leaf. Each is an interface face (id 0:
 // shared with another leaf) or a geometry boundary face (its surface id, >= 1).
+// Those are engine ids (surface_ids.hpp): run_pdr numbers a surface whose ids
+// are not all >= 1 (a Medit ref 0, a negative PLY id) from 1 on entry and
+// gives the user's ids back on exit, so no surface face ever carries id 0.
 // A kernel must return a tet set whose hull is exactly these faces (same
 // triangles, same orientation), so that the neighbours still conform. Input
 // points off the hull may be dropped (TetGen re-fills the hull); hull points
@@ -53,7 +56,7 @@ struct LeafTaskInput {
   std::vector<Vec3> points;            ///< the points used by `tets`
   std::vector<Tet> tets;               ///< local indices into points, positive
   std::vector<Tri> frozen_faces;       ///< the leaf's hull, outward, local indices
-  std::vector<int> frozen_ids;         ///< per frozen face: surface id, 0 = interface
+  std::vector<int> frozen_ids;         ///< per frozen face: engine surface id >= 1, 0 = interface
 
   std::string encode() const;
   static Result<LeafTaskInput> decode(std::string_view bytes);

@@ -208,8 +208,9 @@ struct PdrProfile {
 /// Meshes the volume inside `checked_surface` (closed, outward, checked by
 /// surface_check) with `kernel` refining each leaf towards `sizing` (built from
 /// this surface and any background mesh of it). The result validates against
-/// the surface (validate_mesh); tet_regions holds the grid id of the leaf that
-/// last produced each tet. `profile` may be null.
+/// the surface (validate_mesh), its boundary with the surface's ids (any int:
+/// inside, they are engine ids >= 1, surface_ids.hpp); tet_regions holds the
+/// grid id of the leaf that last produced each tet. `profile` may be null.
 Result<VolumeMesh> run_pdr(const SurfaceMesh& checked_surface, const SizingField& sizing,
                            const LeafKernel& kernel, const PdrOptions& options, PdrProfile* profile);
 

@@ -39,7 +39,7 @@ struct SerialResult {
 /// Meshes the volume enclosed by a checked surface (surface_check.hpp) on one
 /// core: tetrahedralize -> SizingField::build(surface, initial mesh) ->
 /// TetMesh::from_volume_mesh -> refine -> optimize -> to_volume_mesh. The boundary is the
-/// input triangulation, frozen throughout.
+/// input triangulation, frozen throughout, with the surface's ids (any int: surface_ids.hpp).
 Result<SerialResult> mesh_serial(const SurfaceMesh& checked_surface, const SerialOptions& options,
                                  const RefineProgress& progress = {});
 
