@@ -400,16 +400,20 @@ std::vector<Index> cost_ranks(const VolumeMesh& cur, const Decomposition& d, con
 
 /// Adds to `flag` (one per tet of `m`) every tet within `layers` vertex
 /// layers of a flagged one (a layer: the tets sharing a point with a flagged tet).
+/// In parallel: a tet writes only its own flag, and marks its points with
+/// atomic stores of the same value, so the result does not depend on the threads.
 void grow_selection(const VolumeMesh& m, std::vector<char>& flag, int layers) {
   std::vector<char> touched(m.points.size());
   for (int layer = 0; layer < layers; ++layer) {
     std::fill(touched.begin(), touched.end(), 0);
-    for (std::size_t t = 0; t < m.tets.size(); ++t)
+    tbb::parallel_for(std::size_t{0}, m.tets.size(), [&](std::size_t t) {
       if (flag[t])
-        for (Index v : m.tets[t]) touched[v] = 1;
-    for (std::size_t t = 0; t < m.tets.size(); ++t)
+        for (Index v : m.tets[t]) std::atomic_ref<char>(touched[v]).store(1, std::memory_order_relaxed);
+    });
+    tbb::parallel_for(std::size_t{0}, m.tets.size(), [&](std::size_t t) {
       if (!flag[t])
         for (Index v : m.tets[t]) flag[t] = static_cast<char>(flag[t] | touched[v]);
+    });
   }
 }
 
@@ -432,18 +436,24 @@ std::vector<char> select_bad_tets(const VolumeMesh& m, const PdrOptions& options
 /// which that round kept frozen, and their `halo` layers. Everywhere else the
 /// last round's kernel already ran to the end with nothing frozen nearby.
 std::vector<char> select_interface_tets(const VolumeMesh& m, int halo) {
-  constexpr int kNone = std::numeric_limits<int>::min();
-  std::vector<int> region(m.points.size(), kNone);
-  std::vector<char> shared(m.points.size(), 0);  // used by tets of two leaves
-  for (std::size_t t = 0; t < m.tets.size(); ++t) {
+  // A point is shared by two leaves when the smallest and the largest leaf of
+  // its tets differ (atomic min and max: the same whatever the threads).
+  std::vector<int> lo(m.points.size(), std::numeric_limits<int>::max());
+  std::vector<int> hi(m.points.size(), std::numeric_limits<int>::min());
+  tbb::parallel_for(std::size_t{0}, m.tets.size(), [&](std::size_t t) {
+    const int r = m.tet_regions[t];
     for (Index v : m.tets[t]) {
-      if (region[v] == kNone) region[v] = m.tet_regions[t];
-      else if (region[v] != m.tet_regions[t]) shared[v] = 1;
+      std::atomic_ref<int> a(lo[v]), b(hi[v]);
+      for (int cur = a.load(std::memory_order_relaxed); r < cur && !a.compare_exchange_weak(cur, r);) {
+      }
+      for (int cur = b.load(std::memory_order_relaxed); r > cur && !b.compare_exchange_weak(cur, r);) {
+      }
     }
-  }
+  });
   std::vector<char> flag(m.tets.size(), 0);
-  for (std::size_t t = 0; t < m.tets.size(); ++t)
-    for (Index v : m.tets[t]) flag[t] = static_cast<char>(flag[t] | shared[v]);
+  tbb::parallel_for(std::size_t{0}, m.tets.size(), [&](std::size_t t) {
+    for (Index v : m.tets[t]) flag[t] = static_cast<char>(flag[t] | (lo[v] != hi[v] ? 1 : 0));
+  });
   grow_selection(m, flag, halo);
   return flag;
 }
@@ -571,6 +581,15 @@ Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const
 }
 
 /// Drops points no tet uses, keeping the order of the others.
+/// tet_regions = the leaf of the depth-`depth` grid over `box` that holds each
+/// tet's barycenter (in parallel: each tet writes its own entry).
+void assign_leaves(VolumeMesh& m, const Box& box, int depth) {
+  m.tet_regions.resize(m.tets.size());
+  tbb::parallel_for(std::size_t{0}, m.tets.size(), [&](std::size_t t) {
+    m.tet_regions[t] = static_cast<int>(leaf_of_point(box, depth, tet_barycenter(m, static_cast<Index>(t))));
+  });
+}
+
 void remove_unused_points(VolumeMesh& m) {
   std::vector<Index> map(m.points.size(), kNoIndex);
   for (const Tet& t : m.tets)
@@ -762,8 +781,7 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
       const auto tg = Clock::now();
       PDR_TRY(round("final optimization", box1, *options.optimize_kernel, false, 0, bad));
       prof.global_optimization = seconds_since(tg);
-      for (Index t = 0; t < cur.tets.size(); ++t)
-        cur.tet_regions[t] = static_cast<int>(leaf_of_point(last_box, depth, tet_barycenter(cur, t)));
+      assign_leaves(cur, last_box, depth);
     } else if (options.optimize) {
       // The leaf of each tet is bookkeeping, not a material region: the
       // optimization must see one region, or it would treat every former leaf
@@ -774,9 +792,7 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
       const auto tg = Clock::now();
       PDR_TRY(options.optimize(cur));
       prof.global_optimization = seconds_since(tg);
-      cur.tet_regions.resize(cur.tets.size());
-      for (Index t = 0; t < cur.tets.size(); ++t)
-        cur.tet_regions[t] = static_cast<int>(leaf_of_point(last_box, depth, tet_barycenter(cur, t)));
+      assign_leaves(cur, last_box, depth);
     }
     prof.optimization = seconds_since(t0);
   }
