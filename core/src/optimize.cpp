@@ -540,24 +540,20 @@ class Optimizer {
     }
   }
 
-  /// Worst measure of the tets (link face, x); -inf when one is not positive.
   /// The new tets over link_ with the free point x and no surface point (repair
   /// classes 0 and 2) meet their class's floor (repair_floors of the tets they
   /// replace): a cap repair may not trade the cap for a bad tet away from the
   /// surface (primitives13 at diag/100 got interior tets of 9.6 / 166.6 degrees).
   bool off_surface_floors_hold(const Vec3& x, const std::array<double, 3>& floors) const {
     for (const Tri& f : link_) {
-      int c = 0;
-      for (Index v : f) {
-        if (v < surface_.size() && surface_[v] != 0) c = 1;
-        else if (c == 0 && v < fixed_.size() && fixed_[v] != 0) c = 2;
-      }
+      const int c = repair_class({f[0], f[1], f[2], kNoIndex});  // x: not yet a point, free
       if (c == 1) continue;
       if (measure({m_.point(f[0]), m_.point(f[1]), m_.point(f[2]), x}) < floors[static_cast<std::size_t>(c)]) return false;
     }
     return true;
   }
 
+  /// Worst measure of the tets (link face, x); -inf when one is not positive.
   double star_quality(const Vec3& x) const {
     double worst = std::numeric_limits<double>::infinity();
     for (const Tri& f : link_) {
