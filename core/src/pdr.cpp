@@ -580,7 +580,6 @@ Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const
   return {};
 }
 
-/// Drops points no tet uses, keeping the order of the others.
 /// tet_regions = the leaf of the depth-`depth` grid over `box` that holds each
 /// tet's barycenter (in parallel: each tet writes its own entry).
 void assign_leaves(VolumeMesh& m, const Box& box, int depth) {
@@ -590,6 +589,7 @@ void assign_leaves(VolumeMesh& m, const Box& box, int depth) {
   });
 }
 
+/// Drops points no tet uses, keeping the order of the others.
 void remove_unused_points(VolumeMesh& m) {
   std::vector<Index> map(m.points.size(), kNoIndex);
   for (const Tet& t : m.tets)
