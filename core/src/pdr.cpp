@@ -20,6 +20,7 @@
 #include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/parallel_sort.h>
 
+#include "atomic_extremum.hpp"
 #include "pdrmesh/leaf_kernels.hpp"
 #include "pdrmesh/surface_ids.hpp"
 #include "pdrmesh/tetgen_adapter.hpp"
@@ -444,10 +445,8 @@ std::vector<char> select_interface_tets(const VolumeMesh& m, int halo) {
     const int r = m.tet_regions[t];
     for (Index v : m.tets[t]) {
       std::atomic_ref<int> a(lo[v]), b(hi[v]);
-      for (int cur = a.load(std::memory_order_relaxed); r < cur && !a.compare_exchange_weak(cur, r);) {
-      }
-      for (int cur = b.load(std::memory_order_relaxed); r > cur && !b.compare_exchange_weak(cur, r);) {
-      }
+      detail::atomic_lower(a, r);
+      detail::atomic_raise(b, r);
     }
   });
   std::vector<char> flag(m.tets.size(), 0);

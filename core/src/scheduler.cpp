@@ -13,6 +13,7 @@
 #include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/task_arena.h>
 
+#include "atomic_extremum.hpp"
 #include "stopwatch.hpp"
 
 namespace pdrmesh {
@@ -133,9 +134,7 @@ class Instrument {
 
   void operator()(Index leaf) {
     const std::size_t now = running_.fetch_add(1) + 1;
-    std::size_t seen = max_.load();
-    while (now > seen && !max_.compare_exchange_weak(seen, now)) {
-    }
+    detail::atomic_raise(max_, now);
     const auto t0 = Clock::now();
     run_(leaf);
     task_s_[leaf] = seconds_since(t0);

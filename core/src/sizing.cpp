@@ -18,6 +18,7 @@
 #include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/parallel_sort.h>
 
+#include "atomic_extremum.hpp"
 #include "byte_codec.hpp"
 #include "pdrmesh/predicates.hpp"
 
@@ -154,9 +155,7 @@ Status validate_tets(const std::vector<Vec3>& points, const std::vector<Tet>& te
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, tets.size(), 4096), [&](const auto& r) {
     for (std::size_t t = r.begin(); t < r.end() && t < first.load(); ++t) {
       if (!bad(tets[t])) continue;
-      std::size_t cur = first.load();
-      while (t < cur && !first.compare_exchange_weak(cur, t)) {
-      }
+      detail::atomic_lower(first, t);
       break;
     }
   });
