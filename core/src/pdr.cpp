@@ -457,6 +457,47 @@ std::vector<char> select_interface_tets(const VolumeMesh& m, int halo) {
   return flag;
 }
 
+/// Puts a round's results into `cur` as if leaf by leaf in ascending order:
+/// leaf l's tets (task output, then its kept tets) follow those of the leaves
+/// before it, and new point k of leaf l gets the next id after the new points
+/// of the leaves before it. Point moves go first, in leaf order (the leaves of
+/// a round move disjoint points: nothing moves a hull point); the rest is
+/// copied in parallel into slots fixed by prefix sums, so the result does not
+/// depend on the threads. Frees the results as it goes.
+void splice(VolumeMesh& cur, const std::vector<LeafId>& leaves, std::vector<TaskResult>& results,
+            std::vector<std::vector<Tet>>& kept, RoundResult& rr) {
+  const std::size_t n = results.size();
+  std::vector<Vec3>& pts = cur.points;
+  std::vector<std::size_t> tet_at(n + 1, 0), point_at(n + 1, pts.size());
+  for (std::size_t l = 0; l < n; ++l) {
+    TaskResult& r = results[l];
+    if (!r.kernel_error.ok() && rr.failed++ == 0) rr.first_failure = r.kernel_error.message();
+    for (std::size_t i = 0; i < r.output.moved.size(); ++i) pts[r.point_ids[r.output.moved[i]]] = r.output.moved_to[i];
+    tet_at[l + 1] = tet_at[l] + r.output.tets.size() + kept[l].size();
+    point_at[l + 1] = point_at[l] + r.output.new_points.size();
+  }
+  cur.tets.resize(tet_at[n]);
+  cur.tet_regions.resize(tet_at[n]);
+  pts.resize(point_at[n]);
+  tbb::parallel_for(std::size_t{0}, n, [&](std::size_t l) {
+    TaskResult& r = results[l];
+    const auto ni = static_cast<Index>(r.point_ids.size());
+    const auto base = static_cast<Index>(point_at[l]);
+    std::copy(r.output.new_points.begin(), r.output.new_points.end(), pts.begin() + static_cast<std::ptrdiff_t>(base));
+    auto out = cur.tets.begin() + static_cast<std::ptrdiff_t>(tet_at[l]);
+    for (const Tet& t : r.output.tets) {
+      Tet g;
+      for (int i = 0; i < 4; ++i) g[i] = t[i] < ni ? static_cast<Index>(r.point_ids[t[i]]) : base + (t[i] - ni);
+      *out++ = g;
+    }
+    std::copy(kept[l].begin(), kept[l].end(), out);
+    std::fill(cur.tet_regions.begin() + static_cast<std::ptrdiff_t>(tet_at[l]),
+              cur.tet_regions.begin() + static_cast<std::ptrdiff_t>(tet_at[l + 1]), static_cast<int>(leaves[l]));
+    r = TaskResult{};
+    kept[l] = {};
+  });
+}
+
 /// One round over decomposition d of `cur`: every leaf's tets go through
 /// `kernel` (its hull frozen), and `cur` gets the results, leaf by leaf in
 /// ascending order, new points appended in that order. Task inputs depend only
@@ -472,10 +513,12 @@ Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const
   rr.leaves = d.size();
   std::vector<std::vector<Tet>> leaf_tets(d.size());
   std::vector<std::vector<Tet>> kept(d.size());
-  for (Index l = 0; l < d.size(); ++l) {
+  tbb::parallel_for(Index{0}, static_cast<Index>(d.size()), [&](Index l) {
     for (Index t : d.leaf_tets[l]) (selected == nullptr || (*selected)[t] ? leaf_tets[l] : kept[l]).push_back(cur.tets[t]);
-    rr.max_leaf_tets = std::max(rr.max_leaf_tets, leaf_tets[l].size());
-    rr.record.tets_sent += leaf_tets[l].size();
+  });
+  for (const std::vector<Tet>& sent : leaf_tets) {
+    rr.max_leaf_tets = std::max(rr.max_leaf_tets, sent.size());
+    rr.record.tets_sent += sent.size();
   }
   rr.record.tets = cur.tets.size();
   const std::vector<Index> rank = cost_ranks(cur, d, sizing, leaf_tets);
@@ -542,32 +585,8 @@ Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const
   rr.schedule = run_leaves<TaskResult>(d, std::max<std::size_t>(options.workers, 1), task, merge, options.policy, rank);
   PDR_TRY(error);
 
-  // Splice, in ascending leaf order: new point k of leaf l gets the next id.
   const auto t0 = Clock::now();
-  std::vector<Vec3>& pts = cur.points;
-  cur.tets.clear();
-  cur.tet_regions.clear();
-  cur.tets.reserve(tet_count);
-  cur.tet_regions.reserve(tet_count);
-  for (Index l = 0; l < d.size(); ++l) {
-    TaskResult& r = results[l];
-    if (!r.kernel_error.ok()) {
-      if (rr.failed++ == 0) rr.first_failure = r.kernel_error.message();
-    }
-    const auto ni = static_cast<Index>(r.point_ids.size());
-    for (std::size_t i = 0; i < r.output.moved.size(); ++i) pts[r.point_ids[r.output.moved[i]]] = r.output.moved_to[i];
-    const auto base = static_cast<Index>(pts.size());
-    pts.insert(pts.end(), r.output.new_points.begin(), r.output.new_points.end());
-    for (const Tet& t : r.output.tets) {
-      Tet g;
-      for (int i = 0; i < 4; ++i) g[i] = t[i] < ni ? static_cast<Index>(r.point_ids[t[i]]) : base + (t[i] - ni);
-      cur.tets.push_back(g);
-    }
-    cur.tets.insert(cur.tets.end(), kept[l].begin(), kept[l].end());
-    cur.tet_regions.insert(cur.tet_regions.end(), r.output.tets.size() + kept[l].size(), static_cast<int>(d.leaves[l]));
-    r = TaskResult{};
-    kept[l] = {};
-  }
+  splice(cur, d.leaves, results, kept, rr);
   rr.merge_s += seconds_since(t0);
   rr.record.name = std::string(phase);
   rr.record.depth = d.depth;
@@ -588,11 +607,13 @@ void assign_leaves(VolumeMesh& m, const Box& box, int depth) {
   });
 }
 
-/// Drops points no tet uses, keeping the order of the others.
+/// Drops points no tet uses, keeping the order of the others. The marks and
+/// the renumbering of the tets run in parallel (idempotent stores, own slots).
 void remove_unused_points(VolumeMesh& m) {
   std::vector<Index> map(m.points.size(), kNoIndex);
-  for (const Tet& t : m.tets)
-    for (Index v : t) map[v] = 0;
+  tbb::parallel_for(std::size_t{0}, m.tets.size(), [&](std::size_t t) {
+    for (Index v : m.tets[t]) std::atomic_ref<Index>(map[v]).store(0, std::memory_order_relaxed);
+  });
   Index next = 0;
   for (std::size_t i = 0; i < map.size(); ++i) {
     if (map[i] == kNoIndex) continue;
@@ -600,8 +621,9 @@ void remove_unused_points(VolumeMesh& m) {
     m.points[next++] = m.points[i];
   }
   m.points.resize(next);
-  for (Tet& t : m.tets)
-    for (Index& v : t) v = map[v];
+  tbb::parallel_for(std::size_t{0}, m.tets.size(), [&](std::size_t t) {
+    for (Index& v : m.tets[t]) v = map[v];
+  });
   for (Tri& f : m.boundary)
     for (Index& v : f) v = map[v];
 }
