@@ -64,7 +64,8 @@ struct TetgenOptions {
 /// cavities (inner surfaces oriented into the cavity) are supported.
 ///
 /// Result: points = the input points (same order, bit-identical), then the
-/// interior Steiner points TetGen added; every tet positively oriented
+/// interior points: TetGen's Steiner points and, with max_volume, the seed
+/// lattice's (seed_points), in TetGen's order, not the lattice's; every tet positively oriented
 /// (exact::orient3d > 0); boundary = the input triangles in input order with
 /// boundary_ids = surface.surface_ids; tet_regions empty.
 ///
