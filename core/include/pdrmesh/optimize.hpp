@@ -106,20 +106,30 @@
 //     two of them surface triangles (TetMesh::boundary() with a non-zero id,
 //     or any when there are no ids; not a leaf's interface), e.g. a flat
 //     tet lying on a nearly flat patch of the surface with all its points
-//     fixed, which the steps above cannot change. One new point x goes
-//     into a cavity around it, re-tiled as the star of x over the cavity's
+//     fixed, which the steps above cannot change; or a bad tet with one kept
+//     face, a surface triangle, and all four points fixed (flat, lying on
+//     the surface: sphere966's worst tets). Worst first (the smaller of the
+//     smallest dihedral angle and 180 - the largest), one new point x goes
+//     into a cavity around each, re-tiled as the star of x over the cavity's
 //     outer faces; the kept faces stay exactly as they are (each becomes a
 //     face of a new tet with x). The cavity starts as the ring of the edge
-//     that the tet's two other faces share (with three kept faces: the tet
-//     and its neighbour across the fourth; the tet and its neighbours alone
-//     are not star-shaped from any point inside: that edge is reflex) and
-//     grows across every outer face that x does not see (exact::orient3d)
-//     until all are seen; it fails at a kept face, at 24 tets, or when a
-//     vertex would be left out. x is tried above the mean centroid of the
-//     kept faces along their mean inward normal, at 0.1 .. 0.9 times h there,
-//     each then moved as in 2.; the best by the star's worst measure is done
-//     when every new tet is positive, the worst measure rises over the
-//     cavity's, its smallest dihedral angle rises and its largest does not.
+//     that the tet's two other faces share (with one or three kept faces:
+//     the tet and its neighbours across the others; with two, the tet and its
+//     neighbours are not star-shaped from any point inside: that edge is
+//     reflex) and grows across every outer face that x does not see
+//     (exact::orient3d) until all are seen; it fails at a kept face, at 24
+//     tets, or when a vertex would be left out. x is tried above the mean
+//     centroid of the kept faces along their mean inward normal, at 0.1 ..
+//     0.9 times h there, each then moved as in 2.; the best by the star's
+//     worst measure is done when every new tet is positive,
+//     the worst measure rises over the cavity's, the new tets with no
+//     surface point hold the interior repair's floors, x lies at least h / 3
+//     from every link point not on the surface (a closer one makes a short
+//     interior edge), its smallest dihedral angle rises and its largest does
+//     not (with one kept face: the smaller of the smallest and 180 - the
+//     largest rises, and the largest stays within 0.5 degrees of the mesh's
+//     largest before the cap repair, as the best star of a flat tet may need
+//     a larger angle than the cavity had).
 //     Such tets form where the parallel engine's leaves meet the surface at
 //     depths beyond the default. No smoothing follows (it could trade an
 //     angle near 180 degrees elsewhere for a star's worst tet).
