@@ -89,16 +89,6 @@ constexpr int kRepairRounds = 4;
 /// smoothing move repairs a tet with no fixed point; above it, it may not get
 /// worse.
 constexpr double kRepairFloor = 0.67;
-/// Interior repair flips and points: a tet with a point on the surface may
-/// fall to this measure (about 1.2 degrees, or 177.7 on the obtuse side, at the
-/// default targets) when a tet with no surface point is repaired, and above it
-/// it does not count in the choice (repair_measure). The interior bound is the
-/// goal there: next to coarse or needle triangles a flat tet of four points
-/// near the surface can often only give way to tets that reach a surface
-/// point. Measured (bench_refine): hinge default 89.7% -> 96.2% of the
-/// interior tets within [15, 150], couplingdown default interior 9.2 / 150.8
-/// -> 15.0 / 150.0 degrees; all-tet minima unchanged, maxima up to 177.7.
-constexpr double kSurfaceRepairFloor = 0.08;
 /// Cap repair: heights (times h) above the kept faces at which the new point is tried.
 constexpr std::array<double, 7> kCapHeights{0.1, 0.2, 0.3, 0.45, 0.6, 0.75, 0.9};
 /// Cap repair: most tets in a cavity.
@@ -416,20 +406,6 @@ class Optimizer {
     return true;
   }
 
-  /// measured(k) for the interior repair's choices: +inf for a tet with a
-  /// surface point that holds kSurfaceRepairFloor (it does not bind).
-  double repair_measure(const Tet& k) const {
-    const double q = measured(k);
-    return repair_class(k) == 1 && q >= kSurfaceRepairFloor ? std::numeric_limits<double>::infinity() : q;
-  }
-
-  /// repair_measure's minimum over the tets `tets`.
-  double worst_repair_measure(std::span<const Index> tets) const {
-    double q = std::numeric_limits<double>::infinity();
-    for (Index u : tets) q = std::min(q, repair_measure(m_.tet(u)));
-    return q;
-  }
-
   /// The repair's class of tet k: 0 no fixed point, 1 a point on the surface
   /// (surface_), 2 fixed points elsewhere only (a leaf's interface, which is
   /// inside the final mesh: such tets are held like those with no fixed point).
@@ -443,9 +419,9 @@ class Optimizer {
   }
 
   /// The floors of a repair operation replacing `tets`, per repair_class: the
-  /// worst measure of the class, capped at 1 (at kSurfaceRepairFloor for class 1).
+  /// worst measure of the class, capped at 1 (at kRepairFloor for class 1).
   std::array<double, 3> repair_floors(std::span<const Index> tets) const {
-    std::array<double, 3> q{1.0, kSurfaceRepairFloor, 1.0};
+    std::array<double, 3> q{1.0, kRepairFloor, 1.0};
     for (Index t : tets) {
       double& f = q[static_cast<std::size_t>(repair_class(m_.tet(t)))];
       f = std::min(f, measure(corners(m_, m_.tet(t))));
@@ -482,17 +458,18 @@ class Optimizer {
   }
 
   /// Edge removal as flips.hpp's remove_edge (the same ring and search,
-  /// best_ring_triangulation), but maximising the smallest repair_measure of
-  /// the new tets, and done only when it beats the old tets' smallest and
-  /// holds their repair floors.
+  /// best_ring_triangulation), but maximising the smallest measure() of the new
+  /// tets, and done only when it beats the old tets' smallest and holds their
+  /// repair floors.
   bool remove_edge_measured(Index t, int e) {
     EdgeRing r;
     if (removable_edge_ring(m_, t, e, 0, r) != FlipOutcome::kDone) return false;
     const auto old = std::span<const Index>(r.tets.data(), static_cast<std::size_t>(r.size));
+    double old_q = std::numeric_limits<double>::infinity();
+    for (Index u : old) old_q = std::min(old_q, measure(corners(m_, m_.tet(u))));
     RingTriangulation best;
     if (!best_ring_triangulation(
-            r, worst_repair_measure(old), [this](const Tet& k) { return repair_measure(k); },
-            [](int, int, int) { return false; }, best))
+            r, old_q, [this](const Tet& k) { return measured(k); }, [](int, int, int) { return false; }, best))
       return false;
     fresh_.assign(best.tets.begin(), best.tets.begin() + best.count);
     if (!fresh_holds(repair_floors(old))) return false;
@@ -502,7 +479,7 @@ class Optimizer {
     return true;
   }
 
-  /// 2-3 flip of face f of t as flips.hpp's flip23, judged by repair_measure.
+  /// 2-3 flip of face f of t as flips.hpp's flip23, judged by measure().
   bool flip23_measured(Index t, int f) {
     const Index n = m_.neighbour(t, f);
     if (n == kNoIndex || m_.frozen(t, f)) return false;
@@ -512,11 +489,11 @@ class Optimizer {
     const Index a = kt[topo::kFaceVertex[f][0]], b = kt[topo::kFaceVertex[f][1]];
     const Index c = kt[topo::kFaceVertex[f][2]], d = kt[f];
     const Index e = m_.tet(u)[face_local(n)];
-    const std::array<Index, 2> old{t, u};
-    const double old_q = worst_repair_measure(old);
+    const double old_q = std::min(measure(corners(m_, kt)), measure(corners(m_, m_.tet(u))));
     fresh_.assign({Tet{a, b, d, e}, Tet{b, c, d, e}, Tet{c, a, d, e}});
     for (const Tet& k : fresh_)
-      if (!(repair_measure(k) > old_q)) return false;
+      if (!(measured(k) > old_q)) return false;
+    const std::array<Index, 2> old{t, u};
     if (!fresh_holds(repair_floors(old))) return false;
     parent_.assign(3, 0);
     m_.replace_cavity(old, fresh_, parent_);

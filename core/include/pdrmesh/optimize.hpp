@@ -91,15 +91,11 @@
 //     min(its measure, 0.67) (about 10 degrees, or 160 on the obtuse side, at
 //     the default targets) instead of min(its measure, 1): a tet next to the
 //     surface keeps above that but need not stay within the targets for an
-//     interior tet to get there. The flips and insertions of (a) hold
-//     floors too: a new tet with no fixed point, or with fixed points on a
-//     leaf's interface only, is no worse than the worst such old tet (capped
-//     at 1); one with a surface point no worse than min(0.08, the worst such
-//     old tet) (about 1.2 degrees, or 177.7), and while above 0.08 it does
-//     not count in the flips' min-max (the tets with no surface point decide):
-//     next to coarse or needle surface triangles a flat tet of four points
-//     near the surface can often only give way to tets that reach a surface
-//     point. A tet whose repair would need a fixed point to move stays as it is.
+//     interior tet to get there. The flips and insertions of (a) hold the same
+//     floors: a new tet with no fixed point, or with fixed points on a leaf's
+//     interface only, is no worse than the worst such old tet (capped at 1),
+//     one with a surface point no worse than min(0.67, the worst such old
+//     tet). A tet whose repair would need a fixed point to move stays as it is.
 //
 //  5. Cap repair (repair_caps, on; needs sizing and insert_points), last: a
 //     bad tet with two or three kept faces (hull, frozen or region faces),
