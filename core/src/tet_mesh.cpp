@@ -173,25 +173,32 @@ bool TetMesh::edge_ring(Index t, int e, EdgeRing& r, int max_size) const {
   Index cur = t;
   Index p = k[topo::kEdgeOther[e][0]];
   Index q = k[topo::kEdgeOther[e][1]];
-  // Walk backwards (through the face opposite q) to the first tet of an open ring.
+  // Walk backwards (through the face opposite q), recording. Back at t, the
+  // ring is closed, and a forward walk would meet the same tets after t in
+  // the reverse order: the record with all but its first entry reversed is
+  // the ring, without a second walk (the first one's tets were cache misses).
   r.closed = false;
-  for (int step = 0;; ++step) {
-    if (step > limit) return false;
+  for (int m = 0;;) {
+    if (m == limit) return false;
+    r.tets[m] = cur;
+    r.ring[m] = p;
+    ++m;
     const Index n = cells_[cur].adj[topo::local_vertex(cells_[cur].v, q)];
-    if (n == kNoIndex) break;
+    if (n == kNoIndex) break;  // open: the first tet of the ring
     const Index u = face_tet(n);
     if (u == t) {
       r.closed = true;
-      cur = t;
-      p = k[topo::kEdgeOther[e][0]];
-      q = k[topo::kEdgeOther[e][1]];
-      break;
+      r.size = m;
+      std::reverse(r.tets.begin() + 1, r.tets.begin() + m);
+      std::reverse(r.ring.begin() + 1, r.ring.begin() + m);
+      return true;
     }
     q = p;
     p = cells_[u].v[face_local(n)];
     cur = u;
   }
-  // Walk forwards (through the face opposite p) recording the ring.
+  // Open ring: walk forwards (through the face opposite p) from the hull,
+  // recording it.
   const Index first = cur;
   r.size = 0;
   for (;;) {
