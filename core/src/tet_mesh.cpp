@@ -247,12 +247,35 @@ void TetMesh::replace_cavity(std::span<const Index> old_tets, std::span<const Te
   outer_.clear();
   old_regions_.clear();
   created_.clear();
-  for (Index t : old_tets) flags_[t] = static_cast<Flags>(flags_[t] | kMark);
+  // Which tets are old: a small table on the stack for a small cavity (a
+  // mark in the flags of each old tet made every outer face's test read the
+  // flags of a tet outside the cavity, a cache miss), else the marks.
+  constexpr std::size_t kTable = 128;
+  std::array<Index, kTable> table;
+  const bool hashed = old_tets.size() <= kTable / 2;
+  const auto slot = [](Index t) { return static_cast<std::size_t>((t * 0x9E3779B1u) >> 25); };  // 7 bits
+  if (hashed) {
+    table.fill(kNoIndex);
+    for (Index t : old_tets) {
+      std::size_t h = slot(t);
+      while (table[h] != kNoIndex) h = (h + 1) & (kTable - 1);
+      table[h] = t;
+    }
+  } else {
+    for (Index t : old_tets) flags_[t] = static_cast<Flags>(flags_[t] | kMark);
+  }
+  const auto old = [&](Index u) {
+    if (!hashed) return (flags_[u] & kMark) != 0;
+    for (std::size_t h = slot(u);; h = (h + 1) & (kTable - 1)) {
+      if (table[h] == u) return true;
+      if (table[h] == kNoIndex) return false;
+    }
+  };
   for (Index t : old_tets) {
     if (!regions_.empty()) old_regions_.push_back(regions_[t]);
     for (int f = 0; f < 4; ++f) {
       const Index n = cells_[t].adj[f];
-      if (n != kNoIndex && (flags_[face_tet(n)] & kMark) != 0) continue;  // inside
+      if (n != kNoIndex && old(face_tet(n))) continue;  // inside
       faces_.push_back(
           {topo::sorted_key(topo::face_of(cells_[t].v, f)), static_cast<Index>(outer_.size()), true});
       outer_.push_back({n, frozen(t, f)});
