@@ -86,16 +86,25 @@ Location walk(const TetMesh& m, Index start, const Vec3& p, Index max_steps, boo
   Index t = start;
   std::uint32_t rotation = 0x9e3779b9u;  // fixed seed: deterministic exit choice
   for (Index step = 0; step < max_steps; ++step) {
-    const auto s = face_signs(m, t, p);
-    if (inside(s)) return classify(t, s);
     rotation ^= rotation << 13;
     rotation ^= rotation >> 17;
     rotation ^= rotation << 5;
+    // The faces in the rotated order: the first one p lies beyond that may be
+    // crossed is the exit, and the faces after it need no predicate; p is in t
+    // when it lies beyond none.
+    const Tet& k = m.tet(t);
+    std::array<int, 4> s{};
     Index next = kNoIndex;
+    bool beyond = false;
     for (int i = 0; i < 4 && next == kNoIndex; ++i) {
       const int f = static_cast<int>((rotation + static_cast<std::uint32_t>(i)) & 3u);
-      if (s[f] > 0 && (cross_frozen || !m.frozen(t, f))) next = m.neighbour(t, f);
+      s[f] = exact::orient3d(m.point(k[topo::kFaceVertex[f][0]]), m.point(k[topo::kFaceVertex[f][1]]),
+                             m.point(k[topo::kFaceVertex[f][2]]), p);
+      if (s[f] <= 0) continue;
+      beyond = true;
+      if (cross_frozen || !m.frozen(t, f)) next = m.neighbour(t, f);
     }
+    if (!beyond) return classify(t, s);
     if (next == kNoIndex) break;  // p lies beyond hull (or uncrossable) faces only
     t = face_tet(next);
   }

@@ -71,6 +71,9 @@ class FailedEdges {
     }
   }
 
+  /// Asks the cache for the slot where known(a, b) starts (a hint only).
+  void prefetch(Index a, Index b) const { __builtin_prefetch(&slots_[hash(edge_key(a, b))]); }
+
   void add(Index a, Index b) {
     if (2 * (count_ + 1) > slots_.size()) grow();
     insert(edge_key(a, b), clock_);
@@ -157,8 +160,10 @@ class Refiner {
         std::size_t j = i;
         for (; j < candidates_.size() && candidates_[j].tet == first.tet &&
                candidates_[j].vertices == first.vertices;
-             ++j)
+             ++j) {
+          prefetch_candidates(j);
           any = process(candidates_[j], ps) || any;
+        }
         if (!any && m_.alive(first.tet) && m_.tet(first.tet) == first.vertices)
           m_.set_active(first.tet, false);
         i = j;
@@ -202,8 +207,32 @@ class Refiner {
   }
 
   void deactivate() {
-    for (Index t = 0; t < m_.num_slots(); ++t)
+    for (Index t = 0; t < m_.num_slots(); ++t) {
+      if (t + kAhead < m_.num_slots() && m_.active(t + kAhead)) prefetch_points(t + kAhead);
       if (m_.alive(t) && m_.active(t) && satisfied(t)) m_.set_active(t, false);
+    }
+  }
+
+  /// Asks the cache for what the walks of the candidates after candidate j
+  /// start from: the tet kAhead candidates on and its points, and the tet
+  /// 2 kAhead on, whose points are asked for kAhead candidates later.
+  void prefetch_candidates(std::size_t j) const {
+    if (j + 2 * kAhead < candidates_.size()) m_.prefetch(candidates_[j + 2 * kAhead].tet);
+    if (j + kAhead < candidates_.size()) prefetch_points(candidates_[j + kAhead].tet);
+  }
+
+  /// How far ahead the slot scans and queues ask for a tet's points.
+  static constexpr Index kAhead = 8;
+
+  /// Asks the cache for the points of slot t and their h, when t is an alive
+  /// tet: a slot scan or queue reads them kAhead tets later, and they lie
+  /// anywhere in memory (a hint only: no effect on results).
+  void prefetch_points(Index t) const {
+    if (t >= m_.num_slots() || !m_.alive(t)) return;
+    for (const Index v : m_.tet(t)) {
+      __builtin_prefetch(&m_.point(v));
+      __builtin_prefetch(&h_[v]);
+    }
   }
 
   /// Renumbers the tets in the Morton order of their barycentres (ties by slot):
@@ -254,6 +283,7 @@ class Refiner {
   void collect(bool midpoints) {
     candidates_.clear();
     for (Index t = 0; t < m_.num_slots(); ++t) {
+      if (t + kAhead < m_.num_slots() && m_.active(t + kAhead)) prefetch_points(t + kAhead);
       if (!m_.alive(t) || !m_.active(t)) continue;
       const Tet& k = m_.tet(t);
       if (midpoints) {
@@ -309,23 +339,30 @@ class Refiner {
       epoch_ = 1;
     }
     const double rp2 = r_point * r_point;
+    // The stack holds packed faces (tet, face it was entered through): that
+    // face leads back to a marked tet and needs no test.
     stack_.clear();
-    stack_.push_back(start);
+    stack_.push_back(pack_face(start, 0));
     stamp_[start] = epoch_;
     Index visited = 0;
     while (!stack_.empty() && visited < o_.max_search_tets) {
-      const Index t = stack_.back();
+      const Index t = face_tet(stack_.back());
+      const int entry = visited == 0 ? -1 : face_local(stack_.back());  // the start was not entered
       stack_.pop_back();
       ++visited;
       const Tet& k = m_.tet(t);
+      for (int f = 0; f < 4; ++f)  // the marks read below, while the distances are computed
+        if (const Index n = m_.neighbour(t, f); n != kNoIndex && f != entry) __builtin_prefetch(&stamp_[face_tet(n)]);
       for (int i = 0; i < 4; ++i) {
         const Vec3 d = m_.point(k[i]) - p;
         if (dot(d, d) < rp2) return false;
       }
       for (int f = 0; f < 4; ++f) {
+        if (f == entry) continue;
         const Index n = m_.neighbour(t, f);
         const bool wall = n == kNoIndex || m_.frozen(t, f);
-        if (!wall && stamp_[face_tet(n)] == epoch_) continue;
+        // The bound before the neighbour's mark: most faces are too far to
+        // cross, and the bound gives the mark's prefetch time to arrive.
         const double lb =
             face_distance_bound(m_.point(k[topo::kFaceVertex[f][0]]), m_.point(k[topo::kFaceVertex[f][1]]),
                                 m_.point(k[topo::kFaceVertex[f][2]]), p);
@@ -333,9 +370,10 @@ class Refiner {
           if (lb < r_face) return false;
           continue;
         }
-        if (lb < r_point) {
+        if (lb < r_point && stamp_[face_tet(n)] != epoch_) {
           stamp_[face_tet(n)] = epoch_;
-          stack_.push_back(face_tet(n));
+          stack_.push_back(n);
+          m_.prefetch(face_tet(n));  // read when popped
         }
       }
     }
@@ -627,9 +665,11 @@ class Refiner {
     // anyway (its quality stays unknown, so the first pass that inserts
     // nothing takes it up).
     queue_.clear();
-    for (Index t = 0; t < m_.num_slots(); ++t)
+    for (Index t = 0; t < m_.num_slots(); ++t) {
+      if (t + kAhead < m_.num_slots() && std::isnan(m_.cached_quality(t + kAhead))) prefetch_points(t + kAhead);
       if (m_.alive(t) && std::isnan(m_.cached_quality(t)) && (inserted == 0 || !in_void(t)))
         queue_.push_back(t);
+    }
     seeds_ = queue_;
     const std::size_t budget = o_.max_flips_per_point * std::max<std::size_t>(inserted, 1);
     std::size_t flips = reconnect(budget, false);
@@ -647,14 +687,24 @@ class Refiner {
     std::size_t flips = 0;
     failed_.clear(m_.num_points());  // as in reconnect: a failure holds until a flip touches both ends
     for (std::size_t head = 0; head < queue_.size() && flips < budget; ++head) {
+      if (head + kAhead < queue_.size()) prefetch_points(queue_[head + kAhead]);
       const Index t = queue_[head];
       if (!m_.alive(t)) continue;
       const Tet k = m_.tet(t);
+      // The long edges first, asking for their failure records, then the
+      // records read in edge order.
+      unsigned long_edges = 0;
       for (int e = 0; e < 6; ++e) {
         const Index a = k[topo::kEdgeVertex[e][0]], b = k[topo::kEdgeVertex[e][1]];
         const Vec3 d = m_.point(a) - m_.point(b);
         const double limit = o_.long_edge_ratio * 0.5 * (h_[a] + h_[b]);
         if (dot(d, d) <= limit * limit) continue;
+        long_edges |= 1u << e;
+        failed_.prefetch(a, b);
+      }
+      for (int e = 0; e < 6; ++e) {
+        if ((long_edges & (1u << e)) == 0) continue;
+        const Index a = k[topo::kEdgeVertex[e][0]], b = k[topo::kEdgeVertex[e][1]];
         if (failed_.known(a, b)) continue;
         if (remove_long_edge(m_, t, e, floor) != FlipOutcome::kDone) {
           failed_.add(a, b);
@@ -722,7 +772,7 @@ class Refiner {
   std::vector<Candidate> voids_;  ///< collect's interior candidates, placed after the front's
   std::vector<std::uint32_t> stamp_;
   std::uint32_t epoch_ = 0;
-  std::vector<Index> stack_;
+  std::vector<Index> stack_;  ///< clear_around's packed faces
   std::vector<Index> queue_;
   std::vector<Index> seeds_;
   std::vector<Index> cavity_;

@@ -173,25 +173,32 @@ bool TetMesh::edge_ring(Index t, int e, EdgeRing& r, int max_size) const {
   Index cur = t;
   Index p = k[topo::kEdgeOther[e][0]];
   Index q = k[topo::kEdgeOther[e][1]];
-  // Walk backwards (through the face opposite q) to the first tet of an open ring.
+  // Walk backwards (through the face opposite q), recording. Back at t, the
+  // ring is closed, and a forward walk would meet the same tets after t in
+  // the reverse order: the record with all but its first entry reversed is
+  // the ring, without a second walk (the first one's tets were cache misses).
   r.closed = false;
-  for (int step = 0;; ++step) {
-    if (step > limit) return false;
+  for (int m = 0;;) {
+    if (m == limit) return false;
+    r.tets[m] = cur;
+    r.ring[m] = p;
+    ++m;
     const Index n = cells_[cur].adj[topo::local_vertex(cells_[cur].v, q)];
-    if (n == kNoIndex) break;
+    if (n == kNoIndex) break;  // open: the first tet of the ring
     const Index u = face_tet(n);
     if (u == t) {
       r.closed = true;
-      cur = t;
-      p = k[topo::kEdgeOther[e][0]];
-      q = k[topo::kEdgeOther[e][1]];
-      break;
+      r.size = m;
+      std::reverse(r.tets.begin() + 1, r.tets.begin() + m);
+      std::reverse(r.ring.begin() + 1, r.ring.begin() + m);
+      return true;
     }
     q = p;
     p = cells_[u].v[face_local(n)];
     cur = u;
   }
-  // Walk forwards (through the face opposite p) recording the ring.
+  // Open ring: walk forwards (through the face opposite p) from the hull,
+  // recording it.
   const Index first = cur;
   r.size = 0;
   for (;;) {
@@ -240,12 +247,35 @@ void TetMesh::replace_cavity(std::span<const Index> old_tets, std::span<const Te
   outer_.clear();
   old_regions_.clear();
   created_.clear();
-  for (Index t : old_tets) flags_[t] = static_cast<Flags>(flags_[t] | kMark);
+  // Which tets are old: a small table on the stack for a small cavity (a
+  // mark in the flags of each old tet made every outer face's test read the
+  // flags of a tet outside the cavity, a cache miss), else the marks.
+  constexpr std::size_t kTable = 128;
+  std::array<Index, kTable> table;
+  const bool hashed = old_tets.size() <= kTable / 2;
+  const auto slot = [](Index t) { return static_cast<std::size_t>((t * 0x9E3779B1u) >> 25); };  // 7 bits
+  if (hashed) {
+    table.fill(kNoIndex);
+    for (Index t : old_tets) {
+      std::size_t h = slot(t);
+      while (table[h] != kNoIndex) h = (h + 1) & (kTable - 1);
+      table[h] = t;
+    }
+  } else {
+    for (Index t : old_tets) flags_[t] = static_cast<Flags>(flags_[t] | kMark);
+  }
+  const auto old = [&](Index u) {
+    if (!hashed) return (flags_[u] & kMark) != 0;
+    for (std::size_t h = slot(u);; h = (h + 1) & (kTable - 1)) {
+      if (table[h] == u) return true;
+      if (table[h] == kNoIndex) return false;
+    }
+  };
   for (Index t : old_tets) {
     if (!regions_.empty()) old_regions_.push_back(regions_[t]);
     for (int f = 0; f < 4; ++f) {
       const Index n = cells_[t].adj[f];
-      if (n != kNoIndex && (flags_[face_tet(n)] & kMark) != 0) continue;  // inside
+      if (n != kNoIndex && old(face_tet(n))) continue;  // inside
       faces_.push_back(
           {topo::sorted_key(topo::face_of(cells_[t].v, f)), static_cast<Index>(outer_.size()), true});
       outer_.push_back({n, frozen(t, f)});

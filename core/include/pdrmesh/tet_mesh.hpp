@@ -101,6 +101,12 @@ class TetMesh {
   bool frozen(Index t, int f) const { return (flags_[t] & frozen_bit(f)) != 0; }
   /// Packed neighbour across face f (pack_face), or kNoIndex.
   Index neighbour(Index t, int f) const { return cells_[t].adj[f]; }
+  /// Asks the cache for tet t's vertices, neighbours and flags ahead of a
+  /// walk's visit (a hint only: no effect on results).
+  void prefetch(Index t) const {
+    __builtin_prefetch(&cells_[t]);
+    __builtin_prefetch(&flags_[t]);
+  }
   /// Region of tet t (0 when the input had none).
   int region(Index t) const { return regions_.empty() ? 0 : regions_[t]; }
   const std::vector<Tri>& boundary() const { return boundary_; }
