@@ -101,8 +101,23 @@ constexpr double kCapMinSpacing = 1.0 / 3.0;
 /// Cap repair of a tet with one kept face: degrees by which its star's largest
 /// dihedral angle may pass the mesh's largest before the cap repair.
 constexpr double kCapMaxAngleSlack = 0.5;
+/// Cap repair of a tet with one kept face: the smallest angle (degrees) of
+/// that surface triangle. Next to a needle triangle no star is good, and the
+/// repairs there only add points: hinge (needles of 0.33 degrees) got 22%
+/// more tets and 37.8% of them under 10 degrees instead of 33.2% without
+/// this bound; sphere966's flat tets lie on triangles of 15 degrees or more.
+constexpr double kCapMinTriangleAngle = 15.0;
 
 AngleRange mesh_range(const TetMesh& m);
+
+/// The smallest angle of triangle (a, b, c), in degrees.
+double smallest_angle(const Vec3& a, const Vec3& b, const Vec3& c) {
+  const auto at = [](const Vec3& p, const Vec3& q, const Vec3& r) {
+    const Vec3 u = q - p, v = r - p;
+    return std::atan2(norm(cross(u, v)), dot(u, v)) * (180.0 / 3.14159265358979323846);
+  };
+  return std::min({at(a, b, c), at(b, c, a), at(c, a, b)});
+}
 
 class Optimizer {
  public:
@@ -807,18 +822,24 @@ class Optimizer {
   /// faces (kept_face), two of them surface triangles (sorted keys in
   /// `surface`); or one kept face, a surface triangle, with all four points
   /// fixed (a flat tet lying on the surface with its fourth point on the
-  /// surface too: no flip or smoothing move of the steps before reaches it).
+  /// surface too: no flip or smoothing move of the steps before reaches it),
+  /// when that triangle is not a needle (kCapMinTriangleAngle).
   bool is_cap(Index t, const std::vector<Tri>& surface) const {
-    int kept = 0, on_surface = 0;
+    int kept = 0, on_surface = 0, kept_face_index = 0;
     for (int f = 0; f < 4; ++f) {
       if (!kept_face(t, f)) continue;
       ++kept;
+      kept_face_index = f;
       on_surface += std::binary_search(surface.begin(), surface.end(),
                                        topo::sorted_key(topo::face_of(m_.tet(t), f)))
                         ? 1
                         : 0;
     }
-    if (kept == 1) return on_surface == 1 && !free_point(t);
+    if (kept == 1) {
+      const Tri k = topo::face_of(m_.tet(t), kept_face_index);
+      return on_surface == 1 && !free_point(t) &&
+             smallest_angle(m_.point(k[0]), m_.point(k[1]), m_.point(k[2])) >= kCapMinTriangleAngle;
+    }
     return kept < 4 && on_surface >= 2;
   }
 

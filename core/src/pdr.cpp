@@ -667,6 +667,10 @@ Result<PdrPlan> plan_pdr(const SurfaceMesh& surface, double surface_h, const Pdr
   tg.radius_edge = options.initial_radius_edge;
   tg.seeds_only = options.initial_seeds_only.value_or(!kernel.needs_manifold_hull());
   if (!(*tg.max_volume > 0) || !std::isfinite(*tg.max_volume)) tg.max_volume.reset();
+  // One leaf needs no seeds to balance: start from the boundary-conforming
+  // mesh that the serial pipeline refines (with seeds sphere966, depth 0 by
+  // default, made 0.963 times the serial tets).
+  if (plan.depth == 0 && tg.seeds_only) tg.max_volume.reset();
   return plan;
 }
 

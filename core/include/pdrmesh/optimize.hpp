@@ -103,8 +103,9 @@
 //     or any when there are no ids; not a leaf's interface), e.g. a flat
 //     tet lying on a nearly flat patch of the surface with all its points
 //     fixed, which the steps above cannot change; or a bad tet with one kept
-//     face, a surface triangle, and all four points fixed (flat, lying on
-//     the surface: sphere966's worst tets). Worst first (the smaller of the
+//     face, a surface triangle whose angles are all 15 degrees or more (next
+//     to a needle the repairs only added points: hinge), and all four points
+//     fixed (flat, lying on the surface: sphere966's worst tets). Worst first (the smaller of the
 //     smallest dihedral angle and 180 - the largest), one new point x goes
 //     into a cavity around each, re-tiled as the star of x over the cavity's
 //     outer faces; the kept faces stay exactly as they are (each becomes a
