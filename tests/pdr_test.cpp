@@ -608,6 +608,28 @@ TEST(Pdr, ACallerMadeInitialMeshGivesRunPdrsResult) {
   EXPECT_GE(profile.total, 1.5);
 }
 
+TEST(Pdr, DepthZeroStartsFromTheSerialInitialMesh) {
+  // One leaf needs no seeds to balance: at depth 0 the native kernel starts
+  // from the boundary-conforming mesh that mesh_serial refines (seeds there
+  // only moved the count: sphere966 0.963 times the serial tets with them),
+  // while at depth 1 the seed lattice fills the leaves.
+  const Sphere* sp = sphere();
+  if (sp == nullptr) GTEST_SKIP() << "sphere966.mesh not readable";
+  const NativeLeafKernel kernel(barycenter_hook(20));
+  const double h = surface_spacing(sp->surface, *sp->sizing);
+  PdrOptions o;
+  o.depth = 0;
+  Result<PdrPlan> plan = plan_pdr(sp->surface, h, o, kernel);
+  ASSERT_TRUE(plan.ok()) << plan.status().to_string();
+  EXPECT_FALSE(plan->tetgen.max_volume.has_value());  // no seed lattice
+  EXPECT_EQ(tetgen_switches(plan->tetgen), tetgen_switches(TetgenOptions{}));
+  o.depth = 1;
+  plan = plan_pdr(sp->surface, h, o, kernel);
+  ASSERT_TRUE(plan.ok()) << plan.status().to_string();
+  EXPECT_TRUE(plan->tetgen.max_volume.has_value());
+  EXPECT_TRUE(plan->tetgen.seeds_only);
+}
+
 TEST(Pdr, MeshParallelIsByteIdenticalWithTheInitialMeshBesideTheSizing) {
   // 1 worker: sizing, then the initial mesh; 2 and 4: both at once (the plan
   // from SizingField::surface_values). The bytes must not change.

@@ -66,7 +66,8 @@ struct PdrOptions {
   /// Both policies give the same bytes; kDynamic (no barriers) keeps workers busier.
   SchedulePolicy policy = SchedulePolicy::kDynamic;
   /// The initial TetGen mesh gets max_volume = leaf volume / this (leaf volume
-  /// = (octree cube side / 2^depth)^3), so a full leaf holds a few hundred tets.
+  /// = (octree cube side / 2^depth)^3), so a full leaf holds a few hundred tets;
+  /// at depth 0 with seeds_only none (the serial pipeline's initial mesh).
   double initial_volume_divisor = 200;
   /// ... but never below this times the regular tet volume at the mean h of
   /// the surface points: a denser initial mesh than the target leaves its
