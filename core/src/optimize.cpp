@@ -352,7 +352,6 @@ class Optimizer {
       if (surface_triangle(i)) surface.push_back(topo::sorted_key(m_.boundary()[i]));
     std::sort(surface.begin(), surface.end());
     find_fixed();
-    cap_max_angle_ = mesh_range(m_).max;
     // Worst first (the smaller of the smallest dihedral angle and 180 - the
     // largest; ties in slot order): a cavity may swallow a worse cap next to
     // its own that a repair of that cap would fix better.
@@ -363,7 +362,9 @@ class Optimizer {
       const AngleRange r = dihedral_range(p[0], p[1], p[2], p[3]);
       caps.push_back({std::min(r.min, 180.0 - r.max), t});
     }
+    if (caps.empty()) return 0;
     std::sort(caps.begin(), caps.end());
+    cap_max_angle_ = mesh_range(m_).max;  // a scan of every tet: only when there are caps
     std::size_t done = 0;
     for (const auto& [worst, t] : caps)
       if (m_.alive(t) && badness(t) != Badness::kGood && insert_cap(t)) ++done;
