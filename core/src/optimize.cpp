@@ -101,6 +101,13 @@ constexpr double kCapMinSpacing = 1.0 / 3.0;
 /// Cap repair of a tet with one kept face: degrees by which its star's largest
 /// dihedral angle may pass the mesh's largest before the cap repair.
 constexpr double kCapMaxAngleSlack = 0.5;
+/// Cap repair, relaxed pass: the range (degrees) every new tet's dihedral
+/// angles must lie in, whatever the cavity had. The bounds of `pdrmesh
+/// quality`'s "under 10" and "over 165": next to needle triangles (hinge,
+/// couplingdown) no star reaches them, and accepting any star whose smallest
+/// angle rose added points there and raised couplingdown's largest angle from
+/// 173.6 to 178.8 degrees.
+constexpr std::array<double, 2> kRelaxedCapAngles{10.0, 165.0};
 /// Cap repair of a tet with one kept face: the smallest angle (degrees) of
 /// that surface triangle. Next to a needle triangle no star is good, and the
 /// repairs there only add points: hinge (needles of 0.33 degrees) got 22%
@@ -342,8 +349,12 @@ class Optimizer {
   }
 
   /// Cap repair (optimize.hpp, 5.): one point inserted into a cavity around
-  /// each cap (is_cap), worst first (insert_cap). Returns the points inserted.
-  std::size_t repair_caps() {
+  /// each cap (is_cap), worst first (insert_cap). With `relaxed` (the second
+  /// pass) also around each bad tet of four surface points with no kept face,
+  /// and a star is judged by kRelaxedCapAngles (cap_angles_rise). Returns the
+  /// points inserted.
+  std::size_t repair_caps(bool relaxed) {
+    relaxed_caps_ = relaxed;
     if (sizing_ == nullptr || !o_.insert_points) return 0;
     // The surface triangles (TetMesh::boundary() with a non-zero id, or all
     // when there are no ids; not a leaf's interface), as sorted keys.
@@ -357,7 +368,9 @@ class Optimizer {
     // its own that a repair of that cap would fix better.
     std::vector<std::pair<double, Index>> caps;
     for (Index t = 0; t < m_.num_slots(); ++t) {
-      if (!m_.alive(t) || badness(t) == Badness::kGood || !is_cap(t, surface)) continue;
+      if (!m_.alive(t) || badness(t) == Badness::kGood) continue;
+      if (relaxed ? !(is_cap(t, surface) || (all_on_surface(t) && no_kept_face(t))) : !is_cap(t, surface))
+        continue;
       const auto p = corners(m_, m_.tet(t));
       const AngleRange r = dihedral_range(p[0], p[1], p[2], p[3]);
       caps.push_back({std::min(r.min, 180.0 - r.max), t});
@@ -844,6 +857,20 @@ class Optimizer {
     return kept < 4 && on_surface >= 2;
   }
 
+  /// Whether every point of tet t lies on a surface triangle.
+  bool all_on_surface(Index t) const {
+    for (Index v : m_.tet(t))
+      if (v >= surface_.size() || surface_[v] == 0) return false;
+    return true;
+  }
+
+  /// Whether no face of tet t is kept (kept_face).
+  bool no_kept_face(Index t) const {
+    for (int f = 0; f < 4; ++f)
+      if (kept_face(t, f)) return false;
+    return true;
+  }
+
   /// Whether a point of tet t is free (not in fixed_ as find_fixed left it;
   /// later points are free).
   bool free_point(Index t) const {
@@ -883,8 +910,9 @@ class Optimizer {
   }
 
   /// Whether the star of x over link_ beats the cavity's tets by their
-  /// dihedral angles: the smallest rises, and with two or three kept faces
-  /// the largest does not. With one (a flat tet on the surface, whose best
+  /// dihedral angles: the smallest rises, and in the relaxed pass every new
+  /// tet lies within kRelaxedCapAngles; otherwise, with two or three kept
+  /// faces the largest does not rise. With one (a flat tet on the surface, whose best
   /// star may need a larger angle than the cavity had: sphere966 stayed at
   /// 4.1 degrees without), the smaller of the smallest and 180 - the largest
   /// rises, and the largest stays within kCapMaxAngleSlack of the mesh's
@@ -893,6 +921,7 @@ class Optimizer {
     const AngleRange old_range = angle_range(nullptr, cavity);
     const AngleRange new_range = angle_range(&x, {});
     if (!(new_range.min > old_range.min)) return false;
+    if (relaxed_caps_) return new_range.min >= kRelaxedCapAngles[0] && new_range.max <= kRelaxedCapAngles[1];
     if (kept == 1)
       return std::min(new_range.min, 180.0 - new_range.max) > std::min(old_range.min, 180.0 - old_range.max) &&
              new_range.max <= cap_max_angle_ + kCapMaxAngleSlack;
@@ -933,20 +962,51 @@ class Optimizer {
       inward = inward + (1.0 / ln) * n;
       ++kept;
     }
-    if (kept == 0 || kept == 4) return false;
-    const std::vector<Index> seed = cap_seed(t);
+    // No kept face: only the relaxed pass's tets of four surface points (the
+    // slot may hold a newer tet than the one collected).
+    if (kept == 4 || (kept == 0 && !(relaxed_caps_ && all_on_surface(t)))) return false;
+    std::vector<Index> seed = cap_seed(t);
     if (seed.empty()) return false;
-    mid = (1.0 / static_cast<double>(kept)) * mid;
-    const double ln = norm(inward);
-    if (!(ln > 0.0)) return false;
-    inward = (1.0 / ln) * inward;
-    const double h = sizing_->at(mid);
+    std::vector<Vec3> starts;
+    if (kept == 0) {
+      // Four fixed points and no kept face: from the centroid, and off each
+      // face into the neighbour across it (the tet is flat: its best point
+      // lies beside it), at a quarter and half the height of a regular tet
+      // over that face.
+      const auto p = corners(m_, kt);
+      starts.push_back(0.25 * (p[0] + p[1] + p[2] + p[3]));
+      for (int f = 0; f < 4; ++f) {
+        const Tri k = topo::face_of(kt, f);
+        const Vec3 &a = m_.point(k[0]), &b = m_.point(k[1]), &c = m_.point(k[2]);
+        const Vec3 n = cross(b - a, c - a);  // out of t
+        const double ln = norm(n);
+        if (!(ln > 0.0)) return false;
+        const double edge = (norm(b - a) + norm(c - b) + norm(a - c)) / 3.0;
+        const Vec3 g = (1.0 / 3.0) * (a + b + c);
+        for (double frac : {0.25, 0.5}) starts.push_back(g + (frac * std::sqrt(2.0 / 3.0) * edge / ln) * n);
+      }
+    } else {
+      mid = (1.0 / static_cast<double>(kept)) * mid;
+      const double ln = norm(inward);
+      if (!(ln > 0.0)) return false;
+      inward = (1.0 / ln) * inward;
+      const double h = sizing_->at(mid);
+      for (double height : kCapHeights) starts.push_back(mid + (height * h) * inward);
+    }
+    return insert_star(seed, starts, kept);
+  }
+
+  /// The search of insert_cap: from each start point x, the cavity grows from
+  /// `seed` (grow_cavity) and x moves as in best_position; the best x by the
+  /// worst measure of its star is taken when that beats the cavity's worst
+  /// measure, the new tets off the surface hold their floors, the angles rise
+  /// (cap_angles_rise with `kept` kept faces) and x is spaced (cap_spaced).
+  bool insert_star(const std::vector<Index>& seed, const std::vector<Vec3>& starts, int kept) {
     // The best candidate: its point, cavity and worst new measure.
     double best_q = -std::numeric_limits<double>::infinity();
     Vec3 best_x{0, 0, 0};
     std::vector<Index> best_cavity, cavity;
-    for (double height : kCapHeights) {
-      Vec3 x = mid + (height * h) * inward;
+    for (Vec3 x : starts) {
       cavity = seed;
       if (!grow_cavity(cavity, x)) continue;
       double q = star_quality(x);
@@ -1064,6 +1124,7 @@ class Optimizer {
   std::vector<Tri> link_;  ///< faces of the star being optimised, turned towards its apex
   std::vector<Index> link_points_;
   double cap_max_angle_ = 180.0;  ///< cap repair: the mesh's largest dihedral angle before it (degrees)
+  bool relaxed_caps_ = false;     ///< cap repair: in the relaxed pass (repair_caps)
   std::vector<double> measures_old_, measures_new_;  ///< smoothing scratch
   std::vector<char> fixed_;     ///< per point, set by find_fixed(): on a frozen, hull or region face
   std::vector<char> surface_;   ///< per point, set by find_fixed(): on a surface triangle
@@ -1192,7 +1253,13 @@ Result<OptimizeStats> optimize(TetMesh& mesh, const SizingField* sizing,
   // kept faces, two of them on the surface (a flat tet on a nearly flat patch
   // of the surface). No smoothing follows (it may trade an angle near 180
   // degrees elsewhere for the worst tet of a star).
-  if (options.repair_caps && opt.repair_caps() > 0) bad = opt.bad_tets();
+  // Then the relaxed pass (optimize.hpp, 5.): the caps the first left and the
+  // flat tets of four surface points, with the new tets within [10, 165].
+  if (options.repair_caps) {
+    const std::size_t strict = opt.repair_caps(false);
+    const std::size_t relaxed = opt.repair_caps(true);  // a statement of its own: after the first
+    if (strict + relaxed > 0) bad = opt.bad_tets();
+  }
   st.bad_after = bad.size();
   const AngleRange after = mesh_range(mesh);
   st.min_dihedral_after = after.min;

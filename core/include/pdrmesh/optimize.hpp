@@ -128,8 +128,21 @@
 //     largest before the cap repair, as the best star of a flat tet may need
 //     a larger angle than the cavity had).
 //     Such tets form where the parallel engine's leaves meet the surface at
-//     depths beyond the default. No smoothing follows (it could trade an
-//     angle near 180 degrees elsewhere for a star's worst tet).
+//     depths beyond the default. A second, relaxed pass then takes the caps
+//     the first left, and also the bad tets of four surface points with no
+//     kept face (a flat tet across a fold of the surface, whose faces no flip
+//     may improve: the reconnection only lowers largest angles, and the
+//     interior repair leaves tets with fixed points alone; x starts at the
+//     centroid and beside each face, at a quarter and half the height of the
+//     regular tet over it): a star is taken there when its smallest angle
+//     rises and every new tet lies within [10, 165] degrees, whatever the
+//     cavity's largest angle (frame's parallel mesh kept flat tets of 5.9
+//     degrees over a shallow fold whose best stars reach 11.6 to 17.4 with a
+//     largest angle of 138 to 158). The first pass stays as it was: relaxed
+//     from the start, it repaired such a cap of frame's serial mesh to 7.0
+//     degrees before a neighbouring cap's larger cavity took it to 12.2.
+//     No smoothing follows (it could trade an angle near 180 degrees
+//     elsewhere for a star's worst tet).
 //
 // Guarantees: frozen faces keep their vertices and coordinates (flips and
 // insertion refuse them; their points are fixed); hull faces and region
