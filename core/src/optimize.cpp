@@ -366,11 +366,14 @@ class Optimizer {
     // Worst first (the smaller of the smallest dihedral angle and 180 - the
     // largest; ties in slot order): a cavity may swallow a worse cap next to
     // its own that a repair of that cap would fix better.
+    // A slot may hold a newer tet by the time it is tried: asked again then.
+    const auto eligible = [&](Index t) {
+      return m_.alive(t) && badness(t) != Badness::kGood &&
+             (is_cap(t, surface) || (relaxed && all_on_surface(t) && no_kept_face(t)));
+    };
     std::vector<std::pair<double, Index>> caps;
     for (Index t = 0; t < m_.num_slots(); ++t) {
-      if (!m_.alive(t) || badness(t) == Badness::kGood) continue;
-      if (relaxed ? !(is_cap(t, surface) || (all_on_surface(t) && no_kept_face(t))) : !is_cap(t, surface))
-        continue;
+      if (!eligible(t)) continue;
       const auto p = corners(m_, m_.tet(t));
       const AngleRange r = dihedral_range(p[0], p[1], p[2], p[3]);
       caps.push_back({std::min(r.min, 180.0 - r.max), t});
@@ -380,7 +383,7 @@ class Optimizer {
     cap_max_angle_ = mesh_range(m_).max;  // a scan of every tet: only when there are caps
     std::size_t done = 0;
     for (const auto& [worst, t] : caps)
-      if (m_.alive(t) && badness(t) != Badness::kGood && insert_cap(t)) ++done;
+      if (eligible(t) && insert_cap(t)) ++done;
     st_.points_inserted += done;
     st_.caps_repaired += done;
     return done;
@@ -962,9 +965,7 @@ class Optimizer {
       inward = inward + (1.0 / ln) * n;
       ++kept;
     }
-    // No kept face: only the relaxed pass's tets of four surface points (the
-    // slot may hold a newer tet than the one collected).
-    if (kept == 4 || (kept == 0 && !(relaxed_caps_ && all_on_surface(t)))) return false;
+    if (kept == 4) return false;
     std::vector<Index> seed = cap_seed(t);
     if (seed.empty()) return false;
     std::vector<Vec3> starts;
