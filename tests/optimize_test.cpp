@@ -539,8 +539,10 @@ TEST(Optimize, CapRepairReplacesAFlatTetOnTheSurface) {
 
 // sphere966's worst tets at the default spacing were 14 flat tets (4.10
 // degrees) with four surface points and one surface face, which the cap repair
-// took only with two or three kept faces; Gmsh HXT gets 5.85 on this surface.
-TEST(Optimize, Sphere966FlatSurfaceTetsAreRepaired) { expect_serial_angles_within("sphere966", 5.85, 180.0); }
+// took only with two or three kept faces (Gmsh HXT gets 5.85 on this surface);
+// then 6.16 / 171.02 degrees, points whose smoothing targets all made their
+// star worse, until the compass search (optimize.hpp, 3.).
+TEST(Optimize, Sphere966WorstTetsAreRepaired) { expect_serial_angles_within("sphere966", 6.5, 170.0); }
 
 // bunny_npm's worst tets at the default spacing (12.29 degrees) were caps whose
 // best stars raise the largest angle past the cavity's, which the first cap

@@ -80,6 +80,9 @@ constexpr double kSmoothRetries = 0.02;
 constexpr std::size_t kSmoothRetriesMin = 2000;  ///< ... but at least this many
 /// Most polishing rounds after the sweeps (see optimize()).
 constexpr int kPolishRounds = 4;
+/// Smoothing's compass search (compass_search): most rounds of 14 trial
+/// steps around a point no smoothing target helped.
+constexpr int kCompassRounds = 48;
 /// Line-search steps towards each smoothing target: 1, 1/2, ..., 1/64.
 constexpr int kLineSteps = 7;
 /// Most rounds of the interior repair (see optimize.hpp).
@@ -726,6 +729,51 @@ class Optimizer {
     return profile_old_ < profile_new_;
   }
 
+  /// Compass search for smooth_vertex when no target helped (optimize.hpp,
+  /// 3.): from `old`, a step along each of the 6 axes and 8 diagonals; the
+  /// best that smoothing_accepts and that beats profile_best_ is taken, else
+  /// the step halves. The step starts at a quarter of the mean distance to
+  /// the link points and the search ends below 1/64 of it or after
+  /// kCompassRounds rounds. Expects best_position's link_points_ and
+  /// profile_best_ (the old profile when no target helped).
+  Vec3 compass_search(const Vec3& old) {
+    double scale = 0;
+    for (Index u : link_points_) scale += norm(m_.point(u) - old);
+    scale /= static_cast<double>(std::max<std::size_t>(1, link_points_.size()));
+    static const std::array<Vec3, 14> dirs = [] {
+      std::array<Vec3, 14> d{};
+      std::size_t i = 0;
+      for (int a = 0; a < 3; ++a)
+        for (double sgn : {1.0, -1.0}) {
+          Vec3 e{0, 0, 0};
+          e[static_cast<std::size_t>(a)] = sgn;
+          d[i++] = e;
+        }
+      const double c = 1.0 / std::sqrt(3.0);
+      for (double sx : {1.0, -1.0})
+        for (double sy : {1.0, -1.0})
+          for (double sz : {1.0, -1.0}) d[i++] = Vec3{sx * c, sy * c, sz * c};
+      return d;
+    }();
+    Vec3 x = old;
+    double step = 0.25 * scale;
+    for (int round = 0; round < kCompassRounds && step > scale / 64.0; ++round) {
+      Vec3 next = x;
+      for (const Vec3& d : dirs) {
+        const Vec3 y = x + step * d;
+        if (!smoothing_accepts(y) || !(profile_best_ < profile_new_)) continue;
+        std::swap(profile_best_, profile_new_);
+        next = y;
+      }
+      if (next == x) {
+        step *= 0.5;
+      } else {
+        x = next;
+      }
+    }
+    return x;
+  }
+
   bool smooth_vertex(Index v, Index start) {
     gather_star(v, start);
     link_.clear();
@@ -758,6 +806,7 @@ class Optimizer {
     // as it is; tets within the targets count as equal.
     const double q0 = profile_old_.front();
     (void)best_position(old, q0, best, /*profile=*/true);
+    if (best == old) best = compass_search(old);
     if (best == old) return false;
     m_.set_point(v, best);
     for (const auto& s : star_) {
