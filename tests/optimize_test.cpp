@@ -347,11 +347,6 @@ TEST(Optimize, PolishingRoundsWorkOnTheInteriorAlone) {
   expect_valid(m, nullptr);
 }
 
-/// The serial pipeline at the default spacing (or `diagonal_over` > 0: --size
-/// = bounding-box diagonal / diagonal_over): every tet with no boundary vertex
-/// has its dihedral angles within the default targets [15, 150]. (Not asserted
-/// on sphere966, whose interior minimum moved between 11.7 and 15.5 degrees
-/// with small changes of the optimization: see README.)
 /// `pdrmesh mesh` of corpus surface `name` at the default spacing: every
 /// dihedral angle within [lo, hi] (as `pdrmesh quality` reports), and valid.
 void expect_serial_angles_within(const char* name, double lo, double hi) {
@@ -367,6 +362,11 @@ void expect_serial_angles_within(const char* name, double lo, double hi) {
   EXPECT_TRUE(report.ok()) << format_validation(report);
 }
 
+/// The serial pipeline at the default spacing (or `diagonal_over` > 0: --size
+/// = bounding-box diagonal / diagonal_over): every tet with no boundary vertex
+/// has its dihedral angles within the default targets [15, 150]. (Not asserted
+/// on sphere966, whose interior minimum moved between 11.7 and 15.5 degrees
+/// with small changes of the optimization: see README.)
 void expect_interior_within_targets(const char* name, double diagonal_over = 0, std::size_t min_interior = 1000) {
   auto surface = read_surface(std::string(PDRMESH_CORPUS_DIR) + "/" + name + ".stl");
   ASSERT_TRUE(surface.ok()) << surface.status().to_string();

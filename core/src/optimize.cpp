@@ -107,9 +107,9 @@ constexpr double kCapMaxAngleSlack = 0.5;
 /// Cap repair, relaxed pass: the range (degrees) every new tet's dihedral
 /// angles must lie in, whatever the cavity had. The bounds of `pdrmesh
 /// quality`'s "under 10" and "over 165": next to needle triangles (hinge,
-/// couplingdown) no star reaches them, and accepting any star whose smallest
-/// angle rose added points there and raised couplingdown's largest angle from
-/// 173.6 to 178.8 degrees.
+/// couplingdown) no star reaches them; a trial that accepted any star whose
+/// smallest angle rose added points there (hinge +14% tets) and raised
+/// couplingdown's largest angle from 173.6 to 178.8 degrees.
 constexpr std::array<double, 2> kRelaxedCapAngles{10.0, 165.0};
 /// Cap repair of a tet with one kept face: the smallest angle (degrees) of
 /// that surface triangle. Next to a needle triangle no star is good, and the
@@ -964,11 +964,12 @@ class Optimizer {
   /// Whether the star of x over link_ beats the cavity's tets by their
   /// dihedral angles: the smallest rises, and in the relaxed pass every new
   /// tet lies within kRelaxedCapAngles; otherwise, with two or three kept
-  /// faces the largest does not rise. With one (a flat tet on the surface, whose best
-  /// star may need a larger angle than the cavity had: sphere966 stayed at
-  /// 4.1 degrees without), the smaller of the smallest and 180 - the largest
-  /// rises, and the largest stays within kCapMaxAngleSlack of the mesh's
-  /// largest before the cap repair (couplingdown went from 173.6 to 176.5).
+  /// faces the largest does not rise. With one (a flat tet on the surface,
+  /// whose best star may need a larger angle than the cavity had: sphere966
+  /// stayed at 4.1 degrees without), the smaller of the smallest and 180 -
+  /// the largest rises, and the largest stays within kCapMaxAngleSlack of the
+  /// mesh's largest before the cap repair (couplingdown went from 173.6 to
+  /// 176.5).
   bool cap_angles_rise(const Vec3& x, std::span<const Index> cavity, int kept) const {
     const AngleRange old_range = angle_range(nullptr, cavity);
     const AngleRange new_range = angle_range(&x, {});
@@ -990,15 +991,13 @@ class Optimizer {
     return true;
   }
 
-  /// Replaces the cap t (is_cap) and the tets around it by the star of one
-  /// new point x over the cavity's boundary, the kept faces included (each
-  /// becomes a face of a new tet). The cavity starts from cap_seed and grows
-  /// by grow_cavity. x is tried above the mean centroid of the kept faces,
-  /// along their mean inward normal, at kCapHeights times h there, and then
-  /// moved as in best_position; the best x by the worst measure of its star
-  /// is taken, when that beats the old tets' worst measure, the new tets off
-  /// the surface hold their floors, the angles rise (cap_angles_rise) and x
-  /// is spaced (cap_spaced).
+  /// Replaces the cap t (is_cap, or in the relaxed pass a tet of four
+  /// surface points with no kept face) and the tets around it by the star of
+  /// one new point x over the cavity's boundary, the kept faces included
+  /// (each becomes a face of a new tet). The cavity starts from cap_seed. x
+  /// starts above the mean centroid of the kept faces, along their mean
+  /// inward normal, at kCapHeights times h there (with no kept face: at t's
+  /// centroid and beside each of its faces); insert_star does the rest.
   bool insert_cap(Index t) {
     const Tet kt = m_.tet(t);
     Vec3 mid{0, 0, 0}, inward{0, 0, 0};
@@ -1015,11 +1014,11 @@ class Optimizer {
       ++kept;
     }
     if (kept == 4) return false;
-    std::vector<Index> seed = cap_seed(t);
+    const std::vector<Index> seed = cap_seed(t);
     if (seed.empty()) return false;
     std::vector<Vec3> starts;
     if (kept == 0) {
-      // Four fixed points and no kept face: from the centroid, and off each
+      // Four surface points and no kept face: from the centroid, and off each
       // face into the neighbour across it (the tet is flat: its best point
       // lies beside it), at a quarter and half the height of a regular tet
       // over that face.

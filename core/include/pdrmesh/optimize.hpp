@@ -73,8 +73,9 @@
 //     other vertices down to 1/64 of it, at most 48 rounds (frame's parallel
 //     mesh kept a point 0.2 above a surface fold whose targets all made its
 //     star worse; about 1.5 aside its star's smallest angle rises from 7.8
-//     to 12.3 degrees). Up to four passes per sweep: the next takes the free vertices of the bad tets in
-//     the stars of the points just moved, and the passes after the first try
+//     to 12.3 degrees). Up to four passes per sweep: the next takes the free
+//     vertices of the bad tets in the stars of the points just moved, and the
+//     passes after the first try
 //     at most max(2000, 0.02 * tets) vertices together (a time bound where most
 //     bad tets are beyond repair). The star is gathered by a walk through
 //     adjacency from one incident tet (a vertex -> tet map built per smoothing
