@@ -541,8 +541,10 @@ TEST(Optimize, CapRepairReplacesAFlatTetOnTheSurface) {
 // degrees) with four surface points and one surface face, which the cap repair
 // took only with two or three kept faces (Gmsh HXT gets 5.85 on this surface);
 // then 6.16 / 171.02 degrees, points whose smoothing targets all made their
-// star worse, until the compass search (optimize.hpp, 3.).
-TEST(Optimize, Sphere966WorstTetsAreRepaired) { expect_serial_angles_within("sphere966", 6.5, 170.0); }
+// star worse, until the compass search (optimize.hpp, 3.); then 6.93 / 165.98,
+// free points whose stars the measure judged at a local best, until the angle
+// polish (optimize.hpp, 6.).
+TEST(Optimize, Sphere966WorstTetsAreRepaired) { expect_serial_angles_within("sphere966", 8.5, 166.0); }
 
 // bunny_npm's worst tets at the default spacing (12.29 degrees) were caps whose
 // best stars raise the largest angle past the cavity's, which the first cap
@@ -551,6 +553,10 @@ TEST(Optimize, Sphere966WorstTetsAreRepaired) { expect_serial_angles_within("sph
 TEST(Optimize, BunnyRelaxedCapPassReachesTheTarget) { expect_serial_angles_within("bunny_npm", 15.0, 165.0); }
 
 TEST(Optimize, ElephantInteriorWithinTargets) { expect_interior_within_targets("elephant"); }
+
+// Next to needle triangles: the interior reached 14.9 / 150.6 degrees before
+// the angle polish kept its tets with no surface point within the targets.
+TEST(Optimize, CouplingdownInteriorWithinTargets) { expect_interior_within_targets("couplingdown"); }
 
 // A coarse spacing on a CAD body: the cap repair once traded flat surface tets
 // for interior tets of 9.6 / 166.6 degrees here (it must meet the interior floors).

@@ -32,6 +32,9 @@ constexpr Index kParallelTets = Index{1} << 17;
 
 enum class Badness { kGood, kBad, kSliver };
 
+/// The cap repair's view of a bad tet (Optimizer::cap_kind).
+enum class CapKind { kNone, kCap, kFreeApex };
+
 std::array<Vec3, 4> corners(const TetMesh& m, const Tet& k) {
   return {m.point(k[0]), m.point(k[1]), m.point(k[2]), m.point(k[3])};
 }
@@ -353,9 +356,9 @@ class Optimizer {
 
   /// Cap repair (optimize.hpp, 5.): one point inserted into a cavity around
   /// each cap (is_cap), worst first (insert_cap). With `relaxed` (the second
-  /// pass) also around each bad tet of four surface points with no kept face,
-  /// and a star is judged by kRelaxedCapAngles (cap_angles_rise). Returns the
-  /// points inserted.
+  /// pass) also around each free-apex cap (cap_kind) and each bad tet of four
+  /// surface points (whatever its surface triangles), and a star is judged by
+  /// kRelaxedCapAngles (cap_angles_rise). Returns the points inserted.
   std::size_t repair_caps(bool relaxed) {
     relaxed_caps_ = relaxed;
     if (sizing_ == nullptr || !o_.insert_points) return 0;
@@ -371,8 +374,10 @@ class Optimizer {
     // its own that a repair of that cap would fix better.
     // A slot may hold a newer tet by the time it is tried: asked again then.
     const auto eligible = [&](Index t) {
-      return m_.alive(t) && badness(t) != Badness::kGood &&
-             (is_cap(t, surface) || (relaxed && all_on_surface(t) && no_kept_face(t)));
+      if (!m_.alive(t) || badness(t) == Badness::kGood) return false;
+      const CapKind kind = cap_kind(t, surface);
+      return kind == CapKind::kCap ||
+             (relaxed && (kind == CapKind::kFreeApex || all_on_surface(t)));
     };
     std::vector<std::pair<double, Index>> caps;
     for (Index t = 0; t < m_.num_slots(); ++t) {
@@ -390,6 +395,32 @@ class Optimizer {
     st_.points_inserted += done;
     st_.caps_repaired += done;
     return done;
+  }
+
+  /// Angle polish (optimize.hpp, 6.): the free points of the tets whose
+  /// smallest dihedral angle is under target_min_dihedral, ascending, each
+  /// once (polish_point). Returns the points moved.
+  std::size_t polish_angles() {
+    find_fixed();
+    const Index np = m_.num_points();
+    std::vector<Index> one_tet(np, kNoIndex);
+    for (Index t = 0; t < m_.num_slots(); ++t) {
+      if (!m_.alive(t)) continue;
+      for (Index v : m_.tet(t))
+        if (one_tet[v] == kNoIndex) one_tet[v] = t;
+    }
+    std::vector<char> wanted(np, 0);
+    for (Index t = 0; t < m_.num_slots(); ++t) {
+      if (!m_.alive(t) || badness(t) == Badness::kGood) continue;
+      const auto p = corners(m_, m_.tet(t));
+      if (!(dihedral_range(p[0], p[1], p[2], p[3]).min < o_.target_min_dihedral)) continue;
+      for (Index v : m_.tet(t)) wanted[v] = 1;
+    }
+    std::size_t moved = 0;
+    for (Index v = 0; v < np; ++v)
+      if (wanted[v] && (v >= fixed_.size() || !fixed_[v]) && polish_point(v, one_tet[v])) ++moved;
+    st_.points_moved += moved;
+    return moved;
   }
 
   void start_sweep() {
@@ -608,6 +639,14 @@ class Optimizer {
     return worst;
   }
 
+  /// The points of link_, each once and ascending, into link_points_.
+  void gather_link_points() {
+    link_points_.clear();
+    for (const Tri& f : link_) link_points_.insert(link_points_.end(), f.begin(), f.end());
+    std::sort(link_points_.begin(), link_points_.end());
+    link_points_.erase(std::unique(link_points_.begin(), link_points_.end()), link_points_.end());
+  }
+
   /// Best position for the apex of the tets over link_ (star_quality), starting
   /// from `old` and moving towards the candidate targets with a line search
   /// (kLineSteps steps 1, 1/2, 1/4, ...; the first step that beats q0 is taken
@@ -619,10 +658,7 @@ class Optimizer {
   /// the best profile's worst quality.
   double best_position(const Vec3& old, double q0, Vec3& best, bool profile = false) {
     // Target 1: the mean of the link's vertices (each once).
-    link_points_.clear();
-    for (const Tri& f : link_) link_points_.insert(link_points_.end(), f.begin(), f.end());
-    std::sort(link_points_.begin(), link_points_.end());
-    link_points_.erase(std::unique(link_points_.begin(), link_points_.end()), link_points_.end());
+    gather_link_points();
     Vec3 laplace{0, 0, 0};
     for (Index u : link_points_) laplace = laplace + m_.point(u);
     laplace = (1.0 / static_cast<double>(link_points_.size())) * laplace;
@@ -729,14 +765,15 @@ class Optimizer {
     return profile_old_ < profile_new_;
   }
 
-  /// Compass search for smooth_vertex when no target helped (optimize.hpp,
-  /// 3.): from `old`, a step along each of the 6 axes and 8 diagonals; the
-  /// best that smoothing_accepts and that beats profile_best_ is taken, else
-  /// the step halves. The step starts at a quarter of the mean distance to
-  /// the link points and the search ends below 1/64 of it or after
-  /// kCompassRounds rounds. Expects best_position's link_points_ and
-  /// profile_best_ (the old profile when no target helped).
-  Vec3 compass_search(const Vec3& old) {
+  /// Compass search for the apex of the star over link_ (smooth_vertex when
+  /// no target helped, optimize.hpp 3.; polish_angles): from `old`, a step
+  /// along each of the 6 axes and 8 diagonals; the last that `improves`
+  /// (which keeps the best so far: each step it accepts beats it) is taken,
+  /// else the step halves. The step starts at a quarter of the mean distance
+  /// to the link points and the search ends below 1/64 of it or after
+  /// kCompassRounds rounds. Expects link_points_ (gather_link_points).
+  template <typename Improves>
+  Vec3 compass_search(const Vec3& old, Improves&& improves) {
     double scale = 0;
     for (Index u : link_points_) scale += norm(m_.point(u) - old);
     scale /= static_cast<double>(std::max<std::size_t>(1, link_points_.size()));
@@ -761,9 +798,7 @@ class Optimizer {
       Vec3 next = x;
       for (const Vec3& d : dirs) {
         const Vec3 y = x + step * d;
-        if (!smoothing_accepts(y) || !(profile_best_ < profile_new_)) continue;
-        std::swap(profile_best_, profile_new_);
-        next = y;
+        if (improves(y)) next = y;
       }
       if (next == x) {
         step *= 0.5;
@@ -774,13 +809,28 @@ class Optimizer {
     return x;
   }
 
-  bool smooth_vertex(Index v, Index start) {
+  /// The star of v (gather_star from `start`) and its link faces, turned
+  /// towards v, into link_ (in star_ order).
+  void gather_link(Index v, Index start) {
     gather_star(v, start);
     link_.clear();
     for (const auto& [t, lv] : star_) {
       const Tri f = topo::face_of(m_.tet(t), lv);  // outward: away from v
       link_.push_back({f[0], f[2], f[1]});
     }
+  }
+
+  /// Moves v to x and forgets what was known of its star's tets.
+  void move_point(Index v, const Vec3& x) {
+    m_.set_point(v, x);
+    for (const auto& s : star_) {
+      m_.invalidate_quality(s.first);
+      if (s.first < known_.size()) known_[s.first] = 0;
+    }
+  }
+
+  bool smooth_vertex(Index v, Index start) {
+    gather_link(v, start);
     const Vec3 old = m_.point(v);
     Vec3 best;
     if (!star_measures(old, measures_old_)) return false;
@@ -806,13 +856,59 @@ class Optimizer {
     // as it is; tets within the targets count as equal.
     const double q0 = profile_old_.front();
     (void)best_position(old, q0, best, /*profile=*/true);
-    if (best == old) best = compass_search(old);
-    if (best == old) return false;
-    m_.set_point(v, best);
-    for (const auto& s : star_) {
-      m_.invalidate_quality(s.first);
-      if (s.first < known_.size()) known_[s.first] = 0;
+    if (best == old) {
+      // Steps that smoothing_accepts and whose profile beats profile_best_
+      // (the old profile: no target helped).
+      best = compass_search(old, [this](const Vec3& y) {
+        if (!smoothing_accepts(y) || !(profile_best_ < profile_new_)) return false;
+        std::swap(profile_best_, profile_new_);
+        return true;
+      });
     }
+    if (best == old) return false;
+    move_point(v, best);
+    return true;
+  }
+
+  /// Angle polish of v (polish_angles): a compass search for the position
+  /// that raises the smallest dihedral angle of v's star, every tet of it
+  /// positive (exact) and within its bounds: one with a surface point (its
+  /// link face on_surface) keeps its largest angle within the larger of
+  /// kRelaxedCapAngles[1] and the star's old largest; one with none stays
+  /// within the targets or no worse than it was on either side (the interior
+  /// bound of the refiner issue). True when v moved.
+  bool polish_point(Index v, Index start) {
+    gather_link(v, start);
+    const Vec3 old = m_.point(v);
+    const AngleRange before = angle_range(&old, {});
+    if (!(before.min < o_.target_min_dihedral)) return false;
+    const double largest = std::max(kRelaxedCapAngles[1], before.max);
+    polish_bounds_.clear();
+    for (const Tri& f : link_) {
+      if (on_surface(f)) {
+        polish_bounds_.push_back({0.0, largest});
+        continue;
+      }
+      const AngleRange r = dihedral_range(m_.point(f[0]), m_.point(f[1]), m_.point(f[2]), old);
+      polish_bounds_.push_back({std::min(o_.target_min_dihedral, r.min), std::max(o_.target_max_dihedral, r.max)});
+    }
+    double best_min = before.min;
+    gather_link_points();
+    const Vec3 best = compass_search(old, [&](const Vec3& y) {
+      double smallest = 180.0;
+      for (std::size_t i = 0; i < link_.size(); ++i) {
+        const Vec3 &a = m_.point(link_[i][0]), &b = m_.point(link_[i][1]), &c = m_.point(link_[i][2]);
+        if (exact::orient3d(a, b, c, y) <= 0) return false;
+        const AngleRange r = dihedral_range(a, b, c, y);
+        if (r.min < polish_bounds_[i].min || r.max > polish_bounds_[i].max) return false;
+        smallest = std::min(smallest, r.min);
+      }
+      if (!(smallest > best_min)) return false;
+      best_min = smallest;
+      return true;
+    });
+    if (best == old) return false;
+    move_point(v, best);
     return true;
   }
 
@@ -890,7 +986,12 @@ class Optimizer {
   /// fixed (a flat tet lying on the surface with its fourth point on the
   /// surface too: no flip or smoothing move of the steps before reaches it),
   /// when that triangle is not a needle (kCapMinTriangleAngle).
-  bool is_cap(Index t, const std::vector<Tri>& surface) const {
+  bool is_cap(Index t, const std::vector<Tri>& surface) const { return cap_kind(t, surface) == CapKind::kCap; }
+
+  /// What the cap repair makes of the bad tet t: kCap as is_cap says; kFreeApex
+  /// for one kept face, a surface triangle that is not a needle, under a free
+  /// fourth point (the relaxed pass takes it: insert_over_fans); else kNone.
+  CapKind cap_kind(Index t, const std::vector<Tri>& surface) const {
     int kept = 0, on_surface = 0, kept_face_index = 0;
     for (int f = 0; f < 4; ++f) {
       if (!kept_face(t, f)) continue;
@@ -903,23 +1004,17 @@ class Optimizer {
     }
     if (kept == 1) {
       const Tri k = topo::face_of(m_.tet(t), kept_face_index);
-      return on_surface == 1 && !free_point(t) &&
-             smallest_angle(m_.point(k[0]), m_.point(k[1]), m_.point(k[2])) >= kCapMinTriangleAngle;
+      if (on_surface != 1 || smallest_angle(m_.point(k[0]), m_.point(k[1]), m_.point(k[2])) < kCapMinTriangleAngle)
+        return CapKind::kNone;
+      return free_point(t) ? CapKind::kFreeApex : CapKind::kCap;
     }
-    return kept < 4 && on_surface >= 2;
+    return kept < 4 && on_surface >= 2 ? CapKind::kCap : CapKind::kNone;
   }
 
   /// Whether every point of tet t lies on a surface triangle.
   bool all_on_surface(Index t) const {
     for (Index v : m_.tet(t))
       if (v >= surface_.size() || surface_[v] == 0) return false;
-    return true;
-  }
-
-  /// Whether no face of tet t is kept (kept_face).
-  bool no_kept_face(Index t) const {
-    for (int f = 0; f < 4; ++f)
-      if (kept_face(t, f)) return false;
     return true;
   }
 
@@ -995,13 +1090,15 @@ class Optimizer {
     return true;
   }
 
-  /// Replaces the cap t (is_cap, or in the relaxed pass a tet of four
-  /// surface points with no kept face) and the tets around it by the star of
-  /// one new point x over the cavity's boundary, the kept faces included
-  /// (each becomes a face of a new tet). The cavity starts from cap_seed. x
-  /// starts above the mean centroid of the kept faces, along their mean
-  /// inward normal, at kCapHeights times h there (with no kept face: at t's
-  /// centroid and beside each of its faces); insert_star does the rest.
+  /// Replaces the cap t (is_cap, or in the relaxed pass a free-apex cap or a
+  /// tet of four surface points) and the tets around it by the star of one
+  /// new point x over the cavity's boundary, the kept faces included (each
+  /// becomes a face of a new tet). A free-apex cap first tries a point over
+  /// a fan its apex covers (insert_over_fans). Otherwise the cavity starts
+  /// from cap_seed, and x above the mean centroid of the kept faces, along
+  /// their mean inward normal, at kCapHeights times h there (with no kept
+  /// face: at t's centroid and beside each of its faces); insert_star does
+  /// the rest.
   bool insert_cap(Index t) {
     const Tet kt = m_.tet(t);
     Vec3 mid{0, 0, 0}, inward{0, 0, 0};
@@ -1018,6 +1115,7 @@ class Optimizer {
       ++kept;
     }
     if (kept == 4) return false;
+    if (kept == 1 && free_point(t) && insert_over_fans(t)) return true;
     const std::vector<Index> seed = cap_seed(t);
     if (seed.empty()) return false;
     std::vector<Vec3> starts;
@@ -1047,6 +1145,65 @@ class Optimizer {
       for (double height : kCapHeights) starts.push_back(mid + (height * h) * inward);
     }
     return insert_star(seed, starts, kept);
+  }
+
+  /// For a free-apex cap t (cap_kind): for each point s of t's kept face
+  /// whose tets all hold t's free point a over a kept face (a alone covers the
+  /// surface fan of s: over a curved fan its tets are as bad as the fan is
+  /// curved, and no move of a helps them all: armadillo's worst), in order, a
+  /// new point over that fan (insert_star from the tets of s, starting above
+  /// s along the fan's mean inward normal at kCapHeights times h(s)), until
+  /// one is inserted. Frees a to move for the tets left (polish_angles).
+  bool insert_over_fans(Index t) {
+    const Tet kt = m_.tet(t);
+    int kf = 0;
+    while (!kept_face(t, kf)) ++kf;
+    const Index apex = kt[static_cast<std::size_t>(kf)];
+    std::vector<Index> star;
+    std::vector<Vec3> starts;
+    for (Index s : topo::face_of(kt, kf)) {
+      if (!point_star(s, t, star)) continue;
+      Vec3 inward{0, 0, 0};
+      bool covered = true;
+      for (Index u : star) {
+        const Tet& k = m_.tet(u);
+        const int la = topo::local_vertex(k, apex);
+        if (la < 0 || !kept_face(u, la)) {
+          covered = false;
+          break;
+        }
+        const Tri f = topo::face_of(k, la);
+        const Vec3 n = cross(m_.point(f[2]) - m_.point(f[0]), m_.point(f[1]) - m_.point(f[0]));  // into u
+        const double ln = norm(n);
+        if (ln > 0.0) inward = inward + (1.0 / ln) * n;
+      }
+      const double ln = norm(inward);
+      if (!covered || !(ln > 0.0)) continue;
+      const Vec3& x = m_.point(s);
+      const double h = sizing_->at(x);
+      starts.clear();
+      for (double height : kCapHeights) starts.push_back(x + (height * h / ln) * inward);
+      if (insert_star(star, starts, 1)) return true;
+    }
+    return false;
+  }
+
+  /// The tets around point s, from tet `start` across the faces through s
+  /// that are not kept (kept_face), into `star`; false past kCapMaxCavity tets.
+  bool point_star(Index s, Index start, std::vector<Index>& star) const {
+    star.assign(1, start);
+    for (std::size_t i = 0; i < star.size(); ++i) {
+      const Index u = star[i];
+      const int ls = topo::local_vertex(m_.tet(u), s);
+      for (int f = 0; f < 4; ++f) {
+        if (f == ls || kept_face(u, f)) continue;
+        const Index n = face_tet(m_.neighbour(u, f));
+        if (std::find(star.begin(), star.end(), n) != star.end()) continue;
+        if (star.size() >= kCapMaxCavity) return false;
+        star.push_back(n);
+      }
+    }
+    return true;
   }
 
   /// The search of insert_cap: from each start point x, the cavity grows from
@@ -1191,6 +1348,7 @@ class Optimizer {
   std::vector<char> pinned_;    ///< smoothing: per link_ face, the tet over it is pinned
   bool all_pinned_ = false;     ///< smoothing: every tet of the star is pinned
   std::vector<double> lower_;   ///< smoothing: per link_ face, the least measure accepted
+  std::vector<AngleRange> polish_bounds_;  ///< angle polish: per link_ face, the angles (degrees) accepted
   std::size_t flips_this_sweep_ = 0;
   std::size_t flip_budget_ = 0;
   /// Per slot: 1 + the Badness of the tet while known, 0 when unknown. Cleared
@@ -1313,6 +1471,9 @@ Result<OptimizeStats> optimize(TetMesh& mesh, const SizingField* sizing,
     const std::size_t relaxed = opt.repair_caps(true);  // a statement of its own: after the first
     if (strict + relaxed > 0) bad = opt.bad_tets();
   }
+  // Angle polish (optimize.hpp, 6.): the free points of the tets under the
+  // smallest-angle target, raising their stars' smallest angle.
+  if (options.smooth && opt.polish_angles() > 0) bad = opt.bad_tets();
   st.bad_after = bad.size();
   const AngleRange after = mesh_range(mesh);
   st.min_dihedral_after = after.min;
