@@ -123,6 +123,18 @@ constexpr double kCapMinTriangleAngle = 15.0;
 
 AngleRange mesh_range(const TetMesh& m);
 
+/// The point over triangle (a, b, c), on the side of cross(b - a, c - a), at
+/// `fraction` of the height of the regular tet whose edge is the triangle's
+/// mean edge; the centroid when the triangle has no area.
+Vec3 regular_apex(const Vec3& a, const Vec3& b, const Vec3& c, double fraction = 1.0) {
+  const Vec3 n = cross(b - a, c - a);
+  const double ln = norm(n);
+  const Vec3 g = (1.0 / 3.0) * (a + b + c);
+  if (!(ln > 0.0)) return g;
+  const double edge = (norm(b - a) + norm(c - b) + norm(a - c)) / 3.0;
+  return g + (fraction * std::sqrt(2.0 / 3.0) * edge / ln) * n;
+}
+
 /// The smallest angle of triangle (a, b, c), in degrees.
 double smallest_angle(const Vec3& a, const Vec3& b, const Vec3& c) {
   const auto at = [](const Vec3& p, const Vec3& q, const Vec3& r) {
@@ -664,14 +676,7 @@ class Optimizer {
     laplace = (1.0 / static_cast<double>(link_points_.size())) * laplace;
     // Target 2: the mean of the apexes that would make each tet regular.
     Vec3 ideal{0, 0, 0};
-    for (const Tri& f : link_) {
-      const Vec3 &a = m_.point(f[0]), &b = m_.point(f[1]), &c = m_.point(f[2]);
-      const Vec3 n = cross(b - a, c - a);  // towards the apex
-      const double ln = norm(n);
-      const double edge = (norm(b - a) + norm(c - b) + norm(a - c)) / 3.0;
-      const Vec3 g = (1.0 / 3.0) * (a + b + c);
-      ideal = ideal + (ln > 0.0 ? g + (std::sqrt(2.0 / 3.0) * edge / ln) * n : g);
-    }
+    for (const Tri& f : link_) ideal = ideal + regular_apex(m_.point(f[0]), m_.point(f[1]), m_.point(f[2]));
     ideal = (1.0 / static_cast<double>(link_.size())) * ideal;
 
     // Target 3: the apex that would make the star's worst tet regular.
@@ -686,11 +691,7 @@ class Optimizer {
       const double q = measure({a, b, c, old});
       if (!(q < worst_q)) continue;
       worst_q = q;
-      const Vec3 n = cross(b - a, c - a);
-      const double ln = norm(n);
-      const double edge = (norm(b - a) + norm(c - b) + norm(a - c)) / 3.0;
-      const Vec3 g = (1.0 / 3.0) * (a + b + c);
-      worst_ideal = ln > 0.0 ? g + (std::sqrt(2.0 / 3.0) * edge / ln) * n : g;
+      worst_ideal = regular_apex(a, b, c);
     }
 
     double best_q = q0;
@@ -1127,14 +1128,9 @@ class Optimizer {
       const auto p = corners(m_, kt);
       starts.push_back(0.25 * (p[0] + p[1] + p[2] + p[3]));
       for (int f = 0; f < 4; ++f) {
-        const Tri k = topo::face_of(kt, f);
-        const Vec3 &a = m_.point(k[0]), &b = m_.point(k[1]), &c = m_.point(k[2]);
-        const Vec3 n = cross(b - a, c - a);  // out of t
-        const double ln = norm(n);
-        if (!(ln > 0.0)) return false;
-        const double edge = (norm(b - a) + norm(c - b) + norm(a - c)) / 3.0;
-        const Vec3 g = (1.0 / 3.0) * (a + b + c);
-        for (double frac : {0.25, 0.5}) starts.push_back(g + (frac * std::sqrt(2.0 / 3.0) * edge / ln) * n);
+        const Tri k = topo::face_of(kt, f);  // outward: the apex lies out of t
+        for (double fraction : {0.25, 0.5})
+          starts.push_back(regular_apex(m_.point(k[0]), m_.point(k[1]), m_.point(k[2]), fraction));
       }
     } else {
       mid = (1.0 / static_cast<double>(kept)) * mid;
