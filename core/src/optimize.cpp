@@ -1030,17 +1030,14 @@ class Optimizer {
   /// The tets the cavity of cap t starts from: with two kept faces the ring
   /// of the edge that t's two other faces share (t and its neighbours alone
   /// are not star-shaped from any point inside: that edge is reflex); with
-  /// one or three, t and its neighbours across the faces that are not kept;
-  /// with none (the relaxed pass), t and its neighbours across faces 0 to 2
-  /// only (grow_cavity adds the fourth when x needs it; taking all four from
-  /// the start would change the meshes measured in session 10, left for a
-  /// session that re-measures). Empty when the ring is open or too large, or
-  /// a tet is in another region.
+  /// one, three or none (the relaxed pass), t and its neighbours across the
+  /// faces that are not kept. Empty when the ring is open or too large, or a
+  /// tet is in another region.
   std::vector<Index> cap_seed(Index t) const {
-    std::array<int, 3> open{};  // the faces of t that are not kept
+    std::array<int, 4> open{};  // the faces of t that are not kept
     int n_open = 0;
     for (int f = 0; f < 4; ++f)
-      if (!kept_face(t, f) && n_open < 3) open[static_cast<std::size_t>(n_open++)] = f;
+      if (!kept_face(t, f)) open[static_cast<std::size_t>(n_open++)] = f;
     std::vector<Index> seed{t};
     if (n_open == 2) {
       // The faces opposite local vertices open[0], open[1] share the edge of
