@@ -249,6 +249,7 @@ class Refiner {
     Vec3 scale{};
     for (int i = 0; i < 3; ++i) scale[i] = hi[i] > lo[i] ? kCells / (hi[i] - lo[i]) : 0.0;
     keys_.clear();
+    keys_.reserve(m_.num_tets());
     for (Index t = 0; t < m_.num_slots(); ++t) {
       if (!m_.alive(t)) continue;
       const Tet& k = m_.tet(t);
@@ -263,10 +264,10 @@ class Refiner {
     std::sort(keys_.begin(), keys_.end());
     std::vector<Index> order(keys_.size());
     for (std::size_t i = 0; i < keys_.size(); ++i) order[i] = keys_[i].second;
+    keys_ = {};  // before the reorder's own scratch: a lower peak
     const std::vector<Index> map = m_.reorder(order);
     last_tet_ = map[last_tet_] != kNoIndex ? map[last_tet_] : 0;
     sorted_tets_ = m_.num_tets();
-    keys_ = {};
   }
 
   /// True when the edge (a, b) is no longer than split_ratio times its mean h.

@@ -373,25 +373,36 @@ std::vector<Index> TetMesh::reorder(std::span<const Index> order) {
   const Index n = num_slots();
   std::vector<Index> map(n, kNoIndex);
   for (std::size_t i = 0; i < order.size(); ++i) map[order[i]] = static_cast<Index>(i);
-  std::vector<Cell> cells(order.size());
-  std::vector<Flags> flags(order.size());
-  std::vector<double> quality(order.size());
-  std::vector<int> regions(regions_.empty() ? 0 : order.size());
-  for (std::size_t i = 0; i < order.size(); ++i) {
-    const Index t = order[i];
-    cells[i].v = cells_[t].v;
+  for (Index t = 0; t < n; ++t) {
+    if (!alive(t)) continue;
     for (int f = 0; f < 4; ++f) {
       const Index a = cells_[t].adj[f];
-      cells[i].adj[f] = a == kNoIndex ? kNoIndex : pack_face(map[face_tet(a)], face_local(a));
+      if (a != kNoIndex) cells_[t].adj[f] = pack_face(map[face_tet(a)], face_local(a));
     }
-    flags[i] = flags_[t];
-    quality[i] = quality_[t];
-    if (!regions_.empty()) regions[i] = regions_[t];
   }
-  cells_ = std::move(cells);
-  flags_ = std::move(flags);
-  quality_ = std::move(quality);
-  regions_ = std::move(regions);
+  // Permute in place (each slot to its place, dead slots after the alive
+  // ones), following the permutation's cycles: new arrays raised the peak
+  // memory of armadillo's `pdrmesh mesh` (1.4M tets, renumbered in the
+  // refinement) from 270 to 286 MB, and in place the arrays keep their
+  // capacity for the growth that follows.
+  std::vector<Index> dest(map);
+  Index next = alive_count_;
+  for (Index& d : dest)
+    if (d == kNoIndex) d = next++;
+  for (Index t = 0; t < n; ++t) {
+    while (dest[t] != t) {
+      const Index d = dest[t];
+      std::swap(cells_[t], cells_[d]);
+      std::swap(flags_[t], flags_[d]);
+      std::swap(quality_[t], quality_[d]);
+      if (!regions_.empty()) std::swap(regions_[t], regions_[d]);
+      std::swap(dest[t], dest[d]);
+    }
+  }
+  cells_.resize(alive_count_);
+  flags_.resize(alive_count_);
+  quality_.resize(alive_count_);
+  if (!regions_.empty()) regions_.resize(alive_count_);
   free_.clear();
   return map;
 }
