@@ -146,7 +146,8 @@ class Refiner {
       const auto tp = Clock::now();
       RefinePassStats ps;
       ps.pass = pass;
-      if (o_.spatial_order && m_.num_tets() >= kMinSortTets && m_.num_tets() >= sorted_tets_ + sorted_tets_ / 4)
+      if (o_.spatial_order && m_.num_tets() >= o_.spatial_order_min_tets &&
+          m_.num_tets() >= sorted_tets_ + sorted_tets_ / 4)
         sort_tets();  // after each growth by a quarter
       deactivate();
       collect(midpoints);
@@ -784,7 +785,6 @@ class Refiner {
   std::uint32_t in_ = 0, out_ = 0;
   EdgeRing ring_;
   FailedEdges failed_;  ///< the deferred reconnection's failed edge removals
-  static constexpr Index kMinSortTets = 4096;  ///< smaller meshes stay in slot order
   Index sorted_tets_ = 0;  ///< alive tets at the last sort_tets
   std::vector<std::pair<std::uint64_t, Index>> keys_;  ///< sort_tets' scratch
   Index last_tet_ = 0;
