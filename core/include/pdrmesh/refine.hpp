@@ -129,7 +129,7 @@ struct RefineOptions {
   /// a pass whenever the mesh grew by a quarter since the last renumbering
   /// (fewer cache misses: sphere966 at diag/100 refined in about 60% of the
   /// CPU time; armadillo's `pdrmesh mesh` in 13.5-14.3 s of user time against
-  /// 21.3 s, at a peak memory of 256 MB against 200 MB).
+  /// 21.3 s, at a peak memory of 260 MB against 200 MB).
   /// It changes the insertion order and so the mesh: the quality extremes move
   /// both ways by up to a few degrees (sphere966 at diag/100: all-tet range
   /// 11.0 / 155.8 -> 9.2 / 152.5, couplingdown at diag/100: interior 2.8 /
