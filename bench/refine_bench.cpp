@@ -15,7 +15,8 @@
 //   (per-pass lines), PDRMESH_BENCH_NO_OPTIMIZE, PDRMESH_BENCH_NO_MIN_MAX,
 //   PDRMESH_BENCH_EACH_INSERTION (min-max step after each insertion), PDRMESH_BENCH_MIN_MAX_ANGLE=A,
 //   PDRMESH_BENCH_SWEEPS=N (optimization sweeps), PDRMESH_BENCH_NO_REPAIR (no interior repair), PDRMESH_BENCH_LONG_EDGE_RATIO=R,
-//   PDRMESH_BENCH_NO_VOID_MIDPOINTS, PDRMESH_BENCH_SPATIAL_ORDER (RefineOptions::spatial_order),
+//   PDRMESH_BENCH_NO_VOID_MIDPOINTS, PDRMESH_BENCH_NO_SPATIAL_ORDER (RefineOptions::spatial_order off),
+//   PDRMESH_BENCH_SPATIAL_ORDER_MIN_TETS=N (RefineOptions::spatial_order_min_tets),
 //   PDRMESH_BENCH_DUMP_BAD (stderr: the 40 worst interior tets outside
 //   [15, 150] with their edge lengths over h and their vertices' stars)
 #include <fmt/format.h>
@@ -74,7 +75,9 @@ void run(const std::string& dir, const std::string& name, bool fine) {
   if (std::getenv("PDRMESH_BENCH_EACH_INSERTION") != nullptr) ro.defer_min_max = false;
   if (const char* v = std::getenv("PDRMESH_BENCH_LONG_EDGE_RATIO")) ro.long_edge_ratio = std::atof(v);
   if (std::getenv("PDRMESH_BENCH_NO_VOID_MIDPOINTS") != nullptr) ro.void_midpoints = false;
-  if (std::getenv("PDRMESH_BENCH_SPATIAL_ORDER") != nullptr) ro.spatial_order = true;
+  if (std::getenv("PDRMESH_BENCH_NO_SPATIAL_ORDER") != nullptr) ro.spatial_order = false;
+  if (const char* v = std::getenv("PDRMESH_BENCH_SPATIAL_ORDER_MIN_TETS"))
+    ro.spatial_order_min_tets = static_cast<Index>(std::atol(v));
   auto stats = refine(*mesh, *field, ro, [&](const RefinePassStats& p) {
     if (verbose)
       fmt::print(stderr, "  pass {:>3}: {:>8} candidates {:>8} accepted {:>8} inserted {:>8} flips {:>9} tets {:.3f}s\n",

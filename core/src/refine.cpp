@@ -146,7 +146,8 @@ class Refiner {
       const auto tp = Clock::now();
       RefinePassStats ps;
       ps.pass = pass;
-      if (o_.spatial_order && m_.num_tets() >= kMinSortTets && m_.num_tets() >= sorted_tets_ + sorted_tets_ / 4)
+      if (o_.spatial_order && m_.num_tets() >= o_.spatial_order_min_tets &&
+          m_.num_tets() >= sorted_tets_ + sorted_tets_ / 4)
         sort_tets();  // after each growth by a quarter
       deactivate();
       collect(midpoints);
@@ -249,6 +250,7 @@ class Refiner {
     Vec3 scale{};
     for (int i = 0; i < 3; ++i) scale[i] = hi[i] > lo[i] ? kCells / (hi[i] - lo[i]) : 0.0;
     keys_.clear();
+    keys_.reserve(m_.num_tets());
     for (Index t = 0; t < m_.num_slots(); ++t) {
       if (!m_.alive(t)) continue;
       const Tet& k = m_.tet(t);
@@ -263,10 +265,10 @@ class Refiner {
     std::sort(keys_.begin(), keys_.end());
     std::vector<Index> order(keys_.size());
     for (std::size_t i = 0; i < keys_.size(); ++i) order[i] = keys_[i].second;
+    keys_ = {};  // before the reorder's own scratch: a lower peak
     const std::vector<Index> map = m_.reorder(order);
     last_tet_ = map[last_tet_] != kNoIndex ? map[last_tet_] : 0;
     sorted_tets_ = m_.num_tets();
-    keys_ = {};
   }
 
   /// True when the edge (a, b) is no longer than split_ratio times its mean h.
@@ -783,7 +785,6 @@ class Refiner {
   std::uint32_t in_ = 0, out_ = 0;
   EdgeRing ring_;
   FailedEdges failed_;  ///< the deferred reconnection's failed edge removals
-  static constexpr Index kMinSortTets = 4096;  ///< smaller meshes stay in slot order
   Index sorted_tets_ = 0;  ///< alive tets at the last sort_tets
   std::vector<std::pair<std::uint64_t, Index>> keys_;  ///< sort_tets' scratch
   Index last_tet_ = 0;

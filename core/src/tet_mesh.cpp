@@ -28,6 +28,21 @@ struct FaceRecord {
   }
 };
 
+/// Puts v[order[i]] at v[i] and drops the rest, through one scratch copy of
+/// the moved entries: the array keeps its capacity for the growth that
+/// follows, and only one array's copy exists at a time (new arrays for all
+/// four at once: armadillo's `pdrmesh mesh`, renumbered during refinement,
+/// peaked at 286 MB, now 260 MB). A gather rather than an in-place walk of the
+/// permutation's cycles, whose random swaps took about four times as long
+/// (perf, sphere966 at diag/100) for 256 MB.
+template <class T>
+void permute(std::vector<T>& v, std::span<const Index> order) {
+  std::vector<T> moved(order.size());
+  for (std::size_t i = 0; i < order.size(); ++i) moved[i] = v[order[i]];
+  std::copy(moved.begin(), moved.end(), v.begin());
+  v.resize(order.size());
+}
+
 std::string describe_tet(const Tet& k, Index t) {
   return fmt::format("tet {} (points {}, {}, {}, {})", t, k[0], k[1], k[2], k[3]);
 }
@@ -373,25 +388,18 @@ std::vector<Index> TetMesh::reorder(std::span<const Index> order) {
   const Index n = num_slots();
   std::vector<Index> map(n, kNoIndex);
   for (std::size_t i = 0; i < order.size(); ++i) map[order[i]] = static_cast<Index>(i);
-  std::vector<Cell> cells(order.size());
-  std::vector<Flags> flags(order.size());
-  std::vector<double> quality(order.size());
-  std::vector<int> regions(regions_.empty() ? 0 : order.size());
-  for (std::size_t i = 0; i < order.size(); ++i) {
-    const Index t = order[i];
-    cells[i].v = cells_[t].v;
+  // The neighbours' new indices first, in the old slots; then every array moves.
+  for (Index t = 0; t < n; ++t) {
+    if (!alive(t)) continue;
     for (int f = 0; f < 4; ++f) {
       const Index a = cells_[t].adj[f];
-      cells[i].adj[f] = a == kNoIndex ? kNoIndex : pack_face(map[face_tet(a)], face_local(a));
+      if (a != kNoIndex) cells_[t].adj[f] = pack_face(map[face_tet(a)], face_local(a));
     }
-    flags[i] = flags_[t];
-    quality[i] = quality_[t];
-    if (!regions_.empty()) regions[i] = regions_[t];
   }
-  cells_ = std::move(cells);
-  flags_ = std::move(flags);
-  quality_ = std::move(quality);
-  regions_ = std::move(regions);
+  permute(cells_, order);
+  permute(flags_, order);
+  permute(quality_, order);
+  if (!regions_.empty()) permute(regions_, order);
   free_.clear();
   return map;
 }

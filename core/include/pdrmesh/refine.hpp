@@ -128,10 +128,19 @@ struct RefineOptions {
   /// Renumber the tets in the Morton order of their barycentres at the start of
   /// a pass whenever the mesh grew by a quarter since the last renumbering
   /// (fewer cache misses: sphere966 at diag/100 refined in about 60% of the
-  /// CPU time). Off by default: it changes the insertion order and so the
-  /// mesh, and some quality extremes got worse (primitives13 default: all-tet
-  /// dihedral range 6.1 / 173.6 against 15.2 / 150.0; README, session 6).
-  bool spatial_order = false;
+  /// CPU time; armadillo's `pdrmesh mesh` in 13.5-14.3 s of user time against
+  /// 21.3 s, at a peak memory of 260 MB against 200 MB).
+  /// It changes the insertion order and so the mesh: the quality extremes move
+  /// both ways by up to a few degrees (sphere966 at diag/100: all-tet range
+  /// 11.0 / 155.8 -> 9.2 / 152.5, couplingdown at diag/100: interior 2.8 /
+  /// 173.2 -> 3.6 / 172.6; session 11, `pdrmesh_bench_refine`).
+  bool spatial_order = true;
+  /// The renumbering starts once the mesh holds this many tets. A smaller
+  /// mesh's arrays stay in cache, so renumbering it saves nothing and only
+  /// changes it: from 4,096 tets it moved sphere966's default-size all-tet
+  /// range from 6.9 / 166.0 to 4.9 / 171.8 degrees, and frame's parallel run
+  /// (its leaves) from 11.98 to 6.93 (session 11).
+  Index spatial_order_min_tets = 65536;
 };
 
 /// Checks the options (positive, finite distances and limits).
