@@ -14,7 +14,8 @@
 //   environment: PDRMESH_BENCH_SIZES=dflt|d100 (one size only), PDRMESH_BENCH_VERBOSE
 //   (per-pass lines), PDRMESH_BENCH_NO_OPTIMIZE, PDRMESH_BENCH_NO_MIN_MAX,
 //   PDRMESH_BENCH_EACH_INSERTION (min-max step after each insertion), PDRMESH_BENCH_MIN_MAX_ANGLE=A,
-//   PDRMESH_BENCH_SWEEPS=N (optimization sweeps), PDRMESH_BENCH_NO_REPAIR (no interior repair), PDRMESH_BENCH_LONG_EDGE_RATIO=R,
+//   PDRMESH_BENCH_SWEEPS=N (optimization sweeps), PDRMESH_BENCH_NO_REPAIR (no interior repair),
+//   PDRMESH_BENCH_NO_POLISH (no angle polish), PDRMESH_BENCH_LONG_EDGE_RATIO=R,
 //   PDRMESH_BENCH_NO_VOID_MIDPOINTS, PDRMESH_BENCH_NO_SPATIAL_ORDER (RefineOptions::spatial_order off),
 //   PDRMESH_BENCH_SPATIAL_ORDER_MIN_TETS=N (RefineOptions::spatial_order_min_tets),
 //   PDRMESH_BENCH_DUMP_BAD (stderr: the 40 worst interior tets outside
@@ -93,6 +94,7 @@ void run(const std::string& dir, const std::string& name, bool fine) {
     OptimizeOptions oo;
     if (const char* v = std::getenv("PDRMESH_BENCH_SWEEPS")) oo.sweeps = std::atoi(v);
     if (std::getenv("PDRMESH_BENCH_NO_REPAIR") != nullptr) oo.interior_repair = false;
+    if (std::getenv("PDRMESH_BENCH_NO_POLISH") != nullptr) oo.polish_angles = false;
     auto ostats = optimize(*mesh, &*field, oo);
     if (verbose && ostats.ok())
       fmt::print(stderr, "  optimize: {} sweeps, bad {} -> {}, {} flips, {} slivers removed, {} points inserted, {} moved\n",

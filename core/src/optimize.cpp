@@ -1466,7 +1466,7 @@ Result<OptimizeStats> optimize(TetMesh& mesh, const SizingField* sizing,
   }
   // Angle polish (optimize.hpp, 6.): the free points of the tets under the
   // smallest-angle target, raising their stars' smallest angle.
-  if (options.smooth && opt.polish_angles() > 0) bad = opt.bad_tets();
+  if (options.smooth && options.polish_angles && opt.polish_angles() > 0) bad = opt.bad_tets();
   st.bad_after = bad.size();
   const AngleRange after = mesh_range(mesh);
   st.min_dihedral_after = after.min;

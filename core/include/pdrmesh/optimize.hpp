@@ -162,9 +162,10 @@
 //     No smoothing follows (it could trade an angle near 180 degrees
 //     elsewhere for a star's worst tet); the angle polish (6.) does.
 //
-//  6. Angle polish (with smooth), last: each free point of a tet whose
-//     smallest dihedral angle is under target_min_dihedral, ascending, once,
-//     moves by the compass search of 3. to raise the smallest dihedral angle
+//  6. Angle polish (polish_angles, on; only with smooth), last: each free
+//     point of a tet whose smallest dihedral angle is under
+//     target_min_dihedral, ascending, once, moves by the compass search of 3.
+//     to raise the smallest dihedral angle
 //     of its star (not the measure: at a star's local best the measure may
 //     balance an 8-degree angle against a 163-degree one), every tet positive,
 //     a tet with a surface point keeping its largest angle within the larger
@@ -200,7 +201,7 @@ struct OptimizeOptions {
   /// Rounds of (reconnection, sliver removal, smoothing); fewer when a round
   /// changes nothing; then the polishing rounds (above). 0 only measures.
   int sweeps = 4;
-  /// Run the smoothing step (and the angle polish, 6. above).
+  /// Run the smoothing step.
   bool smooth = true;
   /// Run the reconnection step (flips; also after insertions).
   bool reconnect = true;
@@ -218,6 +219,8 @@ struct OptimizeOptions {
   /// Cap repair after the interior repair rounds (5. above; needs a sizing
   /// field and insert_points).
   bool repair_caps = true;
+  /// Angle polish after the cap repair (6. above; with smooth).
+  bool polish_angles = true;
   /// Safety cap on successful flips per sweep, times the number of tets at the
   /// start of the sweep (the min-max rule already guarantees an end).
   double max_flips_per_tet = 20;
