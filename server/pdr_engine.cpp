@@ -54,6 +54,14 @@ Result<VolumeMesh> PdrEngine::mesh(const JobRecord& job, const SurfaceMesh& surf
     if (!progress.report("sizing", 0.15)) return cancelled("stopped");
     LeafJob leaf_job{job.id, job.user, options.kernel, [&progress] { return progress.keep_going(); }};
     PDR_ASSIGN_OR_RETURN(const std::unique_ptr<LeafKernel> kernel, dispatch_->kernel_for(leaf_job));
+    // The optimization's leaf tasks go where the refinement's go (a job's
+    // options only switch the optimization on or off: default OptimizeOptions,
+    // which make_leaf_kernel("optimize") runs).
+    std::unique_ptr<LeafKernel> optimizer;
+    if (options.optimize) {
+      leaf_job.kernel = "optimize";
+      PDR_ASSIGN_OR_RETURN(optimizer, dispatch_->kernel_for(leaf_job));
+    }
     ParallelOptions po = parallel_options(options);
     po.pdr.workers = dispatch_->concurrency();
     po.pdr.progress = [&](const PdrProgress& p) {
@@ -67,7 +75,7 @@ Result<VolumeMesh> PdrEngine::mesh(const JobRecord& job, const SurfaceMesh& surf
     };
     spdlog::debug("job {}: mesh_parallel with the {} kernel, {} leaf task(s) at once", job.id, options.kernel,
                   po.pdr.workers);
-    auto result = mesh_parallel(surface, po, kernel.get());
+    auto result = mesh_parallel(surface, po, kernel.get(), optimizer.get());
     progress.leaves(0, 0);
     if (!result.ok()) {
       if (timed_out) {

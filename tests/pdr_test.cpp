@@ -656,5 +656,28 @@ TEST(Pdr, MeshParallelIsByteIdenticalWithTheInitialMeshBesideTheSizing) {
   }
 }
 
+TEST(Pdr, TheOptimizeKernelIsMeshParallelsOwnOptimization) {
+  // A coordinator sends the optimization's leaf tasks to its workers as
+  // make_leaf_kernel("optimize"): that kernel must give the bytes of the
+  // optimizer mesh_parallel runs in its own process.
+  const Sphere* sp = sphere();
+  if (sp == nullptr) GTEST_SKIP() << "sphere966.mesh not readable";
+  const std::unique_ptr<LeafKernel> optimizer = make_leaf_kernel("optimize").value();
+  EXPECT_EQ(optimizer->name(), "optimize");
+  ParallelOptions o;
+  o.pdr = depth2(2);
+  Result<ParallelResult> own = mesh_parallel(sp->surface, o);
+  ASSERT_TRUE(own.ok()) << own.status().to_string();
+  Result<ParallelResult> given = mesh_parallel(sp->surface, o, nullptr, optimizer.get());
+  ASSERT_TRUE(given.ok()) << given.status().to_string();
+  expect_valid(given->mesh, sp->surface);
+  EXPECT_EQ(meshb_bytes(given->mesh, "pdr_opt_given"), meshb_bytes(own->mesh, "pdr_opt_own"));
+  // The optimization did change the mesh, so the comparison says something.
+  o.optimize.reset();
+  Result<ParallelResult> none = mesh_parallel(sp->surface, o);
+  ASSERT_TRUE(none.ok()) << none.status().to_string();
+  EXPECT_NE(meshb_bytes(none->mesh, "pdr_opt_none"), meshb_bytes(own->mesh, "pdr_opt_own"));
+}
+
 }  // namespace
 }  // namespace pdrmesh

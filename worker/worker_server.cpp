@@ -270,8 +270,8 @@ class WorkerServiceImpl final : public v1::WorkerService::Service {
     if (out.ok()) {
       encoded = out->encode();
       rh->set_output_bytes(encoded.size());
-      spdlog::debug("{} leaf {}: {} tets in, {} out, {:.3f} s", tag, in->leaf, in->tets.size(), out->tets.size(),
-                    seconds);
+      spdlog::debug("{} leaf {} ({} kernel): {} tets in, {} out, {:.3f} s", tag, in->leaf, header.kernel(),
+                    in->tets.size(), out->tets.size(), seconds);
     } else {
       rh->mutable_error()->set_code(std::string(to_string(out.status().code())));
       rh->mutable_error()->set_message(out.status().message());

@@ -6,6 +6,7 @@
 
 #include <cmath>
 
+#include "pdrmesh/optimize.hpp"
 #include "pdrmesh/refine.hpp"
 #include "pdrmesh/surface.hpp"
 #include "pdrmesh/tetgen_adapter.hpp"
@@ -20,7 +21,11 @@ Result<std::unique_ptr<LeafKernel>> make_leaf_kernel(std::string_view name) {
         [](TetMesh& leaf, const SizingField& h) { return refine(leaf, h).status(); }));
   }
   if (name == "tetgen") return std::unique_ptr<LeafKernel>(std::make_unique<TetgenLeafKernel>());
-  return invalid_input(fmt::format("unknown leaf kernel '{}' (native or tetgen)", name));
+  if (name == "optimize") {
+    return std::unique_ptr<LeafKernel>(std::make_unique<NativeLeafKernel>(
+        [](TetMesh& leaf, const SizingField& h) { return optimize(leaf, &h).status(); }, "optimize"));
+  }
+  return invalid_input(fmt::format("unknown leaf kernel '{}' (native, tetgen or optimize)", name));
 }
 
 Result<LeafTaskOutput> NativeLeafKernel::run(const LeafTaskInput& in, const SizingField& sizing) const {

@@ -76,7 +76,7 @@ Status optimize_volume(VolumeMesh& mesh, const SizingField& sizing, const Optimi
 }
 
 Result<ParallelResult> mesh_parallel(const SurfaceMesh& surface, const ParallelOptions& options,
-                                     const LeafKernel* kernel) {
+                                     const LeafKernel* kernel, const LeafKernel* optimize_kernel) {
   PDR_TRY(validate(options.sizing));
   if (options.optimize) PDR_TRY(validate(*options.optimize));
   std::unique_ptr<LeafKernel> native;
@@ -135,8 +135,12 @@ Result<ParallelResult> mesh_parallel(const SurfaceMesh& surface, const ParallelO
   std::optional<NativeLeafKernel> optimizer;
   if (options.optimize) {
     const OptimizeOptions opt = *options.optimize;
-    optimizer.emplace([opt](TetMesh& leaf, const SizingField& h) { return pdrmesh::optimize(leaf, &h, opt).status(); });
-    pdr.optimize_kernel = &*optimizer;
+    if (optimize_kernel == nullptr) {
+      optimizer.emplace([opt](TetMesh& leaf, const SizingField& h) { return pdrmesh::optimize(leaf, &h, opt).status(); },
+                        "optimize");
+      optimize_kernel = &*optimizer;
+    }
+    pdr.optimize_kernel = optimize_kernel;
     pdr.optimize = [&sizing, &options](VolumeMesh& m) { return optimize_volume(m, sizing, *options.optimize); };
     pdr.optimize_selects = [lo = opt.target_min_dihedral, hi = opt.target_max_dihedral](
                                const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {

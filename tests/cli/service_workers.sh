@@ -24,7 +24,7 @@ worker_pids=()
 start_worker() {  # start_worker NAME [ENV=VALUE...]: registers with the coordinator
   local name=$1; shift
   env "$@" "$worker_bin" --listen 127.0.0.1:0 --coordinator "$registry" --threads 1 \
-    --cluster-token-file "$tmp/cluster-token" --log-level info > "$tmp/$name.out" 2> "$tmp/$name.err" &
+    --cluster-token-file "$tmp/cluster-token" --log-level debug > "$tmp/$name.out" 2> "$tmp/$name.err" &
   worker_pids+=($!)
 }
 stop_workers() {
@@ -52,6 +52,12 @@ wait_for registered w1 w2
 id=$(json_field id < "$tmp/submit.json")
 cmp "$tmp/job.meshb" "$tmp/run.meshb"
 echo "ok: job $id, refined by 2 workers, is byte-identical to pdrmesh run ${options[*]}"
+# Both kinds of leaf task went to the workers: refinement and optimization.
+for kernel in native optimize; do
+  cat "$tmp/w1.err" "$tmp/w2.err" | grep -q "($kernel kernel)" ||
+    { echo "no worker ran a $kernel leaf task"; cat "$tmp/w1.err" "$tmp/w2.err"; exit 1; }
+done
+echo "ok: the workers ran the refinement's and the optimization's leaf tasks"
 for suffix in vtu mesh ugrid msh su2; do
   "$pdrmesh" fetch "$id" -o "$tmp/job.$suffix" > /dev/null
   "$pdrmesh" validate "$tmp/job.$suffix" --surface "$surface" > /dev/null

@@ -42,10 +42,10 @@ using namespace std::chrono_literals;
 const std::filesystem::path kSphere = std::filesystem::path(PDRMESH_CORPUS_DIR) / "sphere966.stl";
 constexpr std::string_view kToken = "test-cluster-token-0123456789";
 
-/// Wraps the native kernel and records the calls (and the first leaf with tets).
+/// Wraps a make_leaf_kernel kernel and records the calls (and the first leaf with tets).
 class RecordingKernel final : public LeafKernel {
  public:
-  RecordingKernel() : native_(make_leaf_kernel("native").value()) {}
+  explicit RecordingKernel(std::string_view name) : inner_(make_leaf_kernel(name).value()) {}
   Result<LeafTaskOutput> run(const LeafTaskInput& in, const SizingField& sizing) const override {
     {
       std::lock_guard lock(mu_);
@@ -55,15 +55,15 @@ class RecordingKernel final : public LeafKernel {
         sample_sizing_ = sizing.encode();
       }
     }
-    return native_->run(in, sizing);
+    return inner_->run(in, sizing);
   }
-  std::string_view name() const override { return "native"; }
+  std::string_view name() const override { return inner_->name(); }
   mutable std::mutex mu_;
   mutable std::size_t calls_ = 0;
   mutable std::string sample_input_, sample_sizing_;
 
  private:
-  std::unique_ptr<LeafKernel> native_;
+  std::unique_ptr<LeafKernel> inner_;
 };
 
 /// The in-process run every remote run must match, made once.
@@ -71,7 +71,7 @@ struct Reference {
   SurfaceMesh surface;
   ParallelOptions options;
   VolumeMesh mesh;
-  std::size_t leaf_tasks = 0;    ///< kernel run() calls
+  std::size_t leaf_tasks = 0;    ///< kernel run() calls: refinement and optimization tasks
   std::string input, sizing;     ///< one leaf task (encoded) and the job's sizing field
   std::string output;            ///< run_leaf_task of it, in process
 };
@@ -82,14 +82,15 @@ const Reference& reference() {
     r->surface = read_surface(kSphere).value();
     r->options.pdr.depth = 2;
     r->options.pdr.workers = 2;
-    RecordingKernel kernel;
-    Result<ParallelResult> res = mesh_parallel(r->surface, r->options, &kernel);
+    RecordingKernel kernel("native"), optimizer("optimize");
+    Result<ParallelResult> res = mesh_parallel(r->surface, r->options, &kernel, &optimizer);
     if (!res.ok()) {
       ADD_FAILURE() << res.status().to_string();
       return r;
     }
     r->mesh = std::move(res->mesh);
-    r->leaf_tasks = kernel.calls_;
+    if (optimizer.calls_ == 0) ADD_FAILURE() << "the reference job ran no optimization task";
+    r->leaf_tasks = kernel.calls_ + optimizer.calls_;
     r->input = kernel.sample_input_;
     r->sizing = kernel.sample_sizing_;
     auto native = make_leaf_kernel("native").value();
@@ -326,12 +327,15 @@ class Workers : public ::testing::Test {
   /// mesh_parallel of the reference surface through the dispatch.
   static Result<ParallelResult> mesh_remote(RemoteLeafDispatch& dispatch, std::atomic<bool>* keep_going = nullptr) {
     const Reference& ref = reference();
+    // Both kinds of leaf task go to the workers, as the coordinator sends them.
     LeafJob job{"job1", "alice", "native", [keep_going] { return keep_going == nullptr || keep_going->load(); }};
     PDR_ASSIGN_OR_RETURN(std::unique_ptr<LeafKernel> kernel, dispatch.kernel_for(job));
+    job.kernel = "optimize";
+    PDR_ASSIGN_OR_RETURN(std::unique_ptr<LeafKernel> optimizer, dispatch.kernel_for(job));
     ParallelOptions o = ref.options;
     o.pdr.workers = dispatch.concurrency();
     tbb::global_control threads(tbb::global_control::max_allowed_parallelism, 64);
-    return mesh_parallel(ref.surface, o, kernel.get());
+    return mesh_parallel(ref.surface, o, kernel.get(), optimizer.get());
   }
 
   test::TempDir dir_;

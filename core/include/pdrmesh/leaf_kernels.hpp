@@ -12,6 +12,7 @@
 
 #include <functional>
 #include <memory>
+#include <string>
 #include <string_view>
 
 #include "pdrmesh/leaf_task.hpp"
@@ -29,14 +30,17 @@ using RefineHook = std::function<Status(TetMesh&, const SizingField&)>;
 
 class NativeLeafKernel final : public LeafKernel {
  public:
-  explicit NativeLeafKernel(RefineHook refine) : refine_(std::move(refine)) {}
+  /// `name` is what name() answers: the make_leaf_kernel name of this hook.
+  explicit NativeLeafKernel(RefineHook refine, std::string name = "native")
+      : refine_(std::move(refine)), name_(std::move(name)) {}
   /// leaf_tet_mesh(in), the hook, then leaf_output_from. Errors of the hook are
   /// returned with the leaf named.
   Result<LeafTaskOutput> run(const LeafTaskInput& in, const SizingField& sizing) const override;
-  std::string_view name() const override { return "native"; }
+  std::string_view name() const override { return name_; }
 
  private:
   RefineHook refine_;
+  std::string name_;
 };
 
 struct TetgenLeafOptions {
@@ -62,9 +66,12 @@ class TetgenLeafKernel final : public LeafKernel {
 };
 
 /// The kernel a job names: "native" (NativeLeafKernel running refine() with
-/// default RefineOptions) or "tetgen" (TetgenLeafKernel with default options);
-/// invalid_input naming the choices otherwise. The same name gives the same
-/// kernel in every process, which is what makes remote leaf results identical.
+/// default RefineOptions) or "tetgen" (TetgenLeafKernel with default options),
+/// or the kernel of the optimization rounds, "optimize" (NativeLeafKernel
+/// running optimize() with default OptimizeOptions: what mesh_parallel runs
+/// there by default); invalid_input naming the choices otherwise. The same name
+/// gives the same kernel in every process, which is what makes remote leaf
+/// results identical.
 Result<std::unique_ptr<LeafKernel>> make_leaf_kernel(std::string_view name);
 
 /// Volume of the regular tetrahedron of edge h: h^3 / (6 sqrt 2).

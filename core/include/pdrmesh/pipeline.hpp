@@ -61,9 +61,14 @@ struct ParallelResult {
 
 /// Meshes the volume enclosed by a checked surface with the PDR engine:
 /// background TetGen mesh -> SizingField::build -> run_pdr(kernel) -> optimize.
-/// `kernel` null: make_leaf_kernel("native").
+/// `kernel` null: make_leaf_kernel("native"). `optimize_kernel` runs the
+/// optimization's leaf tasks (PdrOptions::optimize_kernel; only with
+/// options.optimize); null: a NativeLeafKernel running optimize() with
+/// *options.optimize in this process. One given must compute the same, as
+/// make_leaf_kernel("optimize") does for the default OptimizeOptions, whether
+/// it runs the task here or on a remote worker (the coordinator's dispatch).
 Result<ParallelResult> mesh_parallel(const SurfaceMesh& checked_surface, const ParallelOptions& options,
-                                     const LeafKernel* kernel = nullptr);
+                                     const LeafKernel* kernel = nullptr, const LeafKernel* optimize_kernel = nullptr);
 
 /// The final optimization of a merged mesh (boundary frozen, sizing-aware).
 Status optimize_volume(VolumeMesh& mesh, const SizingField& sizing, const OptimizeOptions& options = {});
