@@ -608,8 +608,13 @@ class Optimizer {
     return false;
   }
 
-  /// The star of v: (tet, local index of v), by a walk from `start`.
-  void gather_star(Index v, Index start) {
+  /// The star of v: (tet, local index of v), by a walk from `start` across the
+  /// faces through v; with kCrossKept false (insert_over_fans) only across
+  /// those that are not kept (kept_face). False when it would pass `most` tets.
+  /// (A template argument, so that the smoothing's walk, its hot path, pays
+  /// nothing for the check.)
+  template <bool kCrossKept = true>
+  bool gather_star(Index v, Index start, std::size_t most = std::numeric_limits<std::size_t>::max()) {
     star_.clear();
     star_.push_back({start, topo::local_vertex(m_.tet(start), v)});
     for (std::size_t i = 0; i < star_.size(); ++i) {
@@ -617,13 +622,16 @@ class Optimizer {
       for (int f = 0; f < 4; ++f) {
         if (f == lv) continue;  // the faces through v are those opposite its other vertices
         const Index n = m_.neighbour(t, f);
-        if (n == kNoIndex) continue;
+        if (n == kNoIndex || (!kCrossKept && kept_face(t, f))) continue;
         const Index u = face_tet(n);
         bool seen = false;
         for (const auto& s : star_) seen = seen || s.first == u;
-        if (!seen) star_.push_back({u, topo::local_vertex(m_.tet(u), v)});
+        if (seen) continue;
+        if (star_.size() >= most) return false;
+        star_.push_back({u, topo::local_vertex(m_.tet(u), v)});
       }
     }
+    return true;
   }
 
   /// The new tets over link_ with the free point x and no surface point (repair
@@ -1155,7 +1163,10 @@ class Optimizer {
     std::vector<Index> star;
     std::vector<Vec3> starts;
     for (Index s : topo::face_of(kt, kf)) {
-      if (!point_star(s, t, star)) continue;
+      // The tets around s, from t across the faces through s that are not kept.
+      if (!gather_star</*kCrossKept=*/false>(s, t, kCapMaxCavity)) continue;
+      star.clear();
+      for (const auto& e : star_) star.push_back(e.first);
       Vec3 inward{0, 0, 0};
       bool covered = true;
       for (Index u : star) {
@@ -1179,24 +1190,6 @@ class Optimizer {
       if (insert_star(star, starts, 1)) return true;
     }
     return false;
-  }
-
-  /// The tets around point s, from tet `start` across the faces through s
-  /// that are not kept (kept_face), into `star`; false past kCapMaxCavity tets.
-  bool point_star(Index s, Index start, std::vector<Index>& star) const {
-    star.assign(1, start);
-    for (std::size_t i = 0; i < star.size(); ++i) {
-      const Index u = star[i];
-      const int ls = topo::local_vertex(m_.tet(u), s);
-      for (int f = 0; f < 4; ++f) {
-        if (f == ls || kept_face(u, f)) continue;
-        const Index n = face_tet(m_.neighbour(u, f));
-        if (std::find(star.begin(), star.end(), n) != star.end()) continue;
-        if (star.size() >= kCapMaxCavity) return false;
-        star.push_back(n);
-      }
-    }
-    return true;
   }
 
   /// The search of insert_cap: from each start point x, the cavity grows from
