@@ -267,21 +267,28 @@ class Optimizer {
     }
   }
 
+  /// One live tet of each point (the first in slot order; kNoIndex for a
+  /// point in none), for the star walks of smooth() and polish_angles().
+  std::vector<Index> first_tet_per_point() const {
+    std::vector<Index> one_tet(m_.num_points(), kNoIndex);
+    for (Index t = 0; t < m_.num_slots(); ++t) {
+      if (!m_.alive(t)) continue;
+      for (Index v : m_.tet(t))
+        if (one_tet[v] == kNoIndex) one_tet[v] = t;
+    }
+    return one_tet;
+  }
+
   /// One smoothing pass over the free vertices of bad tets, ascending.
   std::size_t smooth() {
     const Index np = m_.num_points();
-    std::vector<Index> one_tet(np, kNoIndex);
+    const std::vector<Index> one_tet = first_tet_per_point();
     find_fixed();
     const std::vector<char>& fixed = fixed_;
     std::vector<char> wanted(np, 0);
     std::vector<Index> bad;
-    for (Index t = 0; t < m_.num_slots(); ++t) {
-      if (!m_.alive(t)) continue;
-      const Tet& k = m_.tet(t);
-      for (int i = 0; i < 4; ++i)
-        if (one_tet[k[i]] == kNoIndex) one_tet[k[i]] = t;
-      if (badness(t) != Badness::kGood) bad.push_back(t);
-    }
+    for (Index t = 0; t < m_.num_slots(); ++t)
+      if (m_.alive(t) && badness(t) != Badness::kGood) bad.push_back(t);
     if (interior_only_) bad = interior(bad);
     for (Index t : bad)
       for (Index v : m_.tet(t)) wanted[v] = 1;
@@ -415,12 +422,7 @@ class Optimizer {
   std::size_t polish_angles() {
     find_fixed();
     const Index np = m_.num_points();
-    std::vector<Index> one_tet(np, kNoIndex);
-    for (Index t = 0; t < m_.num_slots(); ++t) {
-      if (!m_.alive(t)) continue;
-      for (Index v : m_.tet(t))
-        if (one_tet[v] == kNoIndex) one_tet[v] = t;
-    }
+    const std::vector<Index> one_tet = first_tet_per_point();
     std::vector<char> wanted(np, 0);
     for (Index t = 0; t < m_.num_slots(); ++t) {
       if (!m_.alive(t) || badness(t) == Badness::kGood) continue;
