@@ -936,6 +936,18 @@ class Optimizer {
     return n == kNoIndex || m_.frozen(t, f) || m_.region(face_tet(n)) != m_.region(t);
   }
 
+  /// The unit normal of t's kept face f, pointing into t, into `n`; false when
+  /// the face has no area.
+  bool kept_face_normal(Index t, int f, Vec3& n) const {
+    const Tri k = topo::face_of(m_.tet(t), f);
+    const Vec3& a = m_.point(k[0]);
+    const Vec3 c = cross(m_.point(k[2]) - a, m_.point(k[1]) - a);
+    const double ln = norm(c);
+    if (!(ln > 0.0)) return false;
+    n = (1.0 / ln) * c;
+    return true;
+  }
+
   /// Smallest and largest dihedral angle of the tets (link_ face, x), or of the
   /// tets `tets` when x is null.
   AngleRange angle_range(const Vec3* x, std::span<const Index> tets) const {
@@ -1110,20 +1122,19 @@ class Optimizer {
   bool insert_cap(Index t) {
     const Tet kt = m_.tet(t);
     Vec3 mid{0, 0, 0}, inward{0, 0, 0};
-    int kept = 0;
+    int kept = 0, kf = 0;  // kf: a kept face (the only one when kept == 1)
     for (int f = 0; f < 4; ++f) {
       if (!kept_face(t, f)) continue;
+      Vec3 n;
+      if (!kept_face_normal(t, f, n)) return false;
       const Tri k = topo::face_of(kt, f);
-      const Vec3 &a = m_.point(k[0]), &b = m_.point(k[2]), &c = m_.point(k[1]);
-      const Vec3 n = cross(b - a, c - a);  // into t
-      const double ln = norm(n);
-      if (!(ln > 0.0)) return false;
-      mid = mid + (1.0 / 3.0) * (a + b + c);
-      inward = inward + (1.0 / ln) * n;
+      mid = mid + (1.0 / 3.0) * (m_.point(k[0]) + m_.point(k[2]) + m_.point(k[1]));
+      inward = inward + n;
+      kf = f;
       ++kept;
     }
     if (kept == 4) return false;
-    if (kept == 1 && free_point(t) && insert_over_fans(t)) return true;
+    if (kept == 1 && free_point(t) && insert_over_fans(t, kf)) return true;
     const std::vector<Index> seed = cap_seed(t);
     if (seed.empty()) return false;
     std::vector<Vec3> starts;
@@ -1150,17 +1161,16 @@ class Optimizer {
     return insert_star(seed, starts, kept);
   }
 
-  /// For a free-apex cap t (cap_kind): for each point s of t's kept face
-  /// whose tets all hold t's free point a over a kept face (a alone covers the
-  /// surface fan of s: over a curved fan its tets are as bad as the fan is
-  /// curved, and no move of a helps them all: armadillo's worst), in order, a
-  /// new point over that fan (insert_star from the tets of s, starting above
-  /// s along the fan's mean inward normal at kCapHeights times h(s)), until
-  /// one is inserted. Frees a to move for the tets left (polish_angles).
-  bool insert_over_fans(Index t) {
+  /// For a free-apex cap t (cap_kind) with kept face kf: for each point s of
+  /// that face whose tets all hold t's free point a over a kept face (a alone
+  /// covers the surface fan of s: over a curved fan its tets are as bad as the
+  /// fan is curved, and no move of a helps them all: armadillo's worst), in
+  /// order, a new point over that fan (insert_star from the tets of s,
+  /// starting above s along the fan's mean inward normal at kCapHeights times
+  /// h(s)), until one is inserted. Frees a to move for the tets left
+  /// (polish_angles).
+  bool insert_over_fans(Index t, int kf) {
     const Tet kt = m_.tet(t);
-    int kf = 0;
-    while (!kept_face(t, kf)) ++kf;
     const Index apex = kt[static_cast<std::size_t>(kf)];
     std::vector<Index> star;
     std::vector<Vec3> starts;
@@ -1178,10 +1188,8 @@ class Optimizer {
           covered = false;
           break;
         }
-        const Tri f = topo::face_of(k, la);
-        const Vec3 n = cross(m_.point(f[2]) - m_.point(f[0]), m_.point(f[1]) - m_.point(f[0]));  // into u
-        const double ln = norm(n);
-        if (ln > 0.0) inward = inward + (1.0 / ln) * n;
+        Vec3 n;
+        if (kept_face_normal(u, la, n)) inward = inward + n;
       }
       const double ln = norm(inward);
       if (!covered || !(ln > 0.0)) continue;
