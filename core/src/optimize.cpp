@@ -267,21 +267,28 @@ class Optimizer {
     }
   }
 
+  /// One live tet of each point (the first in slot order; kNoIndex for a
+  /// point in none), for the star walks of smooth() and polish_angles().
+  std::vector<Index> first_tet_per_point() const {
+    std::vector<Index> one_tet(m_.num_points(), kNoIndex);
+    for (Index t = 0; t < m_.num_slots(); ++t) {
+      if (!m_.alive(t)) continue;
+      for (Index v : m_.tet(t))
+        if (one_tet[v] == kNoIndex) one_tet[v] = t;
+    }
+    return one_tet;
+  }
+
   /// One smoothing pass over the free vertices of bad tets, ascending.
   std::size_t smooth() {
     const Index np = m_.num_points();
-    std::vector<Index> one_tet(np, kNoIndex);
+    const std::vector<Index> one_tet = first_tet_per_point();
     find_fixed();
     const std::vector<char>& fixed = fixed_;
     std::vector<char> wanted(np, 0);
     std::vector<Index> bad;
-    for (Index t = 0; t < m_.num_slots(); ++t) {
-      if (!m_.alive(t)) continue;
-      const Tet& k = m_.tet(t);
-      for (int i = 0; i < 4; ++i)
-        if (one_tet[k[i]] == kNoIndex) one_tet[k[i]] = t;
-      if (badness(t) != Badness::kGood) bad.push_back(t);
-    }
+    for (Index t = 0; t < m_.num_slots(); ++t)
+      if (m_.alive(t) && badness(t) != Badness::kGood) bad.push_back(t);
     if (interior_only_) bad = interior(bad);
     for (Index t : bad)
       for (Index v : m_.tet(t)) wanted[v] = 1;
@@ -415,12 +422,7 @@ class Optimizer {
   std::size_t polish_angles() {
     find_fixed();
     const Index np = m_.num_points();
-    std::vector<Index> one_tet(np, kNoIndex);
-    for (Index t = 0; t < m_.num_slots(); ++t) {
-      if (!m_.alive(t)) continue;
-      for (Index v : m_.tet(t))
-        if (one_tet[v] == kNoIndex) one_tet[v] = t;
-    }
+    const std::vector<Index> one_tet = first_tet_per_point();
     std::vector<char> wanted(np, 0);
     for (Index t = 0; t < m_.num_slots(); ++t) {
       if (!m_.alive(t) || badness(t) == Badness::kGood) continue;
@@ -608,8 +610,13 @@ class Optimizer {
     return false;
   }
 
-  /// The star of v: (tet, local index of v), by a walk from `start`.
-  void gather_star(Index v, Index start) {
+  /// The star of v: (tet, local index of v), by a walk from `start` across the
+  /// faces through v; with kCrossKept false (insert_over_fans) only across
+  /// those that are not kept (kept_face). False when it would pass `most` tets.
+  /// (A template argument, so that the smoothing's walk, its hot path, pays
+  /// nothing for the check.)
+  template <bool kCrossKept = true>
+  bool gather_star(Index v, Index start, std::size_t most = std::numeric_limits<std::size_t>::max()) {
     star_.clear();
     star_.push_back({start, topo::local_vertex(m_.tet(start), v)});
     for (std::size_t i = 0; i < star_.size(); ++i) {
@@ -617,13 +624,16 @@ class Optimizer {
       for (int f = 0; f < 4; ++f) {
         if (f == lv) continue;  // the faces through v are those opposite its other vertices
         const Index n = m_.neighbour(t, f);
-        if (n == kNoIndex) continue;
+        if (n == kNoIndex || (!kCrossKept && kept_face(t, f))) continue;
         const Index u = face_tet(n);
         bool seen = false;
         for (const auto& s : star_) seen = seen || s.first == u;
-        if (!seen) star_.push_back({u, topo::local_vertex(m_.tet(u), v)});
+        if (seen) continue;
+        if (star_.size() >= most) return false;
+        star_.push_back({u, topo::local_vertex(m_.tet(u), v)});
       }
     }
+    return true;
   }
 
   /// The new tets over link_ with the free point x and no surface point (repair
@@ -926,6 +936,18 @@ class Optimizer {
     return n == kNoIndex || m_.frozen(t, f) || m_.region(face_tet(n)) != m_.region(t);
   }
 
+  /// The unit normal of t's kept face f, pointing into t, into `n`; false when
+  /// the face has no area.
+  bool kept_face_normal(Index t, int f, Vec3& n) const {
+    const Tri k = topo::face_of(m_.tet(t), f);
+    const Vec3& a = m_.point(k[0]);
+    const Vec3 c = cross(m_.point(k[2]) - a, m_.point(k[1]) - a);
+    const double ln = norm(c);
+    if (!(ln > 0.0)) return false;
+    n = (1.0 / ln) * c;
+    return true;
+  }
+
   /// Smallest and largest dihedral angle of the tets (link_ face, x), or of the
   /// tets `tets` when x is null.
   AngleRange angle_range(const Vec3* x, std::span<const Index> tets) const {
@@ -1100,20 +1122,19 @@ class Optimizer {
   bool insert_cap(Index t) {
     const Tet kt = m_.tet(t);
     Vec3 mid{0, 0, 0}, inward{0, 0, 0};
-    int kept = 0;
+    int kept = 0, kf = 0;  // kf: a kept face (the only one when kept == 1)
     for (int f = 0; f < 4; ++f) {
       if (!kept_face(t, f)) continue;
+      Vec3 n;
+      if (!kept_face_normal(t, f, n)) return false;
       const Tri k = topo::face_of(kt, f);
-      const Vec3 &a = m_.point(k[0]), &b = m_.point(k[2]), &c = m_.point(k[1]);
-      const Vec3 n = cross(b - a, c - a);  // into t
-      const double ln = norm(n);
-      if (!(ln > 0.0)) return false;
-      mid = mid + (1.0 / 3.0) * (a + b + c);
-      inward = inward + (1.0 / ln) * n;
+      mid = mid + (1.0 / 3.0) * (m_.point(k[0]) + m_.point(k[2]) + m_.point(k[1]));
+      inward = inward + n;
+      kf = f;
       ++kept;
     }
     if (kept == 4) return false;
-    if (kept == 1 && free_point(t) && insert_over_fans(t)) return true;
+    if (kept == 1 && free_point(t) && insert_over_fans(t, kf)) return true;
     const std::vector<Index> seed = cap_seed(t);
     if (seed.empty()) return false;
     std::vector<Vec3> starts;
@@ -1140,22 +1161,24 @@ class Optimizer {
     return insert_star(seed, starts, kept);
   }
 
-  /// For a free-apex cap t (cap_kind): for each point s of t's kept face
-  /// whose tets all hold t's free point a over a kept face (a alone covers the
-  /// surface fan of s: over a curved fan its tets are as bad as the fan is
-  /// curved, and no move of a helps them all: armadillo's worst), in order, a
-  /// new point over that fan (insert_star from the tets of s, starting above
-  /// s along the fan's mean inward normal at kCapHeights times h(s)), until
-  /// one is inserted. Frees a to move for the tets left (polish_angles).
-  bool insert_over_fans(Index t) {
+  /// For a free-apex cap t (cap_kind) with kept face kf: for each point s of
+  /// that face whose tets all hold t's free point a over a kept face (a alone
+  /// covers the surface fan of s: over a curved fan its tets are as bad as the
+  /// fan is curved, and no move of a helps them all: armadillo's worst), in
+  /// order, a new point over that fan (insert_star from the tets of s,
+  /// starting above s along the fan's mean inward normal at kCapHeights times
+  /// h(s)), until one is inserted. Frees a to move for the tets left
+  /// (polish_angles).
+  bool insert_over_fans(Index t, int kf) {
     const Tet kt = m_.tet(t);
-    int kf = 0;
-    while (!kept_face(t, kf)) ++kf;
     const Index apex = kt[static_cast<std::size_t>(kf)];
     std::vector<Index> star;
     std::vector<Vec3> starts;
     for (Index s : topo::face_of(kt, kf)) {
-      if (!point_star(s, t, star)) continue;
+      // The tets around s, from t across the faces through s that are not kept.
+      if (!gather_star</*kCrossKept=*/false>(s, t, kCapMaxCavity)) continue;
+      star.clear();
+      for (const auto& e : star_) star.push_back(e.first);
       Vec3 inward{0, 0, 0};
       bool covered = true;
       for (Index u : star) {
@@ -1165,10 +1188,8 @@ class Optimizer {
           covered = false;
           break;
         }
-        const Tri f = topo::face_of(k, la);
-        const Vec3 n = cross(m_.point(f[2]) - m_.point(f[0]), m_.point(f[1]) - m_.point(f[0]));  // into u
-        const double ln = norm(n);
-        if (ln > 0.0) inward = inward + (1.0 / ln) * n;
+        Vec3 n;
+        if (kept_face_normal(u, la, n)) inward = inward + n;
       }
       const double ln = norm(inward);
       if (!covered || !(ln > 0.0)) continue;
@@ -1179,24 +1200,6 @@ class Optimizer {
       if (insert_star(star, starts, 1)) return true;
     }
     return false;
-  }
-
-  /// The tets around point s, from tet `start` across the faces through s
-  /// that are not kept (kept_face), into `star`; false past kCapMaxCavity tets.
-  bool point_star(Index s, Index start, std::vector<Index>& star) const {
-    star.assign(1, start);
-    for (std::size_t i = 0; i < star.size(); ++i) {
-      const Index u = star[i];
-      const int ls = topo::local_vertex(m_.tet(u), s);
-      for (int f = 0; f < 4; ++f) {
-        if (f == ls || kept_face(u, f)) continue;
-        const Index n = face_tet(m_.neighbour(u, f));
-        if (std::find(star.begin(), star.end(), n) != star.end()) continue;
-        if (star.size() >= kCapMaxCavity) return false;
-        star.push_back(n);
-      }
-    }
-    return true;
   }
 
   /// The search of insert_cap: from each start point x, the cavity grows from
