@@ -679,5 +679,75 @@ TEST(Pdr, TheOptimizeKernelIsMeshParallelsOwnOptimization) {
   EXPECT_NE(meshb_bytes(none->mesh, "pdr_opt_none"), meshb_bytes(own->mesh, "pdr_opt_own"));
 }
 
+TEST(Pdr, ResumingFromEachRoundsCheckpointGivesTheSameBytes) {
+  // A coordinator that restarts goes on from the last round's checkpoint: the
+  // result must be the uninterrupted run's, from every round.
+  const Sphere* sp = sphere();
+  if (sp == nullptr) GTEST_SKIP() << "sphere966.mesh not readable";
+  ParallelOptions o;
+  o.pdr = depth2(2);
+  std::vector<std::string> saved;
+  std::vector<std::string> names;
+  o.pdr.checkpoint = [&](const PdrCheckpoint& c) {
+    EXPECT_EQ(c.rounds_done, static_cast<int>(saved.size()) + 1);
+    EXPECT_EQ(c.mesh.tet_regions.size(), c.mesh.tets.size());
+    names.push_back(c.round);
+    saved.push_back(c.encode());
+    return Status{};
+  };
+  Result<ParallelResult> whole = mesh_parallel(sp->surface, o);
+  ASSERT_TRUE(whole.ok()) << whole.status().to_string();
+  expect_valid(whole->mesh, sp->surface);
+  const std::string want = meshb_bytes(whole->mesh, "pdr_resume_whole");
+  EXPECT_EQ(names, (std::vector<std::string>{"refinement", "interface round", "second interface round",
+                                             "optimization", "shifted optimization", "final optimization"}));
+  o.pdr.checkpoint = nullptr;
+  for (std::size_t k = 0; k < saved.size(); ++k) {
+    Result<PdrCheckpoint> c = PdrCheckpoint::decode(saved[k]);
+    ASSERT_TRUE(c.ok()) << c.status().to_string();
+    EXPECT_EQ(c->rounds_done, static_cast<int>(k) + 1);
+    EXPECT_EQ(c->encode(), saved[k]);
+    o.pdr.resume = &*c;
+    Result<ParallelResult> resumed = mesh_parallel(sp->surface, o);
+    ASSERT_TRUE(resumed.ok()) << names[k] << ": " << resumed.status().to_string();
+    EXPECT_EQ(resumed->profile.rounds.size(), saved.size() - k - 1) << names[k];
+    EXPECT_EQ(meshb_bytes(resumed->mesh, "pdr_resume_" + std::to_string(k)), want) << "resumed after " << names[k];
+  }
+}
+
+TEST(Pdr, ACheckpointThatDoesNotDecodeIsRefused) {
+  PdrCheckpoint c;
+  c.rounds_done = 2;
+  c.round = "interface round";
+  c.mesh.points = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  c.mesh.tets = {{0, 1, 2, 3}};
+  c.mesh.boundary = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+  c.mesh.boundary_ids = {-1, 0, 7, 7};
+  c.mesh.tet_regions = {5};
+  const std::string bytes = c.encode();
+  Result<PdrCheckpoint> back = PdrCheckpoint::decode(bytes);
+  ASSERT_TRUE(back.ok()) << back.status().to_string();
+  EXPECT_EQ(back->round, c.round);
+  EXPECT_EQ(back->mesh.points, c.mesh.points);
+  EXPECT_EQ(back->mesh.tets, c.mesh.tets);
+  EXPECT_EQ(back->mesh.boundary_ids, c.mesh.boundary_ids);
+  EXPECT_EQ(back->mesh.tet_regions, c.mesh.tet_regions);
+  for (std::size_t cut : {std::size_t{0}, std::size_t{5}, bytes.size() / 2, bytes.size() - 1}) {
+    EXPECT_EQ(PdrCheckpoint::decode(bytes.substr(0, cut)).status().code(), StatusCode::kInvalidInput) << cut;
+  }
+  EXPECT_EQ(PdrCheckpoint::decode(bytes + "x").status().code(), StatusCode::kInvalidInput);
+  std::string damaged = bytes;
+  damaged[damaged.size() / 2] ^= 1;  // one bit of a coordinate: the counts still read
+  const Status refused = PdrCheckpoint::decode(damaged).status();
+  EXPECT_EQ(refused.code(), StatusCode::kInvalidInput);
+  EXPECT_NE(refused.message().find("digest"), std::string::npos) << refused.message();
+  PdrCheckpoint bad = c;
+  bad.mesh.tets[0][3] = 4;  // no such point
+  EXPECT_EQ(PdrCheckpoint::decode(bad.encode()).status().code(), StatusCode::kInvalidInput);
+  bad = c;
+  bad.mesh.tet_regions.clear();  // a leaf for each tet is part of the state
+  EXPECT_EQ(PdrCheckpoint::decode(bad.encode()).status().code(), StatusCode::kInvalidInput);
+}
+
 }  // namespace
 }  // namespace pdrmesh

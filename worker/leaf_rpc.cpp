@@ -29,15 +29,6 @@ bool same_secret(std::string_view a, std::string_view b) {
 
 std::string_view pdrmesh_version() { return PDRMESH_VERSION; }
 
-std::uint64_t content_digest(std::string_view bytes) {
-  std::uint64_t h = 0xcbf29ce484222325ULL;
-  for (const char c : bytes) {
-    h ^= static_cast<unsigned char>(c);
-    h *= 0x100000001b3ULL;
-  }
-  return h;
-}
-
 StatusCode status_code_from_name(std::string_view name) {
   for (int c = static_cast<int>(StatusCode::kInvalidInput); c <= static_cast<int>(StatusCode::kInternal); ++c) {
     if (to_string(static_cast<StatusCode>(c)) == name) return static_cast<StatusCode>(c);

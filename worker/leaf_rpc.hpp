@@ -13,6 +13,7 @@
 #include <string>
 #include <string_view>
 
+#include "pdrmesh/digest.hpp"
 #include "pdrmesh/status.hpp"
 
 namespace grpc {
@@ -37,8 +38,8 @@ inline constexpr std::string_view kSizingUnknown = "sizing unknown";
 /// The pdrmesh version both sides compare (PROJECT_VERSION).
 std::string_view pdrmesh_version();
 
-/// FNV-1a 64 of the bytes: the sizing field's digest on the wire.
-std::uint64_t content_digest(std::string_view bytes);
+/// The sizing field's digest on the wire (pdrmesh/digest.hpp).
+using pdrmesh::content_digest;
 
 /// The StatusCode whose to_string() is `name` (LeafError.code on the wire);
 /// kInternal for an unknown name.

@@ -9,18 +9,22 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <functional>
 #include <limits>
 #include <mutex>
 #include <numeric>
 #include <string>
 #include <tuple>
+#include <type_traits>
 #include <utility>
 
 #include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/parallel_sort.h>
 
 #include "atomic_extremum.hpp"
+#include "byte_codec.hpp"
+#include "pdrmesh/digest.hpp"
 #include "pdrmesh/leaf_kernels.hpp"
 #include "pdrmesh/surface_ids.hpp"
 #include "pdrmesh/tetgen_adapter.hpp"
@@ -674,6 +678,100 @@ Result<PdrPlan> plan_pdr(const SurfaceMesh& surface, double surface_h, const Pdr
   return plan;
 }
 
+namespace {
+
+constexpr char kCheckpointMagic[8] = {'P', 'D', 'R', 'C', 'K', 'P', 'T', '\0'};
+constexpr std::uint32_t kCheckpointVersion = 1;
+
+Status checkpoint_error(std::string_view what) {
+  return invalid_input(fmt::format("PDR checkpoint: {}", what));
+}
+
+}  // namespace
+
+std::string PdrCheckpoint::encode() const {
+  codec::Writer w;
+  w.bytes(kCheckpointMagic, sizeof kCheckpointMagic);
+  w.u32(kCheckpointVersion);
+  w.u32(static_cast<std::uint32_t>(rounds_done));
+  w.u64(round.size());
+  w.bytes(round.data(), round.size());
+  w.u64(mesh.points.size());
+  for (const Vec3& p : mesh.points)
+    for (double c : p) w.f64(c);
+  w.u64(mesh.tets.size());
+  for (const Tet& t : mesh.tets)
+    for (Index v : t) w.u32(v);
+  w.u64(mesh.boundary.size());
+  for (const Tri& f : mesh.boundary)
+    for (Index v : f) w.u32(v);
+  w.u64(mesh.boundary_ids.size());
+  for (int id : mesh.boundary_ids) w.u32(static_cast<std::uint32_t>(id));
+  w.u64(mesh.tet_regions.size());
+  for (int r : mesh.tet_regions) w.u32(static_cast<std::uint32_t>(r));
+  std::string bytes = w.take();
+  codec::Writer tail;
+  tail.u64(content_digest(bytes));
+  return bytes + tail.take();
+}
+
+Result<PdrCheckpoint> PdrCheckpoint::decode(std::string_view bytes) {
+  // The digest at the end first: a file cut short or damaged is refused whole.
+  std::uint64_t digest = 0;
+  if (bytes.size() < 8 || !codec::Reader(bytes.substr(bytes.size() - 8)).u64(digest) ||
+      digest != content_digest(bytes.substr(0, bytes.size() - 8))) {
+    return checkpoint_error("the bytes do not match their digest (cut short or damaged)");
+  }
+  bytes.remove_suffix(8);
+  codec::Reader r(bytes);
+  char magic[8];
+  std::uint32_t version = 0, rounds = 0;
+  if (!r.bytes(magic, 8) || std::memcmp(magic, kCheckpointMagic, 8) != 0 || !r.u32(version) ||
+      version != kCheckpointVersion) {
+    return checkpoint_error("bad magic or version");
+  }
+  PdrCheckpoint c;
+  std::size_t n = 0;
+  if (!r.u32(rounds) || rounds > 64 || !r.count(1, n)) return checkpoint_error("truncated header");
+  c.rounds_done = static_cast<int>(rounds);
+  c.round.resize(n);
+  if (!r.bytes(c.round.data(), n)) return checkpoint_error("truncated round name");
+  if (!r.count(24, n)) return checkpoint_error("bad point count");
+  c.mesh.points.resize(n);
+  for (Vec3& p : c.mesh.points)
+    for (double& x : p) r.f64(x);
+  const auto indices = [&](auto& items, const char* what) -> Status {
+    constexpr std::size_t k = std::tuple_size_v<typename std::decay_t<decltype(items)>::value_type>;
+    if (!r.count(4 * k, n)) return checkpoint_error(fmt::format("bad {} count", what));
+    items.resize(n);
+    for (auto& item : items) {
+      for (Index& v : item) {
+        r.u32(v);
+        if (v >= c.mesh.points.size()) return checkpoint_error(fmt::format("{} index {} out of range", what, v));
+      }
+    }
+    return {};
+  };
+  const auto ints = [&](std::vector<int>& items, std::size_t expected, const char* what) -> Status {
+    if (!r.count(4, n) || n != expected) {
+      return checkpoint_error(fmt::format("bad {} count", what));
+    }
+    items.resize(n);
+    for (int& x : items) {
+      std::uint32_t u = 0;
+      r.u32(u);
+      x = static_cast<int>(u);
+    }
+    return {};
+  };
+  PDR_TRY(indices(c.mesh.tets, "tet"));
+  PDR_TRY(indices(c.mesh.boundary, "boundary face"));
+  PDR_TRY(ints(c.mesh.boundary_ids, c.mesh.boundary.size(), "boundary id"));
+  PDR_TRY(ints(c.mesh.tet_regions, c.mesh.tets.size(), "tet region"));
+  if (r.left() != 0) return checkpoint_error(fmt::format("{} bytes after the end", r.left()));
+  return c;
+}
+
 Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing, const LeafKernel& kernel,
                            const PdrOptions& options, PdrProfile* profile) {
   const auto t0 = Clock::now();
@@ -681,6 +779,7 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
     return invalid_input(fmt::format("{}: the surface is empty", surface.name));
   }
   PDR_ASSIGN_OR_RETURN(const PdrPlan plan, plan_pdr(surface, surface_spacing(surface, sizing), options, kernel));
+  if (options.resume != nullptr) return run_pdr(surface, sizing, kernel, options, profile, plan, options.resume->mesh, 0);
   if (options.progress && !options.progress({"initial mesh", 0, 0, 0})) {
     return cancelled("stopped before the initial mesh");
   }
@@ -704,22 +803,41 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
   prof.initial = initial_s;
   prof.initial_tets = initial.tets.size();
   VolumeMesh cur = std::move(initial);
+  if (options.resume != nullptr && cur.tet_regions.size() != cur.tets.size()) {
+    return invalid_input("PDR checkpoint: its mesh has no leaf for each tet");
+  }
   // Leaf tasks mark interfaces with id 0, so the surface gets engine ids >= 1
   // (surface_ids.hpp), given back to the user's at the end.
-  PDR_ASSIGN_OR_RETURN(const SurfaceIdMap ids, SurfaceIdMap::to_engine(cur.boundary_ids));
+  PDR_ASSIGN_OR_RETURN(SurfaceIdMap ids, SurfaceIdMap::to_engine(cur.boundary_ids));
   const FaceIdTable boundary(cur.boundary, cur.boundary_ids);
   const bool fixups = options.fixups.value_or(kernel.needs_manifold_hull());
 
-  auto t0 = Clock::now();
-  PDR_ASSIGN_OR_RETURN(Decomposition d1, decompose(cur, depth));  // checks the initial mesh's faces
-  prof.decomposition = seconds_since(t0);
-  const Box box1 = d1.box;
+  // The grid's root cube: every point lies inside the surface, so a resumed
+  // run's mesh gives the initial mesh's cube.
+  Box bounds;
+  for (const Vec3& p : cur.points) bounds.add(p);
+  const Box box1 = root_cube(bounds);
   Box box2 = box1;
   const double half = 0.5 * (box1.hi[0] - box1.lo[0]) / static_cast<double>(1 << depth);
   for (int k = 0; k < 3; ++k) {
     box2.lo[k] += half;
     box2.hi[k] += half;
   }
+  // Each step below is one round: skipped when the checkpoint resumed from
+  // did it, followed by the checkpoint hook (the surface's own ids there).
+  const int resumed_rounds = options.resume != nullptr ? options.resume->rounds_done : 0;
+  int rounds_done = 0;
+  const auto step = [&](std::string_view name, const std::function<Status()>& body) -> Status {
+    if (++rounds_done <= resumed_rounds) return {};
+    PDR_TRY(body());
+    if (!options.checkpoint) return {};
+    ids.to_user(cur.boundary_ids);
+    PdrCheckpoint c{rounds_done, std::string(name), std::move(cur)};
+    const Status s = options.checkpoint(c);
+    cur = std::move(c.mesh);
+    PDR_ASSIGN_OR_RETURN(ids, SurfaceIdMap::to_engine(cur.boundary_ids));
+    return s;
+  };
   std::vector<RoundResult> rounds;
   const auto account = [&](RoundResult&& r) {
     prof.partition_swap += r.fixups.swap_s;
@@ -739,28 +857,37 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
   using Selector = std::function<std::vector<char>()>;
   const auto round = [&](std::string_view phase, const Box& box, const LeafKernel& k, bool fix, int round_depth,
                          const Selector& select) -> Status {
-    const auto td = Clock::now();
-    PDR_ASSIGN_OR_RETURN(Decomposition d, decompose_leaves(cur, round_depth, box));
-    prof.decomposition += seconds_since(td);
-    std::vector<char> selected;
-    if (select) selected = select();
-    RoundResult r;
-    PDR_TRY(run_round(phase, cur, std::move(d), boundary, sizing, k, options, fix, r, select ? &selected : nullptr));
-    account(std::move(r));
-    return {};
+    return step(phase, [&]() -> Status {
+      const auto td = Clock::now();
+      PDR_ASSIGN_OR_RETURN(Decomposition d, decompose_leaves(cur, round_depth, box));
+      prof.decomposition += seconds_since(td);
+      std::vector<char> selected;
+      if (select) selected = select();
+      RoundResult r;
+      PDR_TRY(run_round(phase, cur, std::move(d), boundary, sizing, k, options, fix, r, select ? &selected : nullptr));
+      account(std::move(r));
+      return {};
+    });
   };
 
-  RoundResult r1;
-  t0 = Clock::now();
-  PDR_TRY(run_round("refinement", cur, std::move(d1), boundary, sizing, kernel, options, fixups, r1));
-  prof.leaves = seconds_since(t0) - r1.fixups.swap_s - r1.fixups.extraction_s;
-  prof.leaf_count = r1.leaves;
-  prof.max_leaf_tets = r1.max_leaf_tets;
-  account(std::move(r1));
+  const auto refinement = [&]() -> Status {
+    auto t0 = Clock::now();
+    PDR_ASSIGN_OR_RETURN(Decomposition d1, decompose(cur, depth, box1));  // checks the initial mesh's faces
+    prof.decomposition += seconds_since(t0);
+    RoundResult r1;
+    t0 = Clock::now();
+    PDR_TRY(run_round("refinement", cur, std::move(d1), boundary, sizing, kernel, options, fixups, r1));
+    prof.leaves = seconds_since(t0) - r1.fixups.swap_s - r1.fixups.extraction_s;
+    prof.leaf_count = r1.leaves;
+    prof.max_leaf_tets = r1.max_leaf_tets;
+    account(std::move(r1));
+    return {};
+  };
+  PDR_TRY(step("refinement", refinement));
 
   Box last_box = box1;
   if (options.interface_round && depth > 0 && options.interface_rounds > 0) {
-    t0 = Clock::now();
+    const auto t0 = Clock::now();
     Selector near_interfaces;
     if (options.interface_halo > 0 && !fixups) {
       near_interfaces = [&] { return select_interface_tets(cur, options.interface_halo); };
@@ -784,11 +911,11 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
   }
   prof.fixups = prof.partition_swap + prof.boundary_extraction;
 
-  remove_unused_points(cur);
+  remove_unused_points(cur);  // nothing to remove when resumed after it
   prof.interior_points = cur.points.size() - surface.points.size();
   if (options.optimize_kernel != nullptr || options.optimize) {
     if (!report("optimization", cur.tets.size())) return cancelled("stopped before the optimization");
-    t0 = Clock::now();
+    const auto t0 = Clock::now();
     const bool select = options.optimize_kernel != nullptr && static_cast<bool>(options.optimize_selects);
     Selector bad;
     if (select) bad = [&] { return select_bad_tets(cur, options); };
@@ -805,19 +932,23 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
       // gets the leaf of the last round's grid that holds its barycenter.
       const auto tg = Clock::now();
       PDR_TRY(round("final optimization", box1, *options.optimize_kernel, false, 0, bad));
+      assign_leaves(cur, last_box, depth);  // the same again when resumed after it
       prof.global_optimization = seconds_since(tg);
-      assign_leaves(cur, last_box, depth);
     } else if (options.optimize) {
       // The leaf of each tet is bookkeeping, not a material region: the
       // optimization must see one region, or it would treat every former leaf
       // interface as a constraint (no flip across it, its points fixed) and
       // leave the slivers there. Afterwards each tet gets the leaf of the last
       // round's grid that holds its barycenter.
-      cur.tet_regions.clear();
       const auto tg = Clock::now();
-      PDR_TRY(options.optimize(cur));
+      const auto whole = [&]() -> Status {
+        cur.tet_regions.clear();
+        PDR_TRY(options.optimize(cur));
+        assign_leaves(cur, last_box, depth);
+        return {};
+      };
+      PDR_TRY(step("final optimization", whole));
       prof.global_optimization = seconds_since(tg);
-      assign_leaves(cur, last_box, depth);
     }
     prof.optimization = seconds_since(t0);
   }

@@ -105,7 +105,7 @@ Result<ParallelResult> mesh_parallel(const SurfaceMesh& surface, const ParallelO
   std::optional<PdrPlan> plan;  // set: `initial` was made from it, beside the sizing field
   std::optional<VolumeMesh> initial;
   double initial_s = 0, overlapped_s = 0;
-  if (options.pdr.workers >= 2) plan = plan_from_surface(surface, options, *kernel);
+  if (options.pdr.workers >= 2 && options.pdr.resume == nullptr) plan = plan_from_surface(surface, options, *kernel);
   if (plan) {
     if (options.pdr.progress && !options.pdr.progress({"initial mesh", 0, 0, 0}))
       return cancelled("stopped before the initial mesh");

@@ -47,6 +47,24 @@
 
 namespace pdrmesh {
 
+/// The engine's state after a round: enough to go on from there (PdrOptions::
+/// resume), e.g. after a coordinator restart. Rounds are counted in run order
+/// (refinement 1, interface rounds 2 and 3, optimization rounds, the final
+/// optimization task; those a run skips are not counted).
+struct PdrCheckpoint {
+  int rounds_done = 0;
+  std::string round;  ///< the name of the last round done
+  VolumeMesh mesh;    ///< the merged mesh after it, with the surface's own ids and each tet's leaf
+
+  /// Bit-exact little-endian bytes (doubles as their bits), ending with their
+  /// content_digest (digest.hpp).
+  std::string encode() const;
+  /// invalid_input for bytes that do not match their digest, are not a
+  /// checkpoint of this version, whose counts the bytes cannot hold, or whose
+  /// indices are out of range.
+  static Result<PdrCheckpoint> decode(std::string_view bytes);
+};
+
 /// Where run_pdr is, for a progress display and for stopping early.
 struct PdrProgress {
   std::string_view phase;        ///< "initial mesh", "refinement", "interface round", "optimization"
@@ -149,6 +167,14 @@ struct PdrOptions {
   /// leaf result (serialised; it must be quick). Returning false stops the run:
   /// no further leaf task starts, and run_pdr returns a kCancelled status.
   std::function<bool(const PdrProgress&)> progress;
+  /// Called on the calling thread after each round with the state then (to
+  /// store it: PdrCheckpoint::encode); an error fails the run. Empty: none.
+  std::function<Status(const PdrCheckpoint&)> checkpoint;
+  /// Not owned; set: go on from this checkpoint, written by a run with the same
+  /// surface, sizing field, kernels and options: no initial mesh is made, the
+  /// rounds it counts are skipped, and the result is byte-identical to that
+  /// run's (the profile then covers the rounds run, not the skipped ones).
+  const PdrCheckpoint* resume = nullptr;
 };
 
 /// What one round's schedule was: enough to replay it (schedule_replay.hpp).
