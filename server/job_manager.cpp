@@ -26,21 +26,6 @@ std::string new_job_id() {
   return id;
 }
 
-Status write_file_atomically(const std::filesystem::path& path, std::string_view bytes) {
-  auto tmp = path;
-  tmp += ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary);
-    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    out.flush();
-    if (!out) return io_error(fmt::format("{}: cannot write", tmp.string()));
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) return io_error(fmt::format("{}: cannot store: {}", path.string(), ec.message()));
-  return {};
-}
-
 }  // namespace
 
 Result<std::string> volume_suffix(std::string_view format) {
@@ -139,7 +124,7 @@ Result<JobRecord> JobManager::submit(std::string_view user, std::string_view fil
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
   if (ec) return io_error(fmt::format("{}: cannot create: {}", dir.string(), ec.message()));
-  if (Status s = write_file_atomically(JobPaths::input(config_.data_dir, job), bytes); !s.ok()) {
+  if (Status s = write_file_atomically(JobPaths::input(config_.data_dir, job), {bytes}); !s.ok()) {
     std::filesystem::remove_all(dir, ec);
     return s;
   }

@@ -14,6 +14,7 @@
 #include <iterator>
 #include <nlohmann/json.hpp>
 
+#include "pdrmesh/digest.hpp"
 #include "pdrmesh/pipeline.hpp"
 #include "pdrmesh/surface_check.hpp"
 #include "pdrmesh/surface_io.hpp"
@@ -111,6 +112,10 @@ std::filesystem::path JobPaths::result(const std::filesystem::path& data_dir, st
   return dir(data_dir, id) / ("result" + std::string(suffix));
 }
 
+std::filesystem::path JobPaths::checkpoint(const std::filesystem::path& data_dir, std::string_view id) {
+  return dir(data_dir, id) / "checkpoint.pdrck";
+}
+
 // ---------------------------------------------------------------- ChangeSignal
 
 void ChangeSignal::notify() {
@@ -136,6 +141,21 @@ void ChangeSignal::wait(std::uint64_t seen, std::chrono::milliseconds timeout) c
 namespace {
 
 }  // namespace
+
+Status write_file_atomically(const std::filesystem::path& path, std::initializer_list<std::string_view> pieces) {
+  auto tmp = path;
+  tmp += ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    for (std::string_view bytes : pieces) out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    out.flush();
+    if (!out) return io_error(fmt::format("{}: cannot write", tmp.string()));
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) return io_error(fmt::format("{}: cannot store: {}", path.string(), ec.message()));
+  return {};
+}
 
 void remove_job_files(JobStore& store, const std::filesystem::path& data_dir, std::string_view id) {
   if (Status s = store.remove(id); !s.ok()) spdlog::warn("job {}: {}", id, s.to_string());
@@ -291,7 +311,11 @@ Status JobRunner::mesh_job(JobRecord& job, JobProgress& progress) {
   PDR_ASSIGN_OR_RETURN(const SurfaceMesh surface, parse_surface(bytes, format, job.input_name));
   if (!progress.report("checking", 0.1)) return internal_error("stopped");
   PDR_TRY(require_meshable(check_surface(surface), job.input_name));
-  PDR_ASSIGN_OR_RETURN(const VolumeMesh mesh, engine_.mesh(job, surface, options, progress));
+  // The result depends on the input, the options and the engine's version alone.
+  const JobCheckpoint checkpoint(JobPaths::checkpoint(data_dir_, job.id),
+                                 fmt::format("pdrmesh {}\noptions {}\ninput {:016x}\n", PDRMESH_VERSION,
+                                             job.options_json, content_digest(bytes)));
+  PDR_ASSIGN_OR_RETURN(const VolumeMesh mesh, engine_.mesh(job, surface, options, progress, &checkpoint));
   if (!progress.report("writing", 0.95)) return internal_error("stopped");
   const auto final_path = JobPaths::result(data_dir_, job.id);
   auto tmp = final_path;
@@ -352,7 +376,11 @@ void JobRunner::run_job(const Entry& entry) {
     job.phase = "failed";
     job.error = status.to_string();
   }
-  if (is_final(job.state)) job.finished_ms = now_unix_ms();
+  if (is_final(job.state)) {
+    job.finished_ms = now_unix_ms();
+    std::error_code ec;  // a restart resumes from the checkpoint; nothing else does
+    std::filesystem::remove(JobPaths::checkpoint(data_dir_, job.id), ec);
+  }
   if (Status s = store_.update(job); !s.ok()) spdlog::error("job {}: {}", job.id, s.to_string());
   spdlog::info("job {} ({}): {}{}{}", job.id, job.user, to_string(job.state), job.error.empty() ? "" : ": ",
                job.error);

@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <deque>
 #include <filesystem>
+#include <initializer_list>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -22,6 +23,7 @@
 #include <thread>
 #include <vector>
 
+#include "job_checkpoint.hpp"
 #include "job_store.hpp"
 #include "pdrmesh/sizing.hpp"
 #include "pdrmesh/status.hpp"
@@ -57,7 +59,13 @@ struct JobPaths {
   /// The result in the format named by `suffix` (".meshb" is the one the runner writes).
   static std::filesystem::path result(const std::filesystem::path& data_dir, std::string_view id,
                                       std::string_view suffix = ".meshb");
+  /// The running job's last round checkpoint (JobCheckpoint).
+  static std::filesystem::path checkpoint(const std::filesystem::path& data_dir, std::string_view id);
 };
+
+/// Writes the pieces, one after the other, to `path` + ".tmp", then renames
+/// that over `path`: a reader sees the old file or the whole new one.
+Status write_file_atomically(const std::filesystem::path& path, std::initializer_list<std::string_view> pieces);
 
 /// Removes a job's record (absent: nothing) and its directory; failures are logged.
 void remove_job_files(JobStore& store, const std::filesystem::path& data_dir, std::string_view id);
@@ -99,8 +107,10 @@ class MeshEngine {
  public:
   virtual ~MeshEngine() = default;
   /// `job`: whose mesh it is (id and user for logs and leaf dispatch).
+  /// `checkpoint`: where the engine may store its state after each round and
+  /// find the state a former run of the job left (null: nowhere).
   virtual Result<VolumeMesh> mesh(const JobRecord& job, const SurfaceMesh& surface, const JobOptions& options,
-                                  JobProgress& progress) = 0;
+                                  JobProgress& progress, const JobCheckpoint* checkpoint) = 0;
 };
 
 struct RunnerOptions {
@@ -119,7 +129,8 @@ class JobRunner {
   void start();
   /// Stops taking jobs and joins the threads. A running job is interrupted at
   /// its next phase boundary and goes back to queued (it runs again after a
-  /// restart); the TetGen step itself is not interrupted.
+  /// restart, from its last round checkpoint); the TetGen step itself is not
+  /// interrupted.
   void stop();
   /// Appends a queued job (stored already) to the queue.
   void enqueue(const JobRecord& job);

@@ -6,6 +6,7 @@
 #include <spdlog/spdlog.h>
 
 #include <chrono>
+#include <optional>
 
 #include "pdrmesh/tetgen_adapter.hpp"
 #include "pdrmesh/validate.hpp"
@@ -38,7 +39,7 @@ ParallelOptions parallel_options(const JobOptions& options) {
 }
 
 Result<VolumeMesh> PdrEngine::mesh(const JobRecord& job, const SurfaceMesh& surface, const JobOptions& options,
-                                   JobProgress& progress) {
+                                   JobProgress& progress, const JobCheckpoint* checkpoint) {
   const auto start = std::chrono::steady_clock::now();
   const auto deadline = start + std::chrono::duration<double>(options.time_limit_s);
   bool timed_out = false;
@@ -73,6 +74,22 @@ Result<VolumeMesh> PdrEngine::mesh(const JobRecord& job, const SurfaceMesh& surf
       progress.mesh_size(p.tets, 0);
       return progress.report(p.phase, overall(p));
     };
+    std::optional<PdrCheckpoint> resume;
+    if (checkpoint != nullptr) {
+      resume = checkpoint->load();
+      if (resume) {
+        spdlog::info("job {}: resuming after its round {} ({}), {} tets", job.id, resume->rounds_done, resume->round,
+                     resume->mesh.tets.size());
+        po.pdr.resume = &*resume;
+      }
+      po.pdr.checkpoint = [&job, checkpoint](const PdrCheckpoint& c) -> Status {
+        if (Status s = checkpoint->store(c); !s.ok()) {
+          spdlog::warn("job {}: no checkpoint after its round {} ({}): {}", job.id, c.rounds_done, c.round,
+                       s.message());
+        }
+        return {};
+      };
+    }
     spdlog::debug("job {}: mesh_parallel with the {} kernel, {} leaf task(s) at once", job.id, options.kernel,
                   po.pdr.workers);
     auto result = mesh_parallel(surface, po, kernel.get(), optimizer.get());

@@ -23,8 +23,10 @@ ParallelOptions parallel_options(const JobOptions& options);
 class PdrEngine final : public MeshEngine {
  public:
   explicit PdrEngine(std::shared_ptr<LeafDispatch> dispatch) : dispatch_(std::move(dispatch)) {}
+  /// With `checkpoint`, goes on from the round it holds (and stores one after
+  /// each round); a checkpoint that cannot be stored is logged, the job goes on.
   Result<VolumeMesh> mesh(const JobRecord& job, const SurfaceMesh& surface, const JobOptions& options,
-                          JobProgress& progress) override;
+                          JobProgress& progress, const JobCheckpoint* checkpoint) override;
 
  private:
   std::shared_ptr<LeafDispatch> dispatch_;

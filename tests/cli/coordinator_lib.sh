@@ -28,11 +28,12 @@ bench_setup() {
 }
 
 # start_coordinator DATA_DIR [FLAGS...]: starts it in the background with the
-# tokens file $tmp/tokens; sets coord_pid and PDRMESH_SERVER (exported).
+# tokens file $tmp/tokens, logging at ${coord_log_level:-warn} to $tmp/coordinator.err;
+# sets coord_pid and PDRMESH_SERVER (exported).
 start_coordinator() {
   local data=$1; shift
   : > "$tmp/coordinator.out"
-  "$coordinator" --listen 127.0.0.1:0 --data-dir "$data" --tokens "$tmp/tokens" --log-level warn "$@" \
+  "$coordinator" --listen 127.0.0.1:0 --data-dir "$data" --tokens "$tmp/tokens" --log-level "${coord_log_level:-warn}" "$@" \
     > "$tmp/coordinator.out" 2>> "$tmp/coordinator.err" &
   coord_pid=$!
   for _ in $(seq 200); do

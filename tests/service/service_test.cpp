@@ -49,7 +49,7 @@ class GatedEngine final : public MeshEngine {
  public:
   explicit GatedEngine(std::shared_ptr<Gate> gate) : gate_(std::move(gate)) {}
   Result<VolumeMesh> mesh(const JobRecord& job, const SurfaceMesh& surface, const JobOptions& options,
-                          JobProgress& progress) override {
+                          JobProgress& progress, const JobCheckpoint* checkpoint) override {
     {
       std::lock_guard lock(gate_->mu);
       ++gate_->entered;
@@ -60,7 +60,7 @@ class GatedEngine final : public MeshEngine {
       std::unique_lock lock(gate_->mu);
       if (gate_->cv.wait_for(lock, std::chrono::milliseconds(20), [&] { return gate_->open; })) break;
     }
-    return engine_.mesh(job, surface, options, progress);
+    return engine_.mesh(job, surface, options, progress, checkpoint);
   }
 
  private:

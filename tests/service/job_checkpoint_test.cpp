@@ -1,0 +1,130 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// A job's round checkpoint (JobCheckpoint) with the PdrEngine, without gRPC: a
+// job stopped after its first round goes on from it with the bytes of an
+// uninterrupted run, and a checkpoint written for another key or damaged on
+// disk is not used.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <fstream>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "job_checkpoint.hpp"
+#include "leaf_dispatch.hpp"
+#include "pdr_engine.hpp"
+#include "pdrmesh/surface_io.hpp"
+#include "pdrmesh/validate.hpp"
+#include "temp_dir.hpp"
+
+namespace pdrmesh::server {
+namespace {
+
+const std::filesystem::path kSphere = std::filesystem::path(PDRMESH_CORPUS_DIR) / "sphere966.stl";
+
+/// Records the phases reported; stops the job when `stop_at` is reported.
+class Phases final : public JobProgress {
+ public:
+  explicit Phases(std::string stop_at = {}) : stop_at_(std::move(stop_at)) {}
+  bool report(std::string_view phase, double) override {
+    if (seen.empty() || seen.back() != phase) seen.emplace_back(phase);
+    stopped = stopped || phase == stop_at_;
+    return !stopped;
+  }
+  bool keep_going() override { return !stopped; }
+  void mesh_size(std::uint64_t, std::uint64_t) override {}
+  void leaves(std::uint64_t, std::uint64_t) override {}
+  bool saw(std::string_view phase) const { return std::find(seen.begin(), seen.end(), phase) != seen.end(); }
+
+  std::vector<std::string> seen;
+  bool stopped = false;
+
+ private:
+  std::string stop_at_;
+};
+
+TEST(JobCheckpoint, AJobStoppedAfterItsFirstRoundGoesOnFromItWithTheBytesOfAWholeRun) {
+  test::TempDir dir;
+  auto surface = read_surface(kSphere.string());
+  ASSERT_TRUE(surface.ok()) << surface.status().to_string();
+  JobRecord job;
+  job.id = "j1";
+  job.user = "alice";
+  JobOptions options;
+  options.depth = 2;
+  PdrEngine engine(std::make_shared<LocalLeafDispatch>(2));
+
+  Phases whole_run;
+  auto whole = engine.mesh(job, *surface, options, whole_run, nullptr);
+  ASSERT_TRUE(whole.ok()) << whole.status().to_string();
+  ASSERT_TRUE(whole_run.saw("refinement"));
+  ASSERT_TRUE(whole_run.saw("interface round"));
+
+  const std::filesystem::path file = dir.path() / "checkpoint.pdrck";
+  const JobCheckpoint checkpoint(file, "key of job j1");
+  Phases stopped("interface round");  // the refinement round is done and stored by then
+  EXPECT_FALSE(engine.mesh(job, *surface, options, stopped, &checkpoint).ok());
+  ASSERT_TRUE(std::filesystem::exists(file));
+  {
+    const std::optional<PdrCheckpoint> stored = checkpoint.load();
+    ASSERT_TRUE(stored.has_value());
+    EXPECT_EQ(stored->rounds_done, 1);
+    EXPECT_EQ(stored->round, "refinement");
+    EXPECT_TRUE(validate_mesh(stored->mesh, &*surface).ok());
+  }
+
+  Phases resumed_run;
+  auto resumed = engine.mesh(job, *surface, options, resumed_run, &checkpoint);
+  ASSERT_TRUE(resumed.ok()) << resumed.status().to_string();
+  EXPECT_FALSE(resumed_run.saw("initial mesh"));
+  EXPECT_FALSE(resumed_run.saw("refinement"));
+  EXPECT_TRUE(resumed_run.saw("interface round"));
+  const ValidationReport v = validate_mesh(*resumed, &*surface);
+  EXPECT_TRUE(v.ok()) << validation_status(v).message();
+  EXPECT_EQ(resumed->points, whole->points);
+  EXPECT_EQ(resumed->tets, whole->tets);
+  EXPECT_EQ(resumed->boundary, whole->boundary);
+  EXPECT_EQ(resumed->boundary_ids, whole->boundary_ids);
+  // It stored each later round: the file now holds the last one.
+  const std::optional<PdrCheckpoint> last = checkpoint.load();
+  ASSERT_TRUE(last.has_value());
+  EXPECT_GT(last->rounds_done, 1);
+  EXPECT_EQ(last->mesh.tets, whole->tets);
+}
+
+TEST(JobCheckpoint, OneWrittenForAnotherKeyOrDamagedIsNotUsedAndIsRemoved) {
+  test::TempDir dir;
+  const std::filesystem::path file = dir.path() / "checkpoint.pdrck";
+  PdrCheckpoint c;
+  c.rounds_done = 1;
+  c.round = "refinement";
+  c.mesh.points = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  c.mesh.tets = {{0, 1, 2, 3}};
+  c.mesh.boundary = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+  c.mesh.boundary_ids = {1, 1, 1, 1};
+  c.mesh.tet_regions = {0};
+  const JobCheckpoint mine(file, "pdrmesh 1\noptions {}\ninput 1\n");
+  EXPECT_FALSE(mine.load().has_value());  // no file yet
+  ASSERT_TRUE(mine.store(c).ok());
+  const std::optional<PdrCheckpoint> back = mine.load();
+  ASSERT_TRUE(back.has_value());
+  EXPECT_EQ(back->mesh.points, c.mesh.points);
+  EXPECT_FALSE(std::filesystem::exists(file.string() + ".tmp"));
+
+  const JobCheckpoint upgraded(file, "pdrmesh 2\noptions {}\ninput 1\n");
+  EXPECT_FALSE(upgraded.load().has_value());
+  EXPECT_FALSE(std::filesystem::exists(file));
+
+  ASSERT_TRUE(mine.store(c).ok());
+  {
+    std::fstream f(file, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(40);  // a byte of the checkpoint, past the job header
+    f.put('\x7f');
+  }
+  EXPECT_FALSE(mine.load().has_value());
+  EXPECT_FALSE(std::filesystem::exists(file));
+}
+
+}  // namespace
+}  // namespace pdrmesh::server
