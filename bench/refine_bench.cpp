@@ -18,6 +18,10 @@
 //   PDRMESH_BENCH_NO_POLISH (no angle polish), PDRMESH_BENCH_LONG_EDGE_RATIO=R,
 //   PDRMESH_BENCH_NO_VOID_MIDPOINTS, PDRMESH_BENCH_NO_SPATIAL_ORDER (RefineOptions::spatial_order off),
 //   PDRMESH_BENCH_SPATIAL_ORDER_MIN_TETS=N (RefineOptions::spatial_order_min_tets),
+//   PDRMESH_BENCH_REJECT=D, PDRMESH_BENCH_BOUNDARY_REJECT=D (RefineOptions' reject distances),
+//   PDRMESH_BENCH_NO_SMOOTH, PDRMESH_BENCH_NO_INSERT, PDRMESH_BENCH_NO_CAPS,
+//   PDRMESH_BENCH_NO_KEEP_SIZES (OptimizeOptions::smooth, insert_points, repair_caps,
+//   keep_edge_sizes off), PDRMESH_BENCH_WRITE=DIR (each mesh to DIR/NAME-SIZE.mesh),
 //   PDRMESH_BENCH_DUMP_BAD (stderr: the 40 worst interior tets outside
 //   [15, 150] with their edge lengths over h and their vertices' stars)
 #include <fmt/format.h>
@@ -40,6 +44,7 @@
 #include "pdrmesh/tetgen_adapter.hpp"
 #include "pdrmesh/topology.hpp"
 #include "pdrmesh/validate.hpp"
+#include "pdrmesh/volume_io.hpp"
 
 namespace {
 
@@ -76,6 +81,8 @@ void run(const std::string& dir, const std::string& name, bool fine) {
   if (std::getenv("PDRMESH_BENCH_EACH_INSERTION") != nullptr) ro.defer_min_max = false;
   if (const char* v = std::getenv("PDRMESH_BENCH_LONG_EDGE_RATIO")) ro.long_edge_ratio = std::atof(v);
   if (std::getenv("PDRMESH_BENCH_NO_VOID_MIDPOINTS") != nullptr) ro.void_midpoints = false;
+  if (const char* v = std::getenv("PDRMESH_BENCH_BOUNDARY_REJECT")) ro.boundary_reject_distance = std::atof(v);
+  if (const char* v = std::getenv("PDRMESH_BENCH_REJECT")) ro.reject_distance = std::atof(v);
   if (std::getenv("PDRMESH_BENCH_NO_SPATIAL_ORDER") != nullptr) ro.spatial_order = false;
   if (const char* v = std::getenv("PDRMESH_BENCH_SPATIAL_ORDER_MIN_TETS"))
     ro.spatial_order_min_tets = static_cast<Index>(std::atol(v));
@@ -94,6 +101,10 @@ void run(const std::string& dir, const std::string& name, bool fine) {
     OptimizeOptions oo;
     if (const char* v = std::getenv("PDRMESH_BENCH_SWEEPS")) oo.sweeps = std::atoi(v);
     if (std::getenv("PDRMESH_BENCH_NO_REPAIR") != nullptr) oo.interior_repair = false;
+    if (std::getenv("PDRMESH_BENCH_NO_SMOOTH") != nullptr) oo.smooth = false;
+    if (std::getenv("PDRMESH_BENCH_NO_KEEP_SIZES") != nullptr) oo.keep_edge_sizes = false;
+    if (std::getenv("PDRMESH_BENCH_NO_INSERT") != nullptr) oo.insert_points = false;
+    if (std::getenv("PDRMESH_BENCH_NO_CAPS") != nullptr) oo.repair_caps = false;
     if (std::getenv("PDRMESH_BENCH_NO_POLISH") != nullptr) oo.polish_angles = false;
     auto ostats = optimize(*mesh, &*field, oo);
     if (verbose && ostats.ok())
@@ -109,6 +120,10 @@ void run(const std::string& dir, const std::string& name, bool fine) {
   const double seconds = seconds_since(t0);
   const VolumeMesh out = mesh->to_volume_mesh();
   const ValidationReport report = validate_mesh(out, &*surface);
+  if (const char* out_dir = std::getenv("PDRMESH_BENCH_WRITE")) {
+    const std::string path = fmt::format("{}/{}-{}.mesh", out_dir, name, fine ? "d100" : "dflt");
+    if (Status s = write_volume(out, path); !s.ok()) fmt::print(stderr, "{}\n", s.to_string());
+  }
 
   std::vector<bool> on_boundary(out.points.size(), false);
   for (const Tri& t : out.boundary)

@@ -86,6 +86,10 @@ constexpr int kPolishRounds = 4;
 /// Smoothing's compass search (compass_search): most rounds of 14 trial
 /// steps around a point no smoothing target helped.
 constexpr int kCompassRounds = 48;
+/// Smoothing makes no edge off the surface shorter than this times h at its
+/// midpoint (keep_edge_sizes): the lower end of the refiner issue's size band.
+constexpr double kShortEdge = 0.6;
+
 /// Line-search steps towards each smoothing target: 1, 1/2, ..., 1/64.
 constexpr int kLineSteps = 7;
 /// Most rounds of the interior repair (see optimize.hpp).
@@ -764,6 +768,10 @@ class Optimizer {
   /// worst judged tet better, or as good and the next worse one better, ...).
   /// Leaves x's profile in profile_new_.
   bool smoothing_accepts(const Vec3& x) {
+    for (const EdgeBound& e : edge_bounds_) {
+      const Vec3 d = x - m_.point(e.u);
+      if (dot(d, d) < e.least2) return false;
+    }
     measures_new_.clear();
     for (std::size_t i = 0; i < link_.size(); ++i) {
       const Tri& f = link_[i];
@@ -824,6 +832,7 @@ class Optimizer {
   /// towards v, into link_ (in star_ order).
   void gather_link(Index v, Index start) {
     gather_star(v, start);
+    edge_bounds_.clear();
     link_.clear();
     for (const auto& [t, lv] : star_) {
       const Tri f = topo::face_of(m_.tet(t), lv);  // outward: away from v
@@ -837,6 +846,21 @@ class Optimizer {
     for (const auto& s : star_) {
       m_.invalidate_quality(s.first);
       if (s.first < known_.size()) known_[s.first] = 0;
+    }
+  }
+
+  /// With keep_edge_sizes and a sizing field: the least lengths of the edges
+  /// from a point at `old` to the link points off the surface (edge_bounds_):
+  /// kShortEdge times h at the edge's midpoint, or its old length when that
+  /// is less.
+  void bound_edge_sizes(const Vec3& old) {
+    if (sizing_ == nullptr || !o_.keep_edge_sizes) return;
+    gather_link_points();
+    for (Index u : link_points_) {
+      if (u < surface_.size() && surface_[u] != 0) continue;
+      const Vec3& p = m_.point(u);
+      const double least = std::min(norm(old - p), kShortEdge * sizing_->at(0.5 * (old + p)));
+      edge_bounds_.push_back({u, least * least});
     }
   }
 
@@ -857,6 +881,7 @@ class Optimizer {
     }
     to_profile(measures_old_, profile_old_);
     if (profile_old_.front() >= 1.0) return false;  // the star is good already
+    bound_edge_sizes(old);
     lower_.resize(link_.size());
     for (std::size_t i = 0; i < link_.size(); ++i)
       lower_[i] = pinned_[i] && !all_pinned_ ? std::min(measures_old_[i], on_surface(link_[i]) ? pin_floor_ : 1.0)
@@ -1344,6 +1369,13 @@ class Optimizer {
   std::vector<char> pinned_;    ///< smoothing: per link_ face, the tet over it is pinned
   bool all_pinned_ = false;     ///< smoothing: every tet of the star is pinned
   std::vector<double> lower_;   ///< smoothing: per link_ face, the least measure accepted
+  /// Smoothing (keep_edge_sizes): an edge from the moving point to a link point
+  /// off the surface, and the least squared length it may get.
+  struct EdgeBound {
+    Index u;
+    double least2;
+  };
+  std::vector<EdgeBound> edge_bounds_;
   std::vector<AngleRange> polish_bounds_;  ///< angle polish: per link_ face, the angles (degrees) accepted
   std::size_t flips_this_sweep_ = 0;
   std::size_t flip_budget_ = 0;
