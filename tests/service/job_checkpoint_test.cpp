@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
 #include <fstream>
 #include <memory>
 #include <string>
@@ -23,13 +24,14 @@ namespace {
 
 const std::filesystem::path kSphere = std::filesystem::path(PDRMESH_CORPUS_DIR) / "sphere966.stl";
 
-/// Records the phases reported; stops the job when `stop_at` is reported.
+/// Records the phases reported (report() calls are serialised); stops the job
+/// when `stop_at` is reported (keep_going() may be asked from any thread).
 class Phases final : public JobProgress {
  public:
   explicit Phases(std::string stop_at = {}) : stop_at_(std::move(stop_at)) {}
   bool report(std::string_view phase, double) override {
     if (seen.empty() || seen.back() != phase) seen.emplace_back(phase);
-    stopped = stopped || phase == stop_at_;
+    if (phase == stop_at_) stopped = true;
     return !stopped;
   }
   bool keep_going() override { return !stopped; }
@@ -38,7 +40,7 @@ class Phases final : public JobProgress {
   bool saw(std::string_view phase) const { return std::find(seen.begin(), seen.end(), phase) != seen.end(); }
 
   std::vector<std::string> seen;
-  bool stopped = false;
+  std::atomic<bool> stopped = false;
 
  private:
   std::string stop_at_;
