@@ -22,8 +22,6 @@
 namespace pdrmesh::server {
 namespace {
 
-const std::filesystem::path kSphere = std::filesystem::path(PDRMESH_CORPUS_DIR) / "sphere966.stl";
-
 /// Records the phases reported (report() calls are serialised); stops the job
 /// when `stop_at` is reported (keep_going() may be asked from any thread).
 class Phases final : public JobProgress {
@@ -48,7 +46,8 @@ class Phases final : public JobProgress {
 
 TEST(JobCheckpoint, AJobStoppedAfterItsFirstRoundGoesOnFromItWithTheBytesOfAWholeRun) {
   test::TempDir dir;
-  auto surface = read_surface(kSphere.string());
+  // (job_manager_test.cpp, built with this file as one unit, has its own kSphere.)
+  auto surface = read_surface(std::filesystem::path(PDRMESH_CORPUS_DIR) / "sphere966.stl");
   ASSERT_TRUE(surface.ok()) << surface.status().to_string();
   JobRecord job;
   job.id = "j1";
