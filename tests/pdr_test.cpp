@@ -710,6 +710,7 @@ TEST(Pdr, ResumingFromEachRoundsCheckpointGivesTheSameBytes) {
     o.pdr.resume = &*c;
     Result<ParallelResult> resumed = mesh_parallel(sp->surface, o);
     ASSERT_TRUE(resumed.ok()) << names[k] << ": " << resumed.status().to_string();
+    EXPECT_TRUE(c->mesh.tets.empty()) << "the run took the checkpoint's mesh";
     EXPECT_EQ(resumed->profile.rounds.size(), saved.size() - k - 1) << names[k];
     EXPECT_EQ(meshb_bytes(resumed->mesh, "pdr_resume_" + std::to_string(k)), want) << "resumed after " << names[k];
   }

@@ -779,7 +779,9 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
     return invalid_input(fmt::format("{}: the surface is empty", surface.name));
   }
   PDR_ASSIGN_OR_RETURN(const PdrPlan plan, plan_pdr(surface, surface_spacing(surface, sizing), options, kernel));
-  if (options.resume != nullptr) return run_pdr(surface, sizing, kernel, options, profile, plan, options.resume->mesh, 0);
+  if (options.resume != nullptr) {
+    return run_pdr(surface, sizing, kernel, options, profile, plan, std::move(options.resume->mesh), 0);
+  }
   if (options.progress && !options.progress({"initial mesh", 0, 0, 0})) {
     return cancelled("stopped before the initial mesh");
   }

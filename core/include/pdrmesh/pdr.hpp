@@ -174,7 +174,8 @@ struct PdrOptions {
   /// surface, sizing field, kernels and options: no initial mesh is made, the
   /// rounds it counts are skipped, and the result is byte-identical to that
   /// run's (the profile then covers the rounds run, not the skipped ones).
-  const PdrCheckpoint* resume = nullptr;
+  /// Its mesh is moved from (a large job holds one copy of it, not two).
+  PdrCheckpoint* resume = nullptr;
 };
 
 /// What one round's schedule was: enough to replay it (schedule_replay.hpp).
