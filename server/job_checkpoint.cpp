@@ -36,7 +36,7 @@ std::optional<PdrCheckpoint> JobCheckpoint::load() const {
   if (!in) return std::nullopt;
   const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   const std::array<char, 8> key = little_endian(key_digest_);
-  std::string_view why;
+  std::string why;
   if (in.bad()) {
     why = "it cannot be read";
   } else if (bytes.size() < kHeaderBytes || std::memcmp(bytes.data(), kMagic.data(), kMagic.size()) != 0) {
@@ -46,9 +46,7 @@ std::optional<PdrCheckpoint> JobCheckpoint::load() const {
   } else {
     Result<PdrCheckpoint> c = PdrCheckpoint::decode(std::string_view(bytes).substr(kHeaderBytes));
     if (c.ok()) return std::move(c).value();
-    spdlog::warn("{}: not used, the job runs from the start: {}", file_.string(), c.status().message());
-    remove();
-    return std::nullopt;
+    why = c.status().message();
   }
   spdlog::warn("{}: not used, the job runs from the start: {}", file_.string(), why);
   remove();
