@@ -28,6 +28,19 @@ std::array<char, 8> little_endian(std::uint64_t v) {
 
 }  // namespace
 
+std::uint64_t executable_digest() {
+  static const std::uint64_t digest = [] {
+    std::ifstream in("/proc/self/exe", std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (!in || bytes.empty()) {
+      spdlog::warn("cannot read this executable: job checkpoints are keyed by the version alone");
+      return std::uint64_t{0};
+    }
+    return content_digest(bytes);
+  }();
+  return digest;
+}
+
 JobCheckpoint::JobCheckpoint(std::filesystem::path file, std::string_view key)
     : file_(std::move(file)), key_digest_(content_digest(key)) {}
 

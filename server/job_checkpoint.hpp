@@ -5,10 +5,11 @@
 // with the same result bytes.
 //
 // The file is the checkpoint's bytes (which end with their own digest) after a
-// header with the digest of the job's key: the pdrmesh version, the job's
-// options and the digest of its input. A file written for another key (the
-// coordinator was upgraded, say) or cut short is not used: the job runs from
-// the start and the file is replaced at its first round.
+// header with the digest of the job's key: the pdrmesh version, the digest of
+// the coordinator's executable, the job's options and the digest of its input.
+// A file written for another key (the coordinator was rebuilt or upgraded, say)
+// or cut short is not used: the job runs from the start and the file is
+// replaced at its first round.
 #pragma once
 
 #include <cstdint>
@@ -21,6 +22,11 @@
 #include "pdrmesh/status.hpp"
 
 namespace pdrmesh::server {
+
+/// content_digest of this process's executable (/proc/self/exe), read once;
+/// 0 where it cannot be read. Another build of the engine may mesh otherwise,
+/// so a checkpoint is resumed only by the binary that wrote it.
+std::uint64_t executable_digest();
 
 class JobCheckpoint {
  public:

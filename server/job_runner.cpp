@@ -311,10 +311,11 @@ Status JobRunner::mesh_job(JobRecord& job, JobProgress& progress) {
   PDR_ASSIGN_OR_RETURN(const SurfaceMesh surface, parse_surface(bytes, format, job.input_name));
   if (!progress.report("checking", 0.1)) return internal_error("stopped");
   PDR_TRY(require_meshable(check_surface(surface), job.input_name));
-  // The result depends on the input, the options and the engine's version alone.
+  // The result depends on the input, the options and the engine's build alone.
   const JobCheckpoint checkpoint(JobPaths::checkpoint(data_dir_, job.id),
-                                 fmt::format("pdrmesh {}\noptions {}\ninput {:016x}\n", PDRMESH_VERSION,
-                                             job.options_json, content_digest(bytes)));
+                                 fmt::format("pdrmesh {} build {:016x}\noptions {}\ninput {:016x}\n",
+                                             PDRMESH_VERSION, executable_digest(), job.options_json,
+                                             content_digest(bytes)));
   PDR_ASSIGN_OR_RETURN(const VolumeMesh mesh, engine_.mesh(job, surface, options, progress, &checkpoint));
   if (!progress.report("writing", 0.95)) return internal_error("stopped");
   const auto final_path = JobPaths::result(data_dir_, job.id);

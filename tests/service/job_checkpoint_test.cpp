@@ -94,6 +94,12 @@ TEST(JobCheckpoint, AJobStoppedAfterItsFirstRoundGoesOnFromItWithTheBytesOfAWhol
   EXPECT_EQ(last->mesh.tets, whole->tets);
 }
 
+TEST(JobCheckpoint, TheExecutablesDigestIsReadOnceAndNotZero) {
+  const std::uint64_t d = executable_digest();
+  EXPECT_NE(d, 0u);
+  EXPECT_EQ(executable_digest(), d);
+}
+
 TEST(JobCheckpoint, OneWrittenForAnotherKeyOrDamagedIsNotUsedAndIsRemoved) {
   test::TempDir dir;
   const std::filesystem::path file = dir.path() / "checkpoint.pdrck";
