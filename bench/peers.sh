@@ -6,8 +6,9 @@
 #                 -setnumber Mesh.MeshSizeMax H, H = edge of the regular tet of volume V/T,
 #                 then rescaled once by the cube root of the tet-count ratio,
 #                 on a .geo that merges the STL and declares the volume
-# Columns: tets, wall seconds, tets per second, peak memory, min/max dihedral, share of tets with an
-# angle under 10 degrees, and pdrmesh's ratios to each peer (tets per second, minimum angle).
+# Columns: tets, wall seconds, tets per second, peak memory, min/max dihedral over all tets and over
+# the tets with no boundary vertex (imin/imax), share of tets with an angle under 10 degrees, and
+# pdrmesh's ratios to each peer (tets per second, minimum angle).
 #   bench/peers.sh [SURFACE...]     (default: the small corpus surfaces; needs install-deps.sh --bench)
 set -uo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -33,14 +34,15 @@ row() {  # row SURFACE TOOL MESHFILE
   fi
   read -r secs kib <"$tmp/$2.time"
   awk -v s="$1" -v t="$2" -v n="$(field tets "$q")" -v sec="$secs" -v kib="$kib" -v lo="$(field min_dihedral "$q")" \
-      -v hi="$(field max_dihedral "$q")" -v u="$(field share_below_10 "$q")" \
-      'BEGIN { printf "%-13s %-8s %10d %8.2f %9.0f %8.1f %7.2f %7.2f %8.3f%%\n", s, t, n, sec, n / sec, kib / 1024, lo, hi, 100 * u }'
+      -v hi="$(field max_dihedral "$q")" -v ilo="$(field interior_min_dihedral "$q")" \
+      -v ihi="$(field interior_max_dihedral "$q")" -v u="$(field share_below_10 "$q")" \
+      'BEGIN { printf "%-13s %-8s %10d %8.2f %9.0f %8.1f %7.2f %7.2f %7.2f %7.2f %8.3f%%\n", s, t, n, sec, n / sec, kib / 1024, lo, hi, ilo, ihi, 100 * u }'
   echo "$(field tets "$q") $secs $(field min_dihedral "$q")" >"$tmp/$2.sum"
 }
 
 echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'); $(date -u +%F)"
 echo "versions: $("$pdrmesh" --version), TetGen 1.5 (Debian tetgen), Gmsh $(gmsh --version 2>&1 | head -1)"
-printf '%-13s %-8s %10s %8s %9s %8s %7s %7s %9s\n' surface tool tets seconds tets/s peak_MB min max under10
+printf '%-13s %-8s %10s %8s %9s %8s %7s %7s %7s %7s %9s\n' surface tool tets seconds tets/s peak_MB min max imin imax under10
 for n in "${names[@]}"; do
   stl=$corpus/$n.stl
   run pdrmesh 1800 "$pdrmesh" mesh -q "$stl" -o "$tmp/p.meshb"

@@ -273,7 +273,7 @@ int run_run(const RunArgs& a) {
 int run_quality(const std::string& path, bool json, const std::string& svg) {
   auto mesh = read_volume(path);
   if (!mesh.ok()) return fail(mesh.status());
-  const QualityReport q = measure_quality(*mesh);
+  const QualityReport q = measure_quality(*mesh, /*interior=*/true);
   if (json) {
     fmt::print("{}\n", quality_to_json(q));
   } else {

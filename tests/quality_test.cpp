@@ -7,8 +7,11 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <string>
 #include <vector>
 #include <numbers>
+
+#include "tet_fixtures.hpp"
 
 namespace pdrmesh {
 namespace {
@@ -87,6 +90,45 @@ TEST(MeasureQuality, CountsEveryAngleInTheHistogram) {
   EXPECT_EQ(q.histogram[7], 6u);  // 70.5 degrees
   EXPECT_DOUBLE_EQ(q.share_below_10, 0.0);
   EXPECT_NEAR(q.mean_shape_and_size, 1.0, 1e-12);
+}
+
+TEST(MeasureQuality, InteriorTetsAreThoseWithNoHullVertex) {
+  // 3 x 3 x 3 unit cubes, each cut into the 6 tets of fixtures::cube(): only
+  // the middle cube's 8 corners are off the hull, so its 6 tets are the
+  // interior ones (Kuhn tets: dihedral angles of 45, 60 and 90 degrees).
+  const VolumeMesh unit = fixtures::cube();
+  VolumeMesh m;
+  auto point = [&](const Vec3& p) {
+    const auto it = std::find(m.points.begin(), m.points.end(), p);
+    if (it != m.points.end()) return static_cast<Index>(it - m.points.begin());
+    m.points.push_back(p);
+    return static_cast<Index>(m.points.size() - 1);
+  };
+  for (int x = 0; x < 3; ++x)
+    for (int y = 0; y < 3; ++y)
+      for (int z = 0; z < 3; ++z)
+        for (const Tet& k : unit.tets) {
+          Tet t{};
+          for (int i = 0; i < 4; ++i) t[i] = point(unit.points[k[i]] + Vec3{double(x), double(y), double(z)});
+          m.tets.push_back(t);
+        }
+  EXPECT_FALSE(measure_quality(m).interior_measured);
+  const auto q = measure_quality(m, /*interior=*/true);
+  EXPECT_TRUE(q.interior_measured);
+  EXPECT_EQ(q.tets, 27u * 6u);
+  EXPECT_EQ(q.interior_tets, 6u);
+  EXPECT_NEAR(q.interior_min_dihedral, 45.0, 1e-9);
+  EXPECT_NEAR(q.interior_max_dihedral, 90.0, 1e-9);
+  // Triangles in the file do not count (TetGen's -g output lists every face).
+  m.boundary = {{point({1, 1, 1}), point({2, 1, 1}), point({2, 2, 1})}};
+  EXPECT_EQ(measure_quality(m, true).interior_tets, 6u);
+  EXPECT_NE(quality_to_json(q).find("\"interior_tets\":6"), std::string::npos);
+  VolumeMesh one;
+  one.points = {kA, kB, kC, kD};
+  one.tets = {{0, 1, 2, 3}};
+  const auto none = measure_quality(one, true);
+  EXPECT_EQ(none.interior_tets, 0u);
+  EXPECT_EQ(none.interior_min_dihedral, 0.0);
 }
 
 }  // namespace

@@ -13,6 +13,8 @@
 
 #include <oneapi/tbb/parallel_for.h>
 
+#include "pdrmesh/topology.hpp"
+
 namespace pdrmesh {
 namespace {
 
@@ -98,7 +100,29 @@ std::vector<double> min_dihedral_per_tet(const VolumeMesh& mesh) {
   return out;
 }
 
-QualityReport measure_quality(const VolumeMesh& mesh) {
+namespace {
+
+/// Per point: on a face that only one tet has (the hull).
+std::vector<char> hull_points(const VolumeMesh& mesh) {
+  std::vector<char> on(mesh.points.size(), 0);
+  std::vector<Tri> faces;
+  faces.reserve(4 * mesh.tets.size());
+  for (const Tet& k : mesh.tets)
+    for (int f = 0; f < 4; ++f) faces.push_back(topo::sorted_key(topo::face_of(k, f)));
+  std::sort(faces.begin(), faces.end());
+  for (std::size_t i = 0; i < faces.size();) {
+    std::size_t j = i + 1;
+    while (j < faces.size() && faces[j] == faces[i]) ++j;
+    if (j - i == 1)
+      for (Index v : faces[i]) on[v] = 1;
+    i = j;
+  }
+  return on;
+}
+
+}  // namespace
+
+QualityReport measure_quality(const VolumeMesh& mesh, bool interior) {
   QualityReport q;
   q.tets = mesh.tets.size();
   q.points = mesh.points.size();
@@ -112,6 +136,9 @@ QualityReport measure_quality(const VolumeMesh& mesh) {
   q.min_shape = q.min_shape_and_size = std::numeric_limits<double>::infinity();
   std::size_t below = 0, above = 0;
   double shape_sum = 0, shape_size_sum = 0;
+  q.interior_measured = interior;
+  const std::vector<char> on_hull = interior ? hull_points(mesh) : std::vector<char>();
+  double interior_lo = 180.0, interior_hi = 0.0;
   // Per-tet measures in parallel, a block at a time; the sums are taken in tet
   // order, so the report is the same bit for bit whatever the thread count.
   struct PerTet {
@@ -142,6 +169,12 @@ QualityReport measure_quality(const VolumeMesh& mesh) {
       }
       q.min_dihedral = std::min(q.min_dihedral, lo);
       q.max_dihedral = std::max(q.max_dihedral, hi);
+      const Tet& k = mesh.tets[first + i];
+      if (interior && !on_hull[k[0]] && !on_hull[k[1]] && !on_hull[k[2]] && !on_hull[k[3]]) {
+        ++q.interior_tets;
+        interior_lo = std::min(interior_lo, lo);
+        interior_hi = std::max(interior_hi, hi);
+      }
       below += lo < 10.0;
       above += hi > 165.0;
       q.min_shape = std::min(q.min_shape, r.shape);
@@ -155,6 +188,10 @@ QualityReport measure_quality(const VolumeMesh& mesh) {
   q.share_above_165 = static_cast<double>(above) / n;
   q.mean_shape = shape_sum / n;
   q.mean_shape_and_size = shape_size_sum / n;
+  if (q.interior_tets > 0) {
+    q.interior_min_dihedral = interior_lo;
+    q.interior_max_dihedral = interior_hi;
+  }
   return q;
 }
 
@@ -162,10 +199,15 @@ std::string format_quality(const QualityReport& q) {
   std::string s = fmt::format(
       "tets {}  points {}  volume {:.6g}\n"
       "dihedral angle min {:.2f}  max {:.2f} degrees; tets under 10: {:.3f}%  over 165: {:.3f}%\n"
+      "{}"
       "verdict shape min {:.4f} mean {:.4f}; shape and size min {:.4f} mean {:.4f}\n"
       "dihedral angle histogram (all angles, 10-degree bins):\n",
       q.tets, q.points, q.volume, q.min_dihedral, q.max_dihedral, 100 * q.share_below_10,
-      100 * q.share_above_165, q.min_shape, q.mean_shape, q.min_shape_and_size,
+      100 * q.share_above_165,
+      q.interior_measured ? fmt::format("interior tets (no hull vertex) {}: dihedral angle min {:.2f}  max {:.2f} degrees\n",
+                                        q.interior_tets, q.interior_min_dihedral, q.interior_max_dihedral)
+                          : std::string(),
+      q.min_shape, q.mean_shape, q.min_shape_and_size,
       q.mean_shape_and_size);
   std::size_t total = 0, peak = 0;
   for (auto c : q.histogram) {
@@ -194,6 +236,11 @@ std::string quality_to_json(const QualityReport& q) {
                       {"mean_shape", q.mean_shape},
                       {"min_shape_and_size", q.min_shape_and_size},
                       {"mean_shape_and_size", q.mean_shape_and_size}};
+  if (q.interior_measured) {
+    j["interior_tets"] = q.interior_tets;
+    j["interior_min_dihedral"] = q.interior_min_dihedral;
+    j["interior_max_dihedral"] = q.interior_max_dihedral;
+  }
   return j.dump();
 }
 

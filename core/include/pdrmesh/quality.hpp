@@ -43,13 +43,23 @@ struct QualityReport {
   std::array<std::size_t, 18> histogram{};
   double share_below_10 = 0;  ///< share of tets with a dihedral angle under 10 degrees
   double share_above_165 = 0;  ///< share of tets with a dihedral angle over 165 degrees
+  /// With measure_quality(mesh, true): the tets with no vertex on the hull (a
+  /// face that only one tet has) and their dihedral extremes (0 when there
+  /// are none): the refiner issue's interior bound.
+  bool interior_measured = false;
+  std::size_t interior_tets = 0;
+  double interior_min_dihedral = 0;
+  double interior_max_dihedral = 0;
   double min_shape = 0;
   double mean_shape = 0;
   double min_shape_and_size = 0;
   double mean_shape_and_size = 0;
 };
 
-QualityReport measure_quality(const VolumeMesh& mesh);
+/// With `interior`, also the interior tets' figures; their hull is found from
+/// the tets alone (a file's triangles may be every face: TetGen's -g output),
+/// by sorting the tets' faces (48 bytes per tet while it runs).
+QualityReport measure_quality(const VolumeMesh& mesh, bool interior = false);
 
 /// Minimum dihedral angle of every tet, in mesh order.
 std::vector<double> min_dihedral_per_tet(const VolumeMesh& mesh);
