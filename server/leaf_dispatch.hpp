@@ -35,7 +35,8 @@ class LeafDispatch {
   /// A kernel whose run() refines one leaf of `job`; it lives while the job
   /// meshes and is called concurrently.
   virtual Result<std::unique_ptr<LeafKernel>> kernel_for(const LeafJob& job) = 0;
-  /// Leaf tasks one job keeps in flight (PdrOptions::workers).
+  /// Leaf tasks one job keeps in flight now (PdrOptions::concurrency: asked
+  /// whenever the job hands out leaf tasks, from its merging thread).
   virtual std::size_t concurrency() const = 0;
 };
 

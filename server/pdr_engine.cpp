@@ -65,6 +65,9 @@ Result<VolumeMesh> PdrEngine::mesh(const JobRecord& job, const SurfaceMesh& surf
     }
     ParallelOptions po = parallel_options(options);
     po.pdr.workers = dispatch_->concurrency();
+    // Asked again whenever leaf tasks are handed out: workers that register
+    // during the job widen it (the bytes do not depend on it).
+    po.pdr.concurrency = [dispatch = dispatch_.get()] { return dispatch->concurrency(); };
     po.pdr.progress = [&](const PdrProgress& p) {
       if (std::chrono::steady_clock::now() > deadline) {
         timed_out = true;

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
 #include <array>
 #include <filesystem>
 #include <memory>
@@ -156,6 +157,28 @@ TEST(Pdr, ByteIdenticalFor1To8WorkersAndBothPolicies) {
       EXPECT_EQ(m.tet_regions, one.tet_regions) << w;
       EXPECT_EQ(meshb_bytes(m, "pdr_w" + std::to_string(w)), ref) << w;
     }
+  }
+}
+
+// Workers that come and go during a run (the coordinator's remote workers):
+// the concurrency the scheduler is told changes at every hand-out, and the
+// bytes stay those of one worker.
+TEST(Pdr, ByteIdenticalWhenTheConcurrencyChangesDuringTheRun) {
+  const Sphere* sp = sphere();
+  if (sp == nullptr) GTEST_SKIP() << "sphere966.mesh not readable";
+  const std::string ref = meshb_bytes(run_native(*sp, 1, SchedulePolicy::kDynamic), "pdr_c1");
+  for (SchedulePolicy policy : {SchedulePolicy::kDynamic, SchedulePolicy::kColoured}) {
+    const NativeLeafKernel kernel(barycenter_hook(20));
+    PdrOptions o = depth2(1);
+    o.policy = policy;
+    std::atomic<std::size_t> asked{0};
+    o.concurrency = [&asked] { return std::size_t{1} + (asked.fetch_add(1) * 7) % 5; };  // 1, 3, 5, 2, 4, 1, ...
+    Result<VolumeMesh> m = run_pdr(sp->surface, *sp->sizing, kernel, o, nullptr);
+    ASSERT_TRUE(m.ok()) << m.status().to_string();
+    expect_valid(*m, sp->surface);
+    // kDynamic asks at every hand-out, kColoured once a round.
+    EXPECT_GT(asked.load(), policy == SchedulePolicy::kDynamic ? 20u : 0u);
+    EXPECT_EQ(meshb_bytes(*m, "pdr_c"), ref) << (policy == SchedulePolicy::kDynamic ? "dynamic" : "coloured");
   }
 }
 

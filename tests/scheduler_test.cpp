@@ -299,6 +299,44 @@ TEST(RunLeaves, DynamicMergesOnTheCallingThreadWithAllWorkersBusy) {
   EXPECT_LE(s.max_concurrency, 4u);
 }
 
+TEST(RunLeaves, DynamicStartsMoreThreadsWhenTheConcurrencyGrows) {
+  const Decomposition d = grid_decomposition(8, 3);  // 512 leaves
+  std::atomic<int> asked{0};
+  std::atomic<int> running{0}, most_at_first{0}, violations{0};
+  std::vector<std::atomic<int>> claims(d.size());
+  std::mutex mu;
+  std::set<std::thread::id> task_threads;
+  std::atomic<int> ran{0};
+  // One task at a time for the first 40 hand-outs, then four.
+  const auto concurrency = [&]() -> std::size_t { return asked.fetch_add(1) < 40 ? 1 : 4; };
+  const ScheduleStats s = run_leaf_tasks(
+      d.n1, {}, 1, SchedulePolicy::kDynamic,
+      [&](Index l) {
+        const auto ls = lock_set(d.n1, l);
+        for (Index x : ls)
+          if (claims[x].fetch_add(1) != 0) violations.fetch_add(1);
+        const int now = running.fetch_add(1) + 1;
+        if (ran.load() < 30) most_at_first.store(std::max(most_at_first.load(), now));
+        spin(l);
+        std::this_thread::sleep_for(std::chrono::microseconds(200));
+        {
+          std::lock_guard lock(mu);
+          task_threads.insert(std::this_thread::get_id());
+        }
+        running.fetch_sub(1);
+        ran.fetch_add(1);
+        for (Index x : ls) claims[x].fetch_sub(1);
+      },
+      [](Index) {}, {}, concurrency);
+  EXPECT_EQ(s.tasks, d.size());
+  EXPECT_EQ(ran.load(), static_cast<int>(d.size()));
+  EXPECT_EQ(violations.load(), 0);
+  EXPECT_EQ(most_at_first.load(), 1);  // while it was told 1
+  EXPECT_EQ(task_threads.size(), 4u);  // grown to 4 threads
+  EXPECT_GE(s.max_concurrency, 2u);
+  EXPECT_LE(s.max_concurrency, 4u);
+}
+
 TEST(RunLeaves, HandlesNoLeavesAndZeroWorkers) {
   const std::vector<std::vector<Index>> none;
   const ScheduleStats s = run_leaf_tasks(none, {}, 0, SchedulePolicy::kDynamic, [](Index) {}, [](Index) {});

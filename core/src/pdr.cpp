@@ -586,7 +586,8 @@ Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const
       stop = true;
     }
   };
-  rr.schedule = run_leaves<TaskResult>(d, std::max<std::size_t>(options.workers, 1), task, merge, options.policy, rank);
+  rr.schedule = run_leaves<TaskResult>(d, std::max<std::size_t>(options.workers, 1), task, merge, options.policy, rank,
+                                       options.concurrency);
   PDR_TRY(error);
 
   const auto t0 = Clock::now();

@@ -167,11 +167,13 @@ void run_alone(Index leaf, std::span<const Index> n1, LockTable& locks, Instrume
   locks.unlock(leaf, n1);
 }
 
-/// kDynamic: `workers` threads run the tasks the calling thread hands them;
-/// the calling thread merges each finished one, unlocks it and hands out what
-/// became ready. Leaves whose lock fails (an asymmetric n1) go to `postponed`.
-void run_dynamic(std::span<const std::vector<Index>> n1, std::size_t workers, LockTable& locks,
-                 Instrument& inst, const std::function<void(Index)>& commit, std::span<const Index> rank,
+/// kDynamic: `workers` threads (or as many as `concurrency` says, asked at
+/// each hand-out) run the tasks the calling thread hands them; the calling
+/// thread merges each finished one, unlocks it and hands out what became
+/// ready. Leaves whose lock fails (an asymmetric n1) go to `postponed`.
+void run_dynamic(std::span<const std::vector<Index>> n1, std::size_t workers,
+                 const std::function<std::size_t()>& concurrency, LockTable& locks, Instrument& inst,
+                 const std::function<void(Index)>& commit, std::span<const Index> rank,
                  std::vector<Index>& postponed) {
   DynamicPicker picker(n1, rank);
   std::mutex mu;  // guards jobs, done, quit
@@ -180,26 +182,25 @@ void run_dynamic(std::span<const std::vector<Index>> n1, std::size_t workers, Lo
   std::vector<Index> done;
   bool quit = false;
   std::vector<std::thread> pool;
-  pool.reserve(workers);
-  for (std::size_t w = 0; w < workers; ++w) {
-    pool.emplace_back([&] {
-      std::unique_lock lock(mu);
-      for (;;) {
-        work_cv.wait(lock, [&] { return quit || !jobs.empty(); });
-        if (jobs.empty()) return;
-        const Index leaf = jobs.front();
-        jobs.pop_front();
-        lock.unlock();
-        inst(leaf);
-        lock.lock();
-        done.push_back(leaf);
-        done_cv.notify_one();
-      }
-    });
-  }
+  const auto serve = [&] {
+    std::unique_lock lock(mu);
+    for (;;) {
+      work_cv.wait(lock, [&] { return quit || !jobs.empty(); });
+      if (jobs.empty()) return;
+      const Index leaf = jobs.front();
+      jobs.pop_front();
+      lock.unlock();
+      inst(leaf);
+      lock.lock();
+      done.push_back(leaf);
+      done_cv.notify_one();
+    }
+  };
   std::size_t in_flight = 0;
   auto launch = [&] {
-    while (in_flight < workers && picker.has_ready()) {
+    const std::size_t cap = concurrency ? std::max<std::size_t>(concurrency(), 1) : workers;
+    while (pool.size() < cap) pool.emplace_back(serve);
+    while (in_flight < cap && picker.has_ready()) {
       const Index leaf = picker.pop_lowest();
       if (!locks.try_lock(leaf, n1[leaf])) {
         picker.finish(leaf);
@@ -244,7 +245,8 @@ void run_dynamic(std::span<const std::vector<Index>> n1, std::size_t workers, Lo
 ScheduleStats run_leaf_tasks(std::span<const std::vector<Index>> n1,
                              std::span<const std::vector<Index>> classes, std::size_t workers,
                              SchedulePolicy policy, const std::function<void(Index)>& run,
-                             const std::function<void(Index)>& commit, std::span<const Index> rank) {
+                             const std::function<void(Index)>& commit, std::span<const Index> rank,
+                             const std::function<std::size_t()>& concurrency) {
   workers = std::max<std::size_t>(workers, 1);
   const std::size_t nl = n1.size();
   ScheduleStats stats;
@@ -254,6 +256,7 @@ ScheduleStats run_leaf_tasks(std::span<const std::vector<Index>> n1,
   const auto t0 = Clock::now();
 
   if (policy == SchedulePolicy::kColoured) {
+    if (concurrency) workers = std::max<std::size_t>(concurrency(), 1);
     tbb::task_arena arena(static_cast<int>(workers));
     std::vector<std::vector<Index>> own;
     if (classes.empty()) {
@@ -288,7 +291,7 @@ ScheduleStats run_leaf_tasks(std::span<const std::vector<Index>> n1,
       postponed.clear();
     }
   } else {
-    run_dynamic(n1, workers, locks, inst, commit, rank, postponed);
+    run_dynamic(n1, workers, concurrency, locks, inst, commit, rank, postponed);
     stats.lock_failures = postponed.size();
     std::sort(postponed.begin(), postponed.end());
     for (Index leaf : postponed) run_alone(leaf, n1[leaf], locks, inst, commit);

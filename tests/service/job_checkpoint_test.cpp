@@ -2,7 +2,8 @@
 // A job's round checkpoint (JobCheckpoint) with the PdrEngine, without gRPC: a
 // job stopped after its first round goes on from it with the bytes of an
 // uninterrupted run, and a checkpoint written for another key or damaged on
-// disk is not used.
+// disk is not used. Also: the engine asks its dispatch for the concurrency as
+// the job goes (workers joining mid-job widen it), with the same bytes.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -44,16 +45,27 @@ class Phases final : public JobProgress {
   std::string stop_at_;
 };
 
+/// A job of `user` on sphere966 at depth 2, as the engine tests run it.
+struct SphereJob {
+  Result<SurfaceMesh> surface;
+  JobRecord job;
+  JobOptions options;
+  SphereJob(std::string id, std::string user)
+      // (job_manager_test.cpp, built with this file as one unit, has its own kSphere.)
+      : surface(read_surface(std::filesystem::path(PDRMESH_CORPUS_DIR) / "sphere966.stl")) {
+    job.id = std::move(id);
+    job.user = std::move(user);
+    options.depth = 2;
+  }
+};
+
 TEST(JobCheckpoint, AJobStoppedAfterItsFirstRoundGoesOnFromItWithTheBytesOfAWholeRun) {
   test::TempDir dir;
-  // (job_manager_test.cpp, built with this file as one unit, has its own kSphere.)
-  auto surface = read_surface(std::filesystem::path(PDRMESH_CORPUS_DIR) / "sphere966.stl");
-  ASSERT_TRUE(surface.ok()) << surface.status().to_string();
-  JobRecord job;
-  job.id = "j1";
-  job.user = "alice";
-  JobOptions options;
-  options.depth = 2;
+  SphereJob sj("j1", "alice");
+  ASSERT_TRUE(sj.surface.ok()) << sj.surface.status().to_string();
+  const SurfaceMesh* surface = &*sj.surface;
+  const JobRecord& job = sj.job;
+  const JobOptions& options = sj.options;
   PdrEngine engine(std::make_shared<LocalLeafDispatch>(2));
 
   Phases whole_run;
@@ -92,6 +104,38 @@ TEST(JobCheckpoint, AJobStoppedAfterItsFirstRoundGoesOnFromItWithTheBytesOfAWhol
   ASSERT_TRUE(last.has_value());
   EXPECT_GT(last->rounds_done, 1);
   EXPECT_EQ(last->mesh.tets, whole->tets);
+}
+
+/// The local dispatch, telling a job a concurrency that grows each time it is
+/// asked (workers joining during the job), and counting the questions.
+class GrowingDispatch final : public LeafDispatch {
+ public:
+  Result<std::unique_ptr<LeafKernel>> kernel_for(const LeafJob& job) override { return local_.kernel_for(job); }
+  std::size_t concurrency() const override { return 1 + asked_.fetch_add(1) % 4; }
+  std::size_t asked() const { return asked_.load(); }
+
+ private:
+  LocalLeafDispatch local_{1};
+  mutable std::atomic<std::size_t> asked_{0};
+};
+
+TEST(PdrEngine, AsksItsDispatchForTheConcurrencyAsTheJobGoesAndKeepsTheBytes) {
+  SphereJob sj("j2", "bob");
+  ASSERT_TRUE(sj.surface.ok()) << sj.surface.status().to_string();
+  const SurfaceMesh* surface = &*sj.surface;
+  const JobRecord& job = sj.job;
+  const JobOptions& options = sj.options;
+  Phases fixed_run, growing_run;
+  auto fixed = PdrEngine(std::make_shared<LocalLeafDispatch>(1)).mesh(job, *surface, options, fixed_run, nullptr);
+  ASSERT_TRUE(fixed.ok()) << fixed.status().to_string();
+  auto dispatch = std::make_shared<GrowingDispatch>();
+  auto growing = PdrEngine(dispatch).mesh(job, *surface, options, growing_run, nullptr);
+  ASSERT_TRUE(growing.ok()) << growing.status().to_string();
+  EXPECT_GT(dispatch->asked(), 20u);  // at every hand-out, not once a job
+  EXPECT_EQ(growing->points, fixed->points);
+  EXPECT_EQ(growing->tets, fixed->tets);
+  const ValidationReport v = validate_mesh(*growing, &*surface);
+  EXPECT_TRUE(v.ok()) << validation_status(v).message();
 }
 
 TEST(JobCheckpoint, TheExecutablesDigestIsReadOnceAndNotZero) {

@@ -81,6 +81,10 @@ struct PdrOptions {
   int depth = -1;
   std::size_t final_tets_per_leaf = 20000;
   std::size_t workers = 1;
+  /// Set: how many leaf tasks may run at once now, asked whenever tasks are
+  /// handed out (scheduler.hpp), in place of `workers`: a coordinator whose
+  /// workers join during a job widens it. The bytes do not depend on it.
+  std::function<std::size_t()> concurrency;
   /// Both policies give the same bytes; kDynamic (no barriers) keeps workers busier.
   SchedulePolicy policy = SchedulePolicy::kDynamic;
   /// The initial TetGen mesh gets max_volume = leaf volume / this (leaf volume

@@ -37,6 +37,12 @@
 // symmetric, as decompose() makes it) is counted in ScheduleStats::lock_failures
 // and that leaf is run alone afterwards, so a leaf never runs beside a conflict.
 //
+// A caller whose workers come and go (the coordinator's remote workers) may
+// pass `concurrency`: kDynamic asks it whenever it hands out tasks and runs at
+// most that many at once (at least 1), starting more threads of its own when
+// the answer grows (they stay until the end of the run); kColoured asks it
+// once, at the start. The results do not depend on it.
+//
 // Thread count: the arena asks for `workers` threads, but oneTBB never starts
 // more than its global limit (by default the hardware's); an application that
 // wants more sets tbb::global_control(max_allowed_parallelism, ...) itself.
@@ -139,7 +145,8 @@ struct ScheduleStats {
 ScheduleStats run_leaf_tasks(std::span<const std::vector<Index>> n1,
                              std::span<const std::vector<Index>> classes, std::size_t workers,
                              SchedulePolicy policy, const std::function<void(Index)>& run,
-                             const std::function<void(Index)>& commit, std::span<const Index> rank = {});
+                             const std::function<void(Index)>& commit, std::span<const Index> rank = {},
+                             const std::function<std::size_t()>& concurrency = {});
 
 /// Runs task(leaf) for every leaf of `d` exactly once, at most `workers` (0 is
 /// read as 1) at a time, never two with overlapping lock sets, and merge(leaf,
@@ -149,7 +156,8 @@ template <class Result>
 ScheduleStats run_leaves(const Decomposition& d, std::size_t workers,
                          std::function<Result(Index)> task,
                          std::function<void(Index, Result&&)> merge,
-                         SchedulePolicy policy = SchedulePolicy::kColoured, std::span<const Index> rank = {}) {
+                         SchedulePolicy policy = SchedulePolicy::kColoured, std::span<const Index> rank = {},
+                         const std::function<std::size_t()>& concurrency = {}) {
   std::vector<std::optional<Result>> slots(d.size());
   const auto classes = policy == SchedulePolicy::kColoured ? colour_classes(d)
                                                            : std::vector<std::vector<Index>>{};
@@ -159,7 +167,7 @@ ScheduleStats run_leaves(const Decomposition& d, std::size_t workers,
         merge(leaf, std::move(*slots[leaf]));
         slots[leaf].reset();
       },
-      rank);
+      rank, concurrency);
 }
 
 }  // namespace pdrmesh
