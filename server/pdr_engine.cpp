@@ -65,9 +65,17 @@ Result<VolumeMesh> PdrEngine::mesh(const JobRecord& job, const SurfaceMesh& surf
     }
     ParallelOptions po = parallel_options(options);
     po.pdr.workers = dispatch_->concurrency();
-    // Asked again whenever leaf tasks are handed out: workers that register
-    // during the job widen it (the bytes do not depend on it).
-    po.pdr.concurrency = [dispatch = dispatch_.get()] { return dispatch->concurrency(); };
+    // Asked again whenever leaf tasks are handed out (on the merging thread):
+    // workers that register during the job widen it (the bytes do not depend
+    // on it). A change is logged.
+    po.pdr.concurrency = [dispatch = dispatch_.get(), &job, last = po.pdr.workers]() mutable {
+      const std::size_t now = dispatch->concurrency();
+      if (now != last) {
+        spdlog::info("job {}: {} leaf task(s) at once, {} before", job.id, now, last);
+        last = now;
+      }
+      return now;
+    };
     po.pdr.progress = [&](const PdrProgress& p) {
       if (std::chrono::steady_clock::now() > deadline) {
         timed_out = true;

@@ -4,7 +4,8 @@
 # mesh is byte-identical to `pdrmesh run` with the same options and every format
 # validates against the surface. Then faults in the middle of a job: one worker
 # killed with SIGKILL, another stopped with SIGSTOP past the leaf deadline; the
-# job still completes with the same bytes.
+# job still completes with the same bytes. Last, a worker that registers in the
+# middle of a job widens it (two leaf tasks at once) and takes leaves.
 # Usage: service_workers.sh PDRMESH COORDINATOR WORKER SURFACE [MESH OPTIONS...]
 set -euo pipefail
 worker_bin=$3
@@ -15,7 +16,7 @@ trap 'stop_workers; stop_coordinator; rm -rf "$tmp"' EXIT
 printf 'alice tok-alice\n' > "$tmp/tokens"
 head -c 24 /dev/urandom | od -An -tx1 | tr -d ' \n' > "$tmp/cluster-token"
 export PDRMESH_TOKEN=tok-alice
-start_coordinator "$tmp/data" --worker-listen 127.0.0.1:0 --cluster-token-file "$tmp/cluster-token" \
+coord_log_level=info start_coordinator "$tmp/data" --worker-listen 127.0.0.1:0 --cluster-token-file "$tmp/cluster-token" \
   --leaf-deadline 3
 registry=$(sed -n 's/^workers on //p' "$tmp/coordinator.out")
 [[ -n $registry ]] || { echo "the coordinator printed no worker port"; cat "$tmp/coordinator.out"; exit 1; }
@@ -74,8 +75,8 @@ w3=${worker_pids[0]} w4=${worker_pids[1]}
 wait_for registered w3 w4 w5
 "$pdrmesh" submit "$surface" "${options[@]}" --output json > "$tmp/submit2.json"
 id2=$(json_field id < "$tmp/submit2.json")
-leaves_done() { [[ $("$pdrmesh" status "$id2" --output json | json_field leaves_done) -ge 2 ]]; }
-wait_for leaves_done
+leaves_done() { [[ $("$pdrmesh" status "$1" --output json | json_field leaves_done) -ge 2 ]]; }  # JOB_ID
+wait_for leaves_done "$id2"
 kill -9 "$w3"
 kill -STOP "$w4"
 "$pdrmesh" watch "$id2" > /dev/null 2>&1 || true
@@ -89,3 +90,21 @@ kill -CONT "$w4"
 grep -Eq 'taken out|missed [0-9]+ heartbeats|giving the leaf to another worker' "$tmp/coordinator.err" ||
   { echo "the coordinator noticed no fault"; cat "$tmp/coordinator.err"; exit 1; }
 echo "ok: job $id2 survived a SIGKILLed and a SIGSTOPped worker with the same bytes"
+
+# A worker joining mid-job: the job starts on one slow worker; once leaves are
+# being merged a second registers, and the job runs two leaf tasks at once.
+stop_workers
+start_worker w6 PDRMESH_WORKER_TEST_LEAF_DELAY_MS=150
+wait_for registered w6
+"$pdrmesh" submit "$surface" "${options[@]}" --output json > "$tmp/submit3.json"
+id3=$(json_field id < "$tmp/submit3.json")
+wait_for leaves_done "$id3"
+start_worker w7 PDRMESH_WORKER_TEST_LEAF_DELAY_MS=150
+wait_for registered w7
+"$pdrmesh" watch "$id3" > /dev/null 2>&1 || true
+"$pdrmesh" fetch "$id3" -o "$tmp/job3.meshb" > /dev/null
+cmp "$tmp/job3.meshb" "$tmp/run.meshb"
+grep -q "job $id3: 2 leaf task(s) at once, 1 before" "$tmp/coordinator.err" ||
+  { echo "job $id3 did not widen to the new worker"; grep "job $id3" "$tmp/coordinator.err"; exit 1; }
+grep -Eq '\((native|optimize) kernel\)' "$tmp/w7.err" || { echo "the worker that joined ran no leaf"; exit 1; }
+echo "ok: job $id3 widened to a worker that registered during it, with the same bytes"
