@@ -16,7 +16,7 @@ trap 'stop_workers; stop_coordinator; rm -rf "$tmp"' EXIT
 printf 'alice tok-alice\n' > "$tmp/tokens"
 head -c 24 /dev/urandom | od -An -tx1 | tr -d ' \n' > "$tmp/cluster-token"
 export PDRMESH_TOKEN=tok-alice
-coord_log_level=info start_coordinator "$tmp/data" --worker-listen 127.0.0.1:0 --cluster-token-file "$tmp/cluster-token" \
+start_coordinator "$tmp/data" --worker-listen 127.0.0.1:0 --cluster-token-file "$tmp/cluster-token" \
   --leaf-deadline 3
 registry=$(sed -n 's/^workers on //p' "$tmp/coordinator.out")
 [[ -n $registry ]] || { echo "the coordinator printed no worker port"; cat "$tmp/coordinator.out"; exit 1; }
@@ -92,8 +92,15 @@ grep -Eq 'taken out|missed [0-9]+ heartbeats|giving the leaf to another worker' 
 echo "ok: job $id2 survived a SIGKILLed and a SIGSTOPped worker with the same bytes"
 
 # A worker joining mid-job: the job starts on one slow worker; once leaves are
-# being merged a second registers, and the job runs two leaf tasks at once.
+# being merged a second registers, and the job runs two leaf tasks at once. A
+# fresh coordinator (logging at info), so that no worker killed above still
+# counts until its heartbeats are missed.
 stop_workers
+stop_coordinator
+: > "$tmp/coordinator.err"
+coord_log_level=info start_coordinator "$tmp/data3" --worker-listen 127.0.0.1:0 \
+  --cluster-token-file "$tmp/cluster-token" --leaf-deadline 3
+registry=$(sed -n 's/^workers on //p' "$tmp/coordinator.out")
 start_worker w6 PDRMESH_WORKER_TEST_LEAF_DELAY_MS=150
 wait_for registered w6
 "$pdrmesh" submit "$surface" "${options[@]}" --output json > "$tmp/submit3.json"
