@@ -99,11 +99,12 @@ TEST(JobCheckpoint, AJobStoppedAfterItsFirstRoundGoesOnFromItWithTheBytesOfAWhol
   EXPECT_EQ(resumed->tets, whole->tets);
   EXPECT_EQ(resumed->boundary, whole->boundary);
   EXPECT_EQ(resumed->boundary_ids, whole->boundary_ids);
-  // It stored each later round: the file now holds the last one.
+  // It stored a later round (rounds closer together than 20 times a store's
+  // time are skipped, so not necessarily the last).
   const std::optional<PdrCheckpoint> last = checkpoint.load();
   ASSERT_TRUE(last.has_value());
   EXPECT_GT(last->rounds_done, 1);
-  EXPECT_EQ(last->mesh.tets, whole->tets);
+  EXPECT_TRUE(validate_mesh(last->mesh, surface).ok());
 }
 
 /// The local dispatch, telling a job a concurrency that grows each time it is
