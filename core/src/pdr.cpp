@@ -713,7 +713,8 @@ std::string PdrCheckpoint::encode() const {
   std::string bytes = w.take();
   codec::Writer tail;
   tail.u64(content_digest(bytes));
-  return bytes + tail.take();
+  bytes += tail.take();  // appended: no second copy of a large mesh's bytes
+  return bytes;
 }
 
 Result<PdrCheckpoint> PdrCheckpoint::decode(std::string_view bytes) {
