@@ -552,19 +552,57 @@ class WorkerRegistryImpl final : public v1::WorkerRegistry::Service {
   std::shared_ptr<WorkerPool> pool_;
 };
 
+}  // namespace
+
 // ---------------------------------------------------------------- remote kernel
+
+/// The encoded sizing field and its digest, made once per field. Keyed on the
+/// field's address and shape: the kernels of one job share it, and the job's
+/// field lives (unchanged) while the job meshes.
+struct RemoteLeafDispatch::SizingBlob {
+  struct Encoded {
+    std::shared_ptr<const std::string> bytes;
+    std::uint64_t digest = 0;
+  };
+
+  Encoded get(const SizingField& sizing, Counters& counters) {
+    std::lock_guard lock(mu);
+    const std::array<std::size_t, 3> shape{sizing.background_points(), sizing.boundary_points(),
+                                           std::size_t{sizing.uniform()}};
+    if (key != &sizing || key_shape != shape || !encoded.bytes) {
+      auto bytes = std::make_shared<const std::string>(sizing.encode());
+      encoded = Encoded{bytes, worker::content_digest(*bytes)};
+      key = &sizing;
+      key_shape = shape;
+      ++counters.sizing_encodes;
+    }
+    return encoded;
+  }
+
+  std::mutex mu;
+  const SizingField* key = nullptr;
+  std::array<std::size_t, 3> key_shape{};
+  Encoded encoded;
+};
+
+namespace {
 
 class RemoteKernel final : public LeafKernel {
  public:
   RemoteKernel(std::shared_ptr<WorkerPool> pool, LeafJob job, std::unique_ptr<LeafKernel> local,
-               std::shared_ptr<RemoteLeafDispatch::Counters> counters)
-      : pool_(std::move(pool)), job_(std::move(job)), local_(std::move(local)), counters_(std::move(counters)) {}
+               std::shared_ptr<RemoteLeafDispatch::Counters> counters,
+               std::shared_ptr<RemoteLeafDispatch::SizingBlob> blob)
+      : pool_(std::move(pool)),
+        job_(std::move(job)),
+        local_(std::move(local)),
+        counters_(std::move(counters)),
+        blob_(std::move(blob)) {}
 
   std::string_view name() const override { return local_->name(); }
   bool needs_manifold_hull() const override { return local_->needs_manifold_hull(); }
 
   Result<LeafTaskOutput> run(const LeafTaskInput& in, const SizingField& sizing) const override {
-    const Blob blob = sizing_blob(sizing);
+    const RemoteLeafDispatch::SizingBlob::Encoded blob = blob_->get(sizing, *counters_);
     const std::string input = in.encode();
     const std::uint64_t max_output = std::min(kMaxOutputBytes, leaf_output_byte_limit(in, sizing));
     const std::uint64_t seq = ++seq_;
@@ -652,26 +690,6 @@ class RemoteKernel final : public LeafKernel {
     Status status;      ///< kKernelError, kFatal
     std::string error;  ///< kRetry: what went wrong
   };
-  struct Blob {
-    std::shared_ptr<const std::string> bytes;
-    std::uint64_t digest = 0;
-  };
-
-  /// The encoded sizing field and its digest, made once per field. Keyed on the
-  /// field's address and shape: a kernel serves one job, whose field lives
-  /// (unchanged) while the job meshes.
-  Blob sizing_blob(const SizingField& sizing) const {
-    std::lock_guard lock(blob_mu_);
-    const std::array<std::size_t, 3> shape{sizing.background_points(), sizing.boundary_points(),
-                                           std::size_t{sizing.uniform()}};
-    if (blob_key_ != &sizing || blob_shape_ != shape || !blob_.bytes) {
-      auto bytes = std::make_shared<const std::string>(sizing.encode());
-      blob_ = Blob{bytes, worker::content_digest(*bytes)};
-      blob_key_ = &sizing;
-      blob_shape_ = shape;
-    }
-    return blob_;
-  }
 
   /// One attempt; a result announced above max_output bytes is refused unread.
   Attempt call(WorkerPool::Entry& entry, const v1::LeafTaskHeader& header, std::string_view input,
@@ -758,10 +776,7 @@ class RemoteKernel final : public LeafKernel {
   std::shared_ptr<RemoteLeafDispatch::Counters> counters_;
   mutable std::atomic<std::uint64_t> seq_{0};
   mutable std::atomic<bool> warned_idle_{false};
-  mutable std::mutex blob_mu_;
-  mutable const SizingField* blob_key_ = nullptr;
-  mutable std::array<std::size_t, 3> blob_shape_{};
-  mutable Blob blob_;
+  std::shared_ptr<RemoteLeafDispatch::SizingBlob> blob_;
 };
 
 }  // namespace
@@ -775,13 +790,26 @@ RemoteLeafDispatch::RemoteLeafDispatch(std::shared_ptr<WorkerPool> pool)
 
 Result<std::unique_ptr<LeafKernel>> RemoteLeafDispatch::kernel_for(const LeafJob& job) {
   PDR_ASSIGN_OR_RETURN(std::unique_ptr<LeafKernel> local, make_leaf_kernel(job.kernel));
-  return std::unique_ptr<LeafKernel>(std::make_unique<RemoteKernel>(pool_, job, std::move(local), counters_));
+  std::shared_ptr<SizingBlob> blob;
+  {
+    std::lock_guard lock(blobs_mu_);
+    std::erase_if(blobs_, [](const auto& entry) { return entry.second.expired(); });
+    std::weak_ptr<SizingBlob>& slot = blobs_[job.job_id];
+    blob = slot.lock();
+    if (!blob) {
+      blob = std::make_shared<SizingBlob>();
+      slot = blob;
+    }
+  }
+  return std::unique_ptr<LeafKernel>(
+      std::make_unique<RemoteKernel>(pool_, job, std::move(local), counters_, std::move(blob)));
 }
 
 std::size_t RemoteLeafDispatch::concurrency() const { return std::max<std::size_t>(pool_->total_slots(), 1); }
 
 DispatchStats RemoteLeafDispatch::stats() const {
-  return {counters_->attempts, counters_->accepted, counters_->retried, counters_->sizing_resends};
+  return {counters_->attempts, counters_->accepted, counters_->retried, counters_->sizing_resends,
+          counters_->sizing_encodes};
 }
 
 }  // namespace pdrmesh::server

@@ -39,6 +39,7 @@
 #include <atomic>
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <set>
@@ -162,6 +163,7 @@ struct DispatchStats {
   std::uint64_t accepted = 0;        ///< results returned to the engine
   std::uint64_t retried = 0;         ///< attempts that failed and moved the leaf on
   std::uint64_t sizing_resends = 0;  ///< "sizing unknown" answers
+  std::uint64_t sizing_encodes = 0;  ///< sizing fields encoded (once per job's field)
 };
 
 class RemoteLeafDispatch final : public LeafDispatch {
@@ -177,12 +179,17 @@ class RemoteLeafDispatch final : public LeafDispatch {
   WorkerPool& pool() const { return *pool_; }
 
   struct Counters {
-    std::atomic<std::uint64_t> attempts{0}, accepted{0}, retried{0}, sizing_resends{0};
+    std::atomic<std::uint64_t> attempts{0}, accepted{0}, retried{0}, sizing_resends{0}, sizing_encodes{0};
   };
+  struct SizingBlob;  ///< a job's encoded sizing field, shared by its kernels
 
  private:
   std::shared_ptr<WorkerPool> pool_;
   std::shared_ptr<Counters> counters_;
+  std::mutex blobs_mu_;
+  /// By job id: the kernels of one job (the refiner's and the optimizer's)
+  /// share one encoding of its field; an entry lives while a kernel holds it.
+  std::map<std::string, std::weak_ptr<SizingBlob>> blobs_;
 };
 
 }  // namespace pdrmesh::server

@@ -458,6 +458,7 @@ TEST_F(Workers, TwoWorkerProcessesGiveTheLocalBytes) {
   EXPECT_EQ(st.retried, 0U);
   EXPECT_GE(st.sizing_resends, 2U);  // each worker asked for the field at least once
   EXPECT_LE(st.sizing_resends, 3U);  // at most once per slot
+  EXPECT_EQ(st.sizing_encodes, 1U);  // the job's two kernels share one encoding of its field
   std::uint64_t done = 0;
   for (const WorkerSnapshot& w : pool->workers()) {
     EXPECT_GT(w.leaves_done, 0U) << w.address << " got no leaf";
