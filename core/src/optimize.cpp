@@ -94,11 +94,14 @@ constexpr double kShortEdge = 0.6;
 constexpr int kLineSteps = 7;
 /// Most rounds of the interior repair (see optimize.hpp).
 constexpr int kRepairRounds = 4;
-/// Interior repair: a tet with a fixed point may fall to this measure (about
+/// Interior repair: a tet with a surface point may fall to this measure (about
 /// 10 degrees, or 160 on the obtuse side, at the default targets) when a
-/// smoothing move repairs a tet with no fixed point; above it, it may not get
-/// worse.
+/// repair of a tet with no fixed point needs it; above it, it may not get
+/// worse. Lower where the mesh holds worse tets already (Optimizer::
+/// start_repair): down to kRepairFloorMargin times the measure of the mesh's
+/// smallest dihedral angle.
 constexpr double kRepairFloor = 0.67;
+constexpr double kRepairFloorMargin = 2.0;
 /// Cap repair: heights (times h) above the kept faces at which the new point is tried.
 constexpr std::array<double, 7> kCapHeights{0.1, 0.2, 0.3, 0.45, 0.6, 0.75, 0.9};
 /// Cap repair: most tets in a cavity.
@@ -354,6 +357,21 @@ class Optimizer {
     pin_floor_ = pin_floor;
   }
 
+  /// Sets the interior repair's floor for tets with a surface point:
+  /// kRepairFloor, or kRepairFloorMargin times the measure that the mesh's
+  /// smallest dihedral angle (now) has on the acute side when that is lower.
+  /// Next to needle triangles, where the tets on the surface are that bad
+  /// anyway, the tets off it then get room to reach the targets, while no
+  /// repair makes a tet near the mesh's worst. The margin leaves the cap
+  /// repair and angle polish after it room too: at the worst measure itself,
+  /// couplingdown's smallest angle at diag/100 fell from 0.8 to 0.4 degrees
+  /// (session 14, `pdrmesh_bench_refine`).
+  void start_repair() {
+    const double smallest = mesh_range(m_).min * (3.14159265358979323846 / 180.0);
+    repair_floor_ = std::min(kRepairFloor, kRepairFloorMargin * std::sin(smallest) * acute_);
+  }
+  double repair_floor() const { return repair_floor_; }
+
   /// Interior repair flips (see optimize.hpp): for each bad tet with no fixed
   /// point in `seeds` (slot order), one edge removal or 2-3 flip judged by
   /// measure() (min-max over the tets replaced) on its edges, its faces, then
@@ -482,8 +500,8 @@ class Optimizer {
 
   /// Whether the tets of fresh_ hold the floors of the tets they replace
   /// (repair_floors): a repair flip must not trade an interior tet for a worse
-  /// one, nor make a tet with a fixed point worse than kRepairFloor where the
-  /// old ones with a fixed point were not.
+  /// one, nor make a tet with a fixed point worse than the repair floor where
+  /// the old ones with a fixed point were not.
   bool fresh_holds(const std::array<double, 3>& floors) const {
     for (const Tet& k : fresh_)
       if (measure(corners(m_, k)) < floors[repair_class(k)]) return false;
@@ -503,9 +521,9 @@ class Optimizer {
   }
 
   /// The floors of a repair operation replacing `tets`, per repair_class: the
-  /// worst measure of the class, capped at 1 (at kRepairFloor for class 1).
+  /// worst measure of the class, capped at 1 (at repair_floor() for class 1).
   std::array<double, 3> repair_floors(std::span<const Index> tets) const {
-    std::array<double, 3> q{1.0, kRepairFloor, 1.0};
+    std::array<double, 3> q{1.0, repair_floor_, 1.0};
     for (Index t : tets) {
       double& f = q[static_cast<std::size_t>(repair_class(m_.tet(t)))];
       f = std::min(f, measure(corners(m_, m_.tet(t))));
@@ -1363,6 +1381,7 @@ class Optimizer {
   bool interior_only_ = false;  ///< see set_interior_only
   bool pin_fixed_ = false;      ///< smoothing: tets with a fixed point are pinned
   double pin_floor_ = 1.0;      ///< smoothing: a pinned tet may fall to min(its measure, this)
+  double repair_floor_ = kRepairFloor;  ///< see start_repair
   std::vector<Tet> fresh_;      ///< repair flips' scratch
   std::vector<Index> parent_;
   std::vector<double> profile_old_, profile_new_, profile_best_;
@@ -1476,13 +1495,14 @@ Result<OptimizeStats> optimize(TetMesh& mesh, const SizingField* sizing,
   }
   // Interior repair: flips judged by the full measure, then smoothing of the
   // vertices of the bad tets with no fixed point, where a tet with a fixed
-  // point may give way down to kRepairFloor, while their number falls.
+  // point may give way down to the repair floor, while their number falls.
   if (options.interior_repair && st.sweeps_run > 0) {
     opt.find_fixed();
+    opt.start_repair();
     while_interior_falls(kRepairRounds, st.repair_rounds, [&] {
       opt.repair_flips(opt.interior(bad));
       if (options.smooth) {
-        opt.set_interior_only(true, true, kRepairFloor);
+        opt.set_interior_only(true, true, opt.repair_floor());
         opt.smooth();
         opt.set_interior_only(false);
       }

@@ -97,14 +97,21 @@
 //     at the worst tet with no fixed point, where a tet with a point on the
 //     surface (a TetMesh::boundary() triangle with a non-zero id, or any when
 //     there are no ids; not a leaf's interface) may now give way down to
-//     min(its measure, 0.67) (about 10 degrees, or 160 on the obtuse side, at
-//     the default targets) instead of min(its measure, 1): a tet next to the
-//     surface keeps above that but need not stay within the targets for an
-//     interior tet to get there. The flips and insertions of (a) hold the same
-//     floors: a new tet with no fixed point, or with fixed points on a leaf's
-//     interface only, is no worse than the worst such old tet (capped at 1),
-//     one with a surface point no worse than min(0.67, the worst such old
-//     tet). A tet whose repair would need a fixed point to move stays as it is.
+//     min(its measure, F) instead of min(its measure, 1), where F is 0.67
+//     (about 10 degrees, or 160 on the obtuse side, at the default targets)
+//     or, when the mesh holds worse tets when the repair starts, twice the
+//     measure of its smallest dihedral angle: a tet next to the surface keeps
+//     above that but need not stay within the targets for an interior tet to
+//     get there, and next to needle triangles, where the tets on the surface
+//     are that bad anyway, the interior gets the room it needs (hinge's
+//     interior at the default size went from 10.0 / 160.9 degrees to within
+//     [15, 150], couplingdown's at diag/100 from 2.1 / 175.4 to 11.4 / 158.5,
+//     the meshes' smallest angles as they were). The flips and insertions of
+//     (a) hold the same floors: a new tet with no fixed point, or with fixed
+//     points on a leaf's interface only, is no worse than the worst such old
+//     tet (capped at 1), one with a surface point no worse than min(F, the
+//     worst such old tet). A tet whose repair would need a fixed point to move
+//     stays as it is.
 //
 //  5. Cap repair (repair_caps, on; needs sizing and insert_points), last: a
 //     bad tet with two or three kept faces (hull, frozen or region faces),
