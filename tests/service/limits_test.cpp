@@ -170,7 +170,23 @@ TEST_F(Limits, TwoHundredStreamsStayWithinTheThreadCapAndJobsGoOn) {
     u.writer = s->SubmitJob(u.context.get(), &u.response);
     (void)u.writer->Write(header);
   }
-  std::this_thread::sleep_for(1s);  // let the server take or refuse each
+  // Let the server take or refuse each: a refused upload fails a write once
+  // its status has come back. On a loaded machine that takes more than the
+  // second it takes here, and counting before it came back saw a stream not
+  // yet refused as held.
+  const int expect_refused = kUsers * kPerUser - max_streams;
+  std::vector<char> known_refused(uploads.size(), 0);
+  v1::SubmitRequest probe;
+  probe.set_chunk("s");
+  int refused_seen = 0;
+  for (int round = 0; round < 300 && refused_seen < expect_refused; ++round) {
+    std::this_thread::sleep_for(100ms);
+    for (std::size_t i = 0; i < uploads.size(); ++i)
+      if (!known_refused[i] && !uploads[i].writer->Write(probe)) {
+        known_refused[i] = 1;
+        ++refused_seen;
+      }
+  }
   const std::size_t during = thread_count();
   // The cap, plus gRPC's own pollers and timers and the client side's threads.
   EXPECT_LE(during, before + kThreads + 16) << "before " << before;
