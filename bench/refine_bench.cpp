@@ -128,23 +128,7 @@ void run(const std::string& dir, const std::string& name, bool fine) {
   std::vector<bool> on_boundary(out.points.size(), false);
   for (const Tri& t : out.boundary)
     for (Index v : t) on_boundary[v] = true;
-  std::vector<std::pair<Index, Index>> edges;
-  edges.reserve(out.tets.size() * 6);
-  for (const Tet& k : out.tets)
-    for (int e = 0; e < 6; ++e) {
-      const Index a = k[topo::kEdgeVertex[e][0]], b = k[topo::kEdgeVertex[e][1]];
-      if (!on_boundary[a] && !on_boundary[b]) edges.push_back({std::min(a, b), std::max(a, b)});
-    }
-  std::sort(edges.begin(), edges.end());
-  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
-  std::size_t good = 0, shorter = 0, longer = 0;
-  for (const auto& [a, b] : edges) {
-    const double h = field->at(0.5 * (out.points[a] + out.points[b]));
-    const double l = norm(out.points[a] - out.points[b]);
-    if (l < 0.6 * h) ++shorter;
-    else if (l > 1.5 * h) ++longer;
-    else ++good;
-  }
+  const SizeBand band = measure_size_band(out, *field);
   AngleRange all{180, 0}, inner{180, 0};
   std::size_t inner_tets = 0, inner_good = 0, under10 = 0;
   for (const Tet& k : out.tets) {
@@ -196,12 +180,12 @@ void run(const std::string& dir, const std::string& name, bool fine) {
       fmt::print(stderr, "  bad {} {:.1f}/{:.1f} h={:.4g} L/h:{} {}\n", t, r.min, r.max, h, el, st);
     }
   }
-  const double n = edges.empty() ? 1.0 : double(edges.size());
+  const double n = band.edges == 0 ? 1.0 : double(band.edges);
   const double cpu = refine_cpu + optimize_cpu;
   fmt::print("{:<13} {:>5} {:>9} {:>4} {:>6.2f} {:>6.2f} {:>6.2f} {:>9.0f} {:>6.1f}% {:>5.1f}% {:>5.1f}% {:>6.1f} {:>6.1f} {:>6.1f} {:>6.1f} {:>6.1f}% {:>6.3f}% {}\n",
              name, fine ? "d/100" : "dflt", out.tets.size(), stats->passes.size(), refine_cpu, optimize_cpu,
-             seconds, double(out.tets.size()) / cpu, 100.0 * double(good) / n, 100.0 * double(shorter) / n,
-             100.0 * double(longer) / n, all.min, all.max, inner.min, inner.max,
+             seconds, double(out.tets.size()) / cpu, 100.0 * double(band.within) / n, 100.0 * double(band.shorter) / n,
+             100.0 * double(band.longer) / n, all.min, all.max, inner.min, inner.max,
              inner_tets ? 100.0 * double(inner_good) / double(inner_tets) : 0.0,
              out.tets.empty() ? 0.0 : 100.0 * double(under10) / double(out.tets.size()),
              report.ok() ? "valid" : "INVALID: " + (report.errors.empty() ? std::string() : report.errors[0]));

@@ -646,24 +646,12 @@ TEST(Optimize, SmoothingKeepsCouplingdownsInteriorEdgesInTheSizeBand) {
   auto h = SizingField::build(*surface, *background, options.sizing);
   ASSERT_TRUE(h.ok()) << h.status().to_string();
   // The share of the edges with no surface point whose length lies within
-  // [0.6, 1.5] h at the midpoint, as pdrmesh_bench_refine counts it.
+  // [0.6, 1.5] h at the midpoint (measure_size_band, as pdrmesh_bench_refine
+  // prints it).
   const auto in_band = [&](const VolumeMesh& m) {
-    const auto on_boundary = hull_points(m);
-    std::vector<std::pair<Index, Index>> edges;
-    for (const Tet& k : m.tets)
-      for (int e = 0; e < 6; ++e) {
-        const Index a = k[topo::kEdgeVertex[e][0]], b = k[topo::kEdgeVertex[e][1]];
-        if (!on_boundary[a] && !on_boundary[b]) edges.push_back({std::min(a, b), std::max(a, b)});
-      }
-    std::sort(edges.begin(), edges.end());
-    edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
-    std::size_t good = 0;
-    for (const auto& [a, b] : edges) {
-      const double l = norm(m.points[a] - m.points[b]) / h->at(0.5 * (m.points[a] + m.points[b]));
-      good += l >= 0.6 && l <= 1.5 ? 1 : 0;
-    }
-    EXPECT_GT(edges.size(), 1000u);
-    return static_cast<double>(good) / static_cast<double>(std::max<std::size_t>(1, edges.size()));
+    const SizeBand band = measure_size_band(m, *h);
+    EXPECT_GT(band.edges, 1000u);
+    return static_cast<double>(band.within) / static_cast<double>(std::max<std::size_t>(1, band.edges));
   };
   auto kept = mesh_serial(*surface, options);
   ASSERT_TRUE(kept.ok()) << kept.status().to_string();
