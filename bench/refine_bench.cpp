@@ -20,8 +20,9 @@
 //   PDRMESH_BENCH_SPATIAL_ORDER_MIN_TETS=N (RefineOptions::spatial_order_min_tets),
 //   PDRMESH_BENCH_REJECT=D, PDRMESH_BENCH_BOUNDARY_REJECT=D (RefineOptions' reject distances),
 //   PDRMESH_BENCH_NO_SMOOTH, PDRMESH_BENCH_NO_INSERT, PDRMESH_BENCH_NO_CAPS,
-//   PDRMESH_BENCH_NO_KEEP_SIZES (OptimizeOptions::smooth, insert_points, repair_caps,
-//   keep_edge_sizes off), PDRMESH_BENCH_WRITE=DIR (each mesh to DIR/NAME-SIZE.mesh),
+//   PDRMESH_BENCH_NO_KEEP_SIZES, PDRMESH_BENCH_NO_REMOVE (OptimizeOptions::smooth,
+//   insert_points, repair_caps, keep_edge_sizes, remove_points off),
+//   PDRMESH_BENCH_WRITE=DIR (each mesh to DIR/NAME-SIZE.mesh),
 //   PDRMESH_BENCH_DUMP_BAD (stderr: the 40 worst interior tets outside
 //   [15, 150] with their edge lengths over h and their vertices' stars)
 #include <fmt/format.h>
@@ -106,11 +107,14 @@ void run(const std::string& dir, const std::string& name, bool fine) {
     if (std::getenv("PDRMESH_BENCH_NO_INSERT") != nullptr) oo.insert_points = false;
     if (std::getenv("PDRMESH_BENCH_NO_CAPS") != nullptr) oo.repair_caps = false;
     if (std::getenv("PDRMESH_BENCH_NO_POLISH") != nullptr) oo.polish_angles = false;
+    if (std::getenv("PDRMESH_BENCH_NO_REMOVE") != nullptr) oo.remove_points = false;
     auto ostats = optimize(*mesh, &*field, oo);
     if (verbose && ostats.ok())
-      fmt::print(stderr, "  optimize: {} sweeps, bad {} -> {}, {} flips, {} slivers removed, {} points inserted, {} moved\n",
+      fmt::print(stderr,
+                 "  optimize: {} sweeps, bad {} -> {}, {} flips, {} slivers removed, {} points inserted, {} removed, "
+                 "{} moved\n",
                  ostats->sweeps_run, ostats->bad_before, ostats->bad_after, ostats->flips, ostats->slivers_removed,
-                 ostats->points_inserted, ostats->points_moved);
+                 ostats->points_inserted, ostats->points_removed, ostats->points_moved);
     if (!ostats.ok()) {
       fmt::print("{:<13} optimize failed: {}\n", name, ostats.status().to_string());
       return;

@@ -61,7 +61,7 @@ Result<VolumeMesh> PdrEngine::mesh(const JobRecord& job, const SurfaceMesh& surf
     PDR_ASSIGN_OR_RETURN(const std::unique_ptr<LeafKernel> kernel, dispatch_->kernel_for(leaf_job));
     // The optimization's leaf tasks go where the refinement's go (a job's
     // options only switch the optimization on or off: default OptimizeOptions,
-    // which make_leaf_kernel("optimize") runs).
+    // whose leaf tasks make_leaf_kernel("optimize") runs: leaf_optimize_options()).
     std::unique_ptr<LeafKernel> optimizer;
     if (options.optimize) {
       leaf_job.kernel = "optimize";

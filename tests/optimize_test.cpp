@@ -10,6 +10,8 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <functional>
+#include <optional>
 #include <vector>
 
 #include "pdrmesh/insert.hpp"
@@ -59,13 +61,19 @@ std::vector<char> hull_points(const VolumeMesh& m) {
   return on;
 }
 
-/// Every hull point of the input `v` is where it was.
+/// Every hull point of the input `v` is still there and where it was. By
+/// global id (point i of `v` has id i): the optimizer may drop interior points
+/// and renumber the others.
 void expect_hull_points_kept(const TetMesh& m, const VolumeMesh& v) {
   const auto on_hull = hull_points(v);
-  for (Index i = 0; i < v.points.size(); ++i)
-    if (on_hull[i]) {
-      EXPECT_EQ(m.point(i), v.points[i]) << "boundary point " << i << " moved";
-    }
+  std::size_t found = 0;
+  for (Index j = 0; j < m.num_points(); ++j) {
+    const GlobalId i = m.point_id(j);
+    if (i >= v.points.size() || !on_hull[i]) continue;
+    ++found;
+    EXPECT_EQ(m.point(j), v.points[i]) << "boundary point " << i << " moved";
+  }
+  EXPECT_EQ(found, static_cast<std::size_t>(std::count(on_hull.begin(), on_hull.end(), 1)));
 }
 
 bool all_positive(const VolumeMesh& m) {
@@ -311,14 +319,15 @@ TEST(Optimize, SmoothingNeverLowersAStarsWorstTet) {
   expect_valid(m, nullptr);
 }
 
-/// Tets with no hull point and a dihedral angle outside [lo, hi] degrees.
+/// Tets with no hull point (by global id, as in expect_hull_points_kept) and a
+/// dihedral angle outside [lo, hi] degrees.
 std::size_t interior_bad(const TetMesh& m, const std::vector<char>& on_hull, double lo, double hi) {
   std::size_t n = 0;
   for (Index t = 0; t < m.num_slots(); ++t) {
     if (!m.alive(t)) continue;
     const Tet& k = m.tet(t);
     bool hull = false;
-    for (Index v : k) hull = hull || (v < on_hull.size() && on_hull[v]);
+    for (Index v : k) hull = hull || (m.point_id(v) < on_hull.size() && on_hull[m.point_id(v)]);
     const AngleRange a = dihedral_range(m.point(k[0]), m.point(k[1]), m.point(k[2]), m.point(k[3]));
     if (!hull && (a.min < lo || a.max > hi)) ++n;
   }
@@ -392,42 +401,83 @@ void expect_interior_within_targets(const char* name, double diagonal_over = 0, 
   EXPECT_TRUE(report.ok()) << format_validation(report);
 }
 
+/// A corpus surface at the default spacing: the surface, TetGen's initial
+/// mesh, its sizing field and the refined mesh (no optimization); none, with a
+/// test failure, when a step fails.
+struct RefinedCorpus {
+  SurfaceMesh surface;
+  VolumeMesh initial;
+  SizingField h;
+  TetMesh refined;
+};
+std::optional<RefinedCorpus> refine_corpus(const char* name) {
+  auto surface = read_surface(std::string(PDRMESH_CORPUS_DIR) + "/" + name + ".stl");
+  auto vm = surface.ok() ? tetrahedralize(*surface) : Result<VolumeMesh>(surface.status());
+  auto h = vm.ok() ? SizingField::build(*surface, *vm, {}) : Result<SizingField>(vm.status());
+  auto built = h.ok() ? TetMesh::from_volume_mesh(*vm) : Result<TetMesh>(h.status());
+  Status s = built.ok() ? refine(*built, *h).status() : built.status();
+  if (!s.ok()) {
+    ADD_FAILURE() << name << ": " << s.to_string();
+    return std::nullopt;
+  }
+  return RefinedCorpus{*std::move(surface), *std::move(vm), *std::move(h), *std::move(built)};
+}
+
 TEST(Optimize, PolishingPinsTetsWithAFixedPoint) {
   // hinge's needle triangles leave hopeless tets next to the boundary. With
   // those pinned (polish_pins_fixed, the default) the polishing rounds leave
   // fewer bad tets with no boundary point than when they lead the comparison,
   // and the mesh stays valid with its boundary points in place.
-  auto surface = read_surface(PDRMESH_CORPUS_DIR "/hinge.stl");
-  ASSERT_TRUE(surface.ok()) << surface.status().to_string();
-  auto vm = tetrahedralize(*surface);
-  ASSERT_TRUE(vm.ok()) << vm.status().to_string();
-  auto h = SizingField::build(*surface, *vm, {});
-  ASSERT_TRUE(h.ok()) << h.status().to_string();
-  auto built = TetMesh::from_volume_mesh(*vm);
-  ASSERT_TRUE(built.ok()) << built.status().to_string();
-  TetMesh refined = std::move(built).value();
-  ASSERT_TRUE(refine(refined, *h).ok());
-  const auto on_hull = hull_points(*vm);
+  const std::optional<RefinedCorpus> hinge = refine_corpus("hinge");
+  ASSERT_TRUE(hinge.has_value());
+  const auto on_hull = hull_points(hinge->initial);
   std::array<std::size_t, 2> bad{};
   std::array<int, 2> rounds{};
   for (int pin = 0; pin < 2; ++pin) {
-    TetMesh m = refined;
+    TetMesh m = hinge->refined;
     OptimizeOptions o;
     o.polish_pins_fixed = pin == 1;
     o.interior_repair = false;  // the polishing rounds alone
-    auto st = optimize(m, &*h, o);
+    auto st = optimize(m, &hinge->h, o);
     ASSERT_TRUE(st.ok());
     rounds[pin] = st->polish_rounds;
     bad[pin] = interior_bad(m, on_hull, o.target_min_dihedral, o.target_max_dihedral);
-    for (Index i = 0; i < vm->points.size(); ++i) {
-      if (on_hull[i]) {
-        ASSERT_EQ(m.point(i), vm->points[i]) << "boundary point " << i << " moved";
-      }
-    }
-    expect_valid(m, &*surface);
+    expect_hull_points_kept(m, hinge->initial);
+    expect_valid(m, &hinge->surface);
   }
   EXPECT_GE(rounds[1], 1);
   EXPECT_LT(bad[1], bad[0]);
+}
+
+TEST(Optimize, PointRemovalKeepsTheMeshValidAndTheIdsInOrder) {
+  // Next to hinge's needle triangles the interior repair removes points
+  // (optimize.hpp, 4.): optimize() drops them, the others keep their order,
+  // global ids and (on the surface) places, the counts add up, and the mesh
+  // validates (the validator refuses a point that no tet uses).
+  const std::optional<RefinedCorpus> hinge = refine_corpus("hinge");
+  ASSERT_TRUE(hinge.has_value());
+  const auto on_hull = hull_points(hinge->initial);
+  std::array<std::size_t, 2> bad{};
+  for (int remove = 0; remove < 2; ++remove) {
+    SCOPED_TRACE(remove == 1 ? "with point removal" : "without");
+    TetMesh m = hinge->refined;
+    OptimizeOptions o;
+    o.remove_points = remove == 1;
+    auto st = optimize(m, &hinge->h, o);
+    ASSERT_TRUE(st.ok()) << st.status().to_string();
+    if (remove == 1) {
+      EXPECT_GT(st->points_removed, 0u);
+    } else {
+      EXPECT_EQ(st->points_removed, 0u);
+    }
+    EXPECT_EQ(m.num_points(), hinge->refined.num_points() + st->points_inserted - st->points_removed);
+    const std::vector<GlobalId>& ids = m.point_ids();
+    EXPECT_EQ(std::adjacent_find(ids.begin(), ids.end(), std::greater_equal<>()), ids.end());  // ascending
+    bad[remove] = interior_bad(m, on_hull, o.target_min_dihedral, o.target_max_dihedral);
+    expect_hull_points_kept(m, hinge->initial);
+    expect_valid(m, &hinge->surface);
+  }
+  EXPECT_LE(bad[1], bad[0]);
 }
 
 TEST(Optimize, InteriorRepairFixesInteriorTetsTheSweepsLeave) {

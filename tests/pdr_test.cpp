@@ -18,6 +18,7 @@
 
 #include "pdr_fixtures.hpp"
 #include "pdrmesh/leaf_kernels.hpp"
+#include "pdrmesh/optimize.hpp"
 #include "pdrmesh/pipeline.hpp"
 #include "pdrmesh/predicates.hpp"
 #include "pdrmesh/quality.hpp"
@@ -700,6 +701,29 @@ TEST(Pdr, TheOptimizeKernelIsMeshParallelsOwnOptimization) {
   Result<ParallelResult> none = mesh_parallel(sp->surface, o);
   ASSERT_TRUE(none.ok()) << none.status().to_string();
   EXPECT_NE(meshb_bytes(none->mesh, "pdr_opt_none"), meshb_bytes(own->mesh, "pdr_opt_own"));
+}
+
+// An optimization leaf task keeps every input point (leaf_optimize_options):
+// next to hinge's needle triangles the interior repair removes points, and
+// a leaf that dropped one would misnumber its output; the native kernel
+// refuses such a result, and the leaf stays as it came.
+TEST(Pdr, OptimizationLeafTasksKeepTheirPoints) {
+  const SurfaceMesh hinge = fixtures::corpus_surface("hinge");
+  ParallelOptions o;
+  o.pdr = depth2(2);
+  o.pdr.depth = 1;  // the depth whose optimization tasks meet removable points
+  const NativeLeafKernel removing([](TetMesh& leaf, const SizingField& h) { return optimize(leaf, &h).status(); },
+                                  "optimize");
+  Result<ParallelResult> dropped = mesh_parallel(hinge, o, nullptr, &removing);
+  ASSERT_TRUE(dropped.ok()) << dropped.status().to_string();
+  EXPECT_GE(dropped->profile.failed_leaves, 1u);
+  EXPECT_NE(dropped->profile.first_failure.find("dropped input points"), std::string::npos)
+      << dropped->profile.first_failure;
+  expect_valid(dropped->mesh, hinge);
+  Result<ParallelResult> kept = mesh_parallel(hinge, o);
+  ASSERT_TRUE(kept.ok()) << kept.status().to_string();
+  EXPECT_EQ(kept->profile.failed_leaves, 0u) << kept->profile.first_failure;
+  expect_valid(kept->mesh, hinge);
 }
 
 TEST(Pdr, ResumingFromEachRoundsCheckpointGivesTheSameBytes) {

@@ -5,7 +5,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include "pdrmesh/flips.hpp"
+#include "pdrmesh/insert.hpp"
 #include "pdrmesh/predicates.hpp"
 #include "pdrmesh/topology.hpp"
 #include "tet_fixtures.hpp"
@@ -224,6 +227,40 @@ TEST(TetMesh, ReorderPutsAliveTetsInTheGivenOrder) {
   EXPECT_EQ(m.tet(0), t2);
   EXPECT_EQ(m.tet(1), t1);
   EXPECT_EQ(m.neighbour(0, 0), n2 == kNoIndex ? kNoIndex : pack_face(map[face_tet(n2)], face_local(n2)));
+}
+
+// A point that no tet uses any more (a 1-4 split undone) is dropped; the
+// points after it move down with their global ids, and the tets follow.
+TEST(TetMesh, RemoveUnusedPointsKeepsTheOthersAndTheirIds) {
+  VolumeMesh one;
+  one.points.assign(kReference.begin(), kReference.end());
+  one.tets = {Tet{0, 1, 2, 3}};
+  TetMesh m = build(fixtures::with_hull_boundary(one));
+  ASSERT_EQ(insert_point(m, 0, {0.2, 0.2, 0.2}).outcome, InsertOutcome::kDone);  // point 4, id 4
+  std::vector<Index> split;
+  for (Index t = 0; t < m.num_slots(); ++t)
+    if (m.alive(t)) split.push_back(t);
+  ASSERT_EQ(split.size(), 4u);
+  const std::array<Tet, 1> whole{Tet{0, 1, 2, 3}};
+  const std::array<Index, 1> parent{0};
+  m.replace_cavity(split, whole, parent);
+  ASSERT_EQ(insert_point(m, m.last_created()[0], {0.1, 0.3, 0.2}).outcome, InsertOutcome::kDone);  // point 5, id 5
+  const std::vector<Tri> boundary = m.boundary();
+
+  const std::vector<Index> map = m.remove_unused_points();
+  EXPECT_EQ(map, (std::vector<Index>{0, 1, 2, 3, kNoIndex, 4}));
+  ASSERT_EQ(m.num_points(), 5u);
+  EXPECT_EQ(m.point_ids(), (std::vector<GlobalId>{0, 1, 2, 3, 5}));
+  EXPECT_EQ(m.point(4), (Vec3{0.1, 0.3, 0.2}));
+  EXPECT_EQ(m.next_id(), 6u);
+  EXPECT_EQ(m.boundary(), boundary);  // its points come before the dropped one
+  EXPECT_EQ(m.num_tets(), 4u);
+  for (Index t = 0; t < m.num_slots(); ++t) {
+    if (!m.alive(t)) continue;
+    EXPECT_NE(std::find(m.tet(t).begin(), m.tet(t).end(), 4u), m.tet(t).end());  // the split's point
+  }
+  EXPECT_TRUE(m.check().ok()) << m.check().to_string();
+  EXPECT_EQ(m.remove_unused_points(), (std::vector<Index>{0, 1, 2, 3, 4}));  // nothing left to drop
 }
 
 TEST(TetMesh, CheckReportsAnInvertedTet) {

@@ -15,6 +15,11 @@ namespace pdrmesh {
 
 double regular_tet_volume(double h) { return h * h * h / (6.0 * std::sqrt(2.0)); }
 
+OptimizeOptions leaf_optimize_options(OptimizeOptions options) {
+  options.remove_points = false;
+  return options;
+}
+
 Result<std::unique_ptr<LeafKernel>> make_leaf_kernel(std::string_view name) {
   if (name == "native") {
     return std::unique_ptr<LeafKernel>(std::make_unique<NativeLeafKernel>(
@@ -23,7 +28,8 @@ Result<std::unique_ptr<LeafKernel>> make_leaf_kernel(std::string_view name) {
   if (name == "tetgen") return std::unique_ptr<LeafKernel>(std::make_unique<TetgenLeafKernel>());
   if (name == "optimize") {
     return std::unique_ptr<LeafKernel>(std::make_unique<NativeLeafKernel>(
-        [](TetMesh& leaf, const SizingField& h) { return optimize(leaf, &h).status(); }, "optimize"));
+        [](TetMesh& leaf, const SizingField& h) { return optimize(leaf, &h, leaf_optimize_options()).status(); },
+        "optimize"));
   }
   return invalid_input(fmt::format("unknown leaf kernel '{}' (native, tetgen or optimize)", name));
 }
@@ -37,6 +43,13 @@ Result<LeafTaskOutput> NativeLeafKernel::run(const LeafTaskInput& in, const Sizi
     const Status s = refine_(*mesh, sizing);
     if (!s.ok()) return Status(s.code(), fmt::format("leaf {}: refinement: {}", in.leaf, s.message()));
   }
+  // The output names the input points by their index (leaf_output_from): a
+  // hook that dropped one (optimize() with remove_points) shifted the rest.
+  // Ids keep their order, so the last input point's id tells.
+  const auto n = static_cast<Index>(in.points.size());
+  if (mesh->num_points() < n || (n > 0 && mesh->point_id(n - 1) != n - 1))
+    return internal_error(
+        fmt::format("leaf {}: the {} hook dropped input points (a leaf keeps them all)", in.leaf, name_));
   return leaf_output_from(in, *mesh);
 }
 

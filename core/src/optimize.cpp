@@ -103,6 +103,8 @@ constexpr int kRepairRounds = 4;
 /// smallest dihedral angle.
 constexpr double kRepairFloor = 0.67;
 constexpr double kRepairFloorMargin = 2.0;
+/// Point removal: stars of more tets than this are not tried.
+constexpr std::size_t kRemovalMaxStar = 256;
 /// Cap repair: heights (times h) above the kept faces at which the new point is tried.
 constexpr std::array<double, 7> kCapHeights{0.1, 0.2, 0.3, 0.45, 0.6, 0.75, 0.9};
 /// Cap repair: most tets in a cavity.
@@ -557,6 +559,11 @@ class Optimizer {
       ++st_.points_inserted;
       return true;
     }
+    // Nor a point: one of t's points removed.
+    if (o_.remove_points && remove_point(t)) {
+      ++st_.points_removed;
+      return true;
+    }
     return false;
   }
 
@@ -580,6 +587,73 @@ class Optimizer {
     m_.replace_cavity(old, fresh_, parent_);
     forget_created();
     return true;
+  }
+
+  /// Point removal (remove_points, optimize.hpp 4.): a free point v of the bad
+  /// tet t is contracted onto a point w of its link: v's star becomes the cone
+  /// from w over the link faces that do not hold w (the tets around the edge
+  /// (v, w) go). Of v's link points, the w whose cone has the best worst tet,
+  /// ascending index on ties; done when every tet of the cone is positive
+  /// (exact), beats the worst tet of the star and holds its repair floors.
+  /// Positive tets over the whole link tile the star (it is star-shaped from
+  /// w), so the mesh stays a conforming tetrahedralization of the same region;
+  /// v is left in no tet (optimize() drops such points at the end).
+  bool remove_point(Index t) {
+    const Tet k = m_.tet(t);
+    for (Index v : k) {
+      if ((v < fixed_.size() && fixed_[v] != 0) || !gather_star(v, t, kRemovalMaxStar)) continue;
+      removal_star_.clear();
+      double old_q = std::numeric_limits<double>::infinity();
+      for (const auto& [s, lv] : star_) {
+        removal_star_.push_back(s);
+        old_q = std::min(old_q, measure(corners(m_, m_.tet(s))));
+      }
+      removal_targets_.clear();
+      for (const auto& [s, lv] : star_)
+        for (Index u : m_.tet(s))
+          if (u != v) removal_targets_.push_back(u);
+      std::sort(removal_targets_.begin(), removal_targets_.end());
+      removal_targets_.erase(std::unique(removal_targets_.begin(), removal_targets_.end()),
+                             removal_targets_.end());
+      Index best = kNoIndex;
+      double best_q = old_q;
+      for (Index w : removal_targets_) {
+        const double q = cone_quality(w, best_q);
+        if (q > best_q) {
+          best_q = q;
+          best = w;
+        }
+      }
+      if (best == kNoIndex) continue;
+      fresh_.clear();
+      for (const auto& [s, lv] : star_) {
+        Tet n = m_.tet(s);
+        if (std::find(n.begin(), n.end(), best) != n.end()) continue;
+        n[static_cast<std::size_t>(lv)] = best;
+        fresh_.push_back(n);
+      }
+      if (!fresh_holds(repair_floors(removal_star_))) continue;
+      parent_.assign(fresh_.size(), 0);
+      m_.replace_cavity(removal_star_, fresh_, parent_);
+      forget_created();
+      return true;
+    }
+    return false;
+  }
+
+  /// The worst measure of the cone from w over the link faces of star_'s
+  /// point that do not hold w, -inf when one is not positive; it stops early,
+  /// with a value <= `beat`, once the worst is no better than `beat`.
+  double cone_quality(Index w, double beat) const {
+    double q = std::numeric_limits<double>::infinity();
+    for (const auto& [s, lv] : star_) {
+      Tet n = m_.tet(s);
+      if (std::find(n.begin(), n.end(), w) != n.end()) continue;
+      n[static_cast<std::size_t>(lv)] = w;
+      q = std::min(q, measured(n));
+      if (!(q > beat)) break;
+    }
+    return q;
   }
 
   /// 2-3 flip of face f of t as flips.hpp's flip23, judged by measure().
@@ -1402,6 +1476,8 @@ class Optimizer {
   double pin_floor_ = 1.0;      ///< smoothing: a pinned tet may fall to min(its measure, this)
   double repair_floor_ = kRepairFloor;  ///< see start_repair
   std::vector<Tet> fresh_;      ///< repair flips' scratch
+  std::vector<Index> removal_star_;     ///< remove_point: the star of the point
+  std::vector<Index> removal_targets_;  ///< remove_point: its link points
   std::vector<Index> parent_;
   std::vector<double> profile_old_, profile_new_, profile_best_;
   std::vector<char> pinned_;    ///< smoothing: per link_ face, the tet over it is pinned
@@ -1543,6 +1619,7 @@ Result<OptimizeStats> optimize(TetMesh& mesh, const SizingField* sizing,
   // smallest-angle target, raising their stars' smallest angle.
   if (options.smooth && options.polish_angles && opt.polish_angles() > 0) bad = opt.bad_tets();
   st.bad_after = bad.size();
+  if (st.points_removed > 0) mesh.remove_unused_points();
   const AngleRange after = mesh_range(mesh);
   st.min_dihedral_after = after.min;
   st.max_dihedral_after = after.max;

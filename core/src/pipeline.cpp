@@ -134,7 +134,7 @@ Result<ParallelResult> mesh_parallel(const SurfaceMesh& surface, const ParallelO
   pdr.optimize_kernel = nullptr;
   std::optional<NativeLeafKernel> optimizer;
   if (options.optimize) {
-    const OptimizeOptions opt = *options.optimize;
+    const OptimizeOptions opt = leaf_optimize_options(*options.optimize);
     if (optimize_kernel == nullptr) {
       optimizer.emplace([opt](TetMesh& leaf, const SizingField& h) { return pdrmesh::optimize(leaf, &h, opt).status(); },
                         "optimize");

@@ -357,6 +357,30 @@ void TetMesh::replace_cavity(std::span<const Index> old_tets, std::span<const Te
   // ones now hold new tets, whose flags were set above.
 }
 
+std::vector<Index> TetMesh::remove_unused_points() {
+  std::vector<Index> map(points_.size(), kNoIndex);
+  for (Index t = 0; t < num_slots(); ++t)
+    if (alive(t))
+      for (Index v : cells_[t].v) map[v] = 0;
+  Index next = 0;
+  for (Index v = 0; v < num_points(); ++v) {
+    if (map[v] == kNoIndex) continue;
+    map[v] = next;
+    points_[next] = points_[v];
+    ids_[next] = ids_[v];
+    ++next;
+  }
+  if (next == num_points()) return map;
+  points_.resize(next);
+  ids_.resize(next);
+  for (Index t = 0; t < num_slots(); ++t)
+    if (alive(t))
+      for (Index& v : cells_[t].v) v = map[v];
+  for (Tri& f : boundary_)
+    for (Index& v : f) v = map[v];
+  return map;
+}
+
 std::vector<Index> TetMesh::compact() {
   const Index n = num_slots();
   std::vector<Index> map(n, kNoIndex);

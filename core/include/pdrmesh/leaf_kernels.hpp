@@ -16,6 +16,7 @@
 #include <string_view>
 
 #include "pdrmesh/leaf_task.hpp"
+#include "pdrmesh/optimize.hpp"
 #include "pdrmesh/sizing.hpp"
 #include "pdrmesh/status.hpp"
 #include "pdrmesh/tet_mesh.hpp"
@@ -65,10 +66,14 @@ class TetgenLeafKernel final : public LeafKernel {
   TetgenLeafOptions options_;
 };
 
+/// The options of an optimization leaf task: `options` with remove_points
+/// off, since a native leaf keeps every input point.
+OptimizeOptions leaf_optimize_options(OptimizeOptions options = {});
+
 /// The kernel a job names: "native" (NativeLeafKernel running refine() with
 /// default RefineOptions) or "tetgen" (TetgenLeafKernel with default options),
 /// or the kernel of the optimization rounds, "optimize" (NativeLeafKernel
-/// running optimize() with default OptimizeOptions: what mesh_parallel runs
+/// running optimize() with leaf_optimize_options(): what mesh_parallel runs
 /// there by default); invalid_input naming the choices otherwise. The same name
 /// gives the same kernel in every process, which is what makes remote leaf
 /// results identical.

@@ -64,8 +64,9 @@ struct ParallelResult {
 /// `kernel` null: make_leaf_kernel("native"). `optimize_kernel` runs the
 /// optimization's leaf tasks (PdrOptions::optimize_kernel; only with
 /// options.optimize); null: a NativeLeafKernel running optimize() with
-/// *options.optimize in this process. One given must compute the same, as
-/// make_leaf_kernel("optimize") does for the default OptimizeOptions, whether
+/// leaf_optimize_options(*options.optimize) in this process. One given must
+/// compute the same, as make_leaf_kernel("optimize") does for the default
+/// OptimizeOptions, whether
 /// it runs the task here or on a remote worker (the coordinator's dispatch).
 Result<ParallelResult> mesh_parallel(const SurfaceMesh& checked_surface, const ParallelOptions& options,
                                      const LeafKernel* kernel = nullptr, const LeafKernel* optimize_kernel = nullptr);
