@@ -84,7 +84,7 @@
 //     step). Moved points have their tets' quality cache reset.
 //
 //  4. Interior repair (interior_repair, on), after the polishing rounds, up to
-//     four rounds while the number of bad tets with no fixed point falls:
+//     six rounds while the number of bad tets with no fixed point falls:
 //     (a) flips for each such tet (slot order, then the created ones): edge
 //     removal of its edges (the most extreme dihedral angle first), 2-3 flips
 //     of its faces, then edge removal of its face neighbours' other edges,
