@@ -703,27 +703,41 @@ TEST(Pdr, TheOptimizeKernelIsMeshParallelsOwnOptimization) {
   EXPECT_NE(meshb_bytes(none->mesh, "pdr_opt_none"), meshb_bytes(own->mesh, "pdr_opt_own"));
 }
 
-// An optimization leaf task keeps every input point (leaf_optimize_options):
-// next to hinge's needle triangles the interior repair removes points, and
-// a leaf that dropped one would misnumber its output; the native kernel
-// refuses such a result, and the leaf stays as it came.
-TEST(Pdr, OptimizationLeafTasksKeepTheirPoints) {
+// Next to hinge's needle triangles the optimization's tasks remove points
+// too (leaf_optimize_options: every point keeps its index, a removed one is
+// left in no tet and run_pdr drops it), and the mesh validates; a hook whose
+// optimize() renumbered the points instead is refused, and its leaf stays as
+// it came.
+TEST(Pdr, OptimizationLeafTasksRemovePointsAndKeepTheIndices) {
   const SurfaceMesh hinge = fixtures::corpus_surface("hinge");
   ParallelOptions o;
   o.pdr = depth2(2);
-  o.pdr.depth = 1;  // the depth whose optimization tasks meet removable points
-  const NativeLeafKernel removing([](TetMesh& leaf, const SizingField& h) { return optimize(leaf, &h).status(); },
-                                  "optimize");
-  Result<ParallelResult> dropped = mesh_parallel(hinge, o, nullptr, &removing);
-  ASSERT_TRUE(dropped.ok()) << dropped.status().to_string();
-  EXPECT_GE(dropped->profile.failed_leaves, 1u);
-  EXPECT_NE(dropped->profile.first_failure.find("dropped input points"), std::string::npos)
-      << dropped->profile.first_failure;
-  expect_valid(dropped->mesh, hinge);
-  Result<ParallelResult> kept = mesh_parallel(hinge, o);
+  o.pdr.depth = 1;  // a depth whose optimization tasks meet removable points
+  std::atomic<std::size_t> removed{0};
+  const NativeLeafKernel counting(
+      [&](TetMesh& leaf, const SizingField& h) {
+        Result<OptimizeStats> st = optimize(leaf, &h, leaf_optimize_options());
+        if (st.ok()) removed += st->points_removed;
+        return st.status();
+      },
+      "optimize");
+  Result<ParallelResult> kept = mesh_parallel(hinge, o, nullptr, &counting);
   ASSERT_TRUE(kept.ok()) << kept.status().to_string();
+  EXPECT_GT(removed.load(), 0u);
   EXPECT_EQ(kept->profile.failed_leaves, 0u) << kept->profile.first_failure;
   expect_valid(kept->mesh, hinge);
+  Result<ParallelResult> own = mesh_parallel(hinge, o);
+  ASSERT_TRUE(own.ok()) << own.status().to_string();
+  EXPECT_EQ(meshb_bytes(own->mesh, "pdr_removal_own"), meshb_bytes(kept->mesh, "pdr_removal_counted"));
+
+  const NativeLeafKernel renumbering([](TetMesh& leaf, const SizingField& h) { return optimize(leaf, &h).status(); },
+                                     "optimize");
+  Result<ParallelResult> refused = mesh_parallel(hinge, o, nullptr, &renumbering);
+  ASSERT_TRUE(refused.ok()) << refused.status().to_string();
+  EXPECT_GE(refused->profile.failed_leaves, 1u);
+  EXPECT_NE(refused->profile.first_failure.find("dropped input points"), std::string::npos)
+      << refused->profile.first_failure;
+  expect_valid(refused->mesh, hinge);
 }
 
 TEST(Pdr, ResumingFromEachRoundsCheckpointGivesTheSameBytes) {

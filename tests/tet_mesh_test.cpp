@@ -246,6 +246,9 @@ TEST(TetMesh, RemoveUnusedPointsKeepsTheOthersAndTheirIds) {
   m.replace_cavity(split, whole, parent);
   ASSERT_EQ(insert_point(m, m.last_created()[0], {0.1, 0.3, 0.2}).outcome, InsertOutcome::kDone);  // point 5, id 5
   const std::vector<Tri> boundary = m.boundary();
+  TetMesh below = m;  // from index 5 on only: point 4 stays, in no tet
+  EXPECT_EQ(below.remove_unused_points(5), (std::vector<Index>{0, 1, 2, 3, 4, 5}));
+  EXPECT_EQ(below.num_points(), 6u);
 
   const std::vector<Index> map = m.remove_unused_points();
   EXPECT_EQ(map, (std::vector<Index>{0, 1, 2, 3, kNoIndex, 4}));

@@ -16,7 +16,7 @@ namespace pdrmesh {
 double regular_tet_volume(double h) { return h * h * h / (6.0 * std::sqrt(2.0)); }
 
 OptimizeOptions leaf_optimize_options(OptimizeOptions options) {
-  options.remove_points = false;
+  options.keep_point_indices = true;
   return options;
 }
 
@@ -44,9 +44,11 @@ Result<LeafTaskOutput> NativeLeafKernel::run(const LeafTaskInput& in, const Sizi
     if (!s.ok()) return Status(s.code(), fmt::format("leaf {}: refinement: {}", in.leaf, s.message()));
   }
   // The output names the input points by their index (leaf_output_from): a
-  // hook that dropped one (optimize() with remove_points) shifted the rest.
-  // Ids keep their order, so the last input point's id tells.
+  // hook that dropped one (optimize() without keep_point_indices) shifted the
+  // rest. Ids keep their order, so the last input point's id tells. New
+  // points that the hook removed again go here.
   const auto n = static_cast<Index>(in.points.size());
+  mesh->remove_unused_points(n);
   if (mesh->num_points() < n || (n > 0 && mesh->point_id(n - 1) != n - 1))
     return internal_error(
         fmt::format("leaf {}: the {} hook dropped input points (a leaf keeps them all)", in.leaf, name_));

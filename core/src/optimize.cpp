@@ -1623,7 +1623,7 @@ Result<OptimizeStats> optimize(TetMesh& mesh, const SizingField* sizing,
   // smallest-angle target, raising their stars' smallest angle.
   if (options.smooth && options.polish_angles && opt.polish_angles() > 0) bad = opt.bad_tets();
   st.bad_after = bad.size();
-  if (st.points_removed > 0) mesh.remove_unused_points();
+  if (st.points_removed > 0 && !options.keep_point_indices) mesh.remove_unused_points();
   const AngleRange after = mesh_range(mesh);
   st.min_dihedral_after = after.min;
   st.max_dihedral_after = after.max;

@@ -955,6 +955,9 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
       prof.global_optimization = seconds_since(tg);
     }
     prof.optimization = seconds_since(t0);
+    // The optimization's tasks leave the points they removed in no tet
+    // (leaf_optimize_options).
+    remove_unused_points(cur);
   }
   prof.final_tets = cur.tets.size();
   prof.total = initial_s + seconds_since(t_total);

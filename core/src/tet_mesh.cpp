@@ -357,8 +357,9 @@ void TetMesh::replace_cavity(std::span<const Index> old_tets, std::span<const Te
   // ones now hold new tets, whose flags were set above.
 }
 
-std::vector<Index> TetMesh::remove_unused_points() {
+std::vector<Index> TetMesh::remove_unused_points(Index first) {
   std::vector<Index> map(points_.size(), kNoIndex);
+  for (Index v = 0; v < std::min(first, num_points()); ++v) map[v] = 0;
   for (Index t = 0; t < num_slots(); ++t)
     if (alive(t))
       for (Index v : cells_[t].v) map[v] = 0;

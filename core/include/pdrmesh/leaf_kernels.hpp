@@ -66,8 +66,11 @@ class TetgenLeafKernel final : public LeafKernel {
   TetgenLeafOptions options_;
 };
 
-/// The options of an optimization leaf task: `options` with remove_points
-/// off, since a native leaf keeps every input point.
+/// The options of an optimization leaf task: `options` with
+/// keep_point_indices, since a leaf's output names its input points by index
+/// (NativeLeafKernel drops the removed new points; a removed input point is
+/// left out of the output's tets, as the TetGen kernel leaves out the
+/// interior ones, and run_pdr drops it after the optimization).
 OptimizeOptions leaf_optimize_options(OptimizeOptions options = {});
 
 /// The kernel a job names: "native" (NativeLeafKernel running refine() with

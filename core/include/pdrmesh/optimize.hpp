@@ -246,11 +246,13 @@ struct OptimizeOptions {
   bool polish_pins_fixed = true;
   /// Interior repair rounds after the polishing rounds (see above).
   bool interior_repair = true;
-  /// The interior repair may remove a free point (see above, 4.), leaving
-  /// fewer points than it found; optimize() renumbers the others
-  /// (TetMesh::remove_unused_points). Off for a leaf task, whose output keeps
-  /// every input point (leaf_optimize_options, leaf_kernels.hpp).
+  /// The interior repair may remove a free point (see above, 4.); optimize()
+  /// then drops it and renumbers the others (TetMesh::remove_unused_points).
   bool remove_points = true;
+  /// Removed points stay in the mesh, used by no tet, so that every point
+  /// keeps its index; the caller drops them. For a leaf task, whose output
+  /// names its input points by index (leaf_optimize_options, leaf_kernels.hpp).
+  bool keep_point_indices = false;
   /// Cap repair after the interior repair rounds (5. above; needs a sizing
   /// field and insert_points).
   bool repair_caps = true;
@@ -287,7 +289,8 @@ Status validate(const OptimizeOptions& options);
 /// or not). `sizing` may be null (no point insertion then). invalid_input on bad
 /// options; the mesh is left valid (TetMesh::check) in every case. When the
 /// interior repair removed points, the others are renumbered at the end
-/// (TetMesh::remove_unused_points: their order and global ids stay).
+/// (TetMesh::remove_unused_points: their order and global ids stay), unless
+/// keep_point_indices.
 Result<OptimizeStats> optimize(TetMesh& mesh, const SizingField* sizing,
                                const OptimizeOptions& options = {});
 

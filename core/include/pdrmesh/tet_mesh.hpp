@@ -89,12 +89,12 @@ class TetMesh {
   /// Moves point v to p (smoothing). The caller keeps every tet around v
   /// positive (exact::orient3d) and calls invalidate_quality on each of them.
   void set_point(Index v, const Vec3& p) { points_[v] = p; }
-  /// Drops the points that no alive tet uses (the optimizer's point removal
-  /// leaves them behind), keeping the order and the global ids of the others;
-  /// the tets and boundary triangles are renumbered (a dead slot's stale
-  /// vertices are not). Returns old index -> new index (kNoIndex for a
-  /// dropped point).
-  std::vector<Index> remove_unused_points();
+  /// Drops the points from index `first` on that no alive tet uses (the
+  /// optimizer's point removal leaves them behind), keeping the order and the
+  /// global ids of the others; the tets and boundary triangles are renumbered
+  /// (a dead slot's stale vertices are not). Returns old index -> new index
+  /// (kNoIndex for a dropped point).
+  std::vector<Index> remove_unused_points(Index first = 0);
 
   // ---- tets
   /// Number of slots, alive or dead; tet indices run below this.
