@@ -10,11 +10,17 @@
 # the tets with no boundary vertex (imin/imax), share of tets with an angle under 10 degrees, and
 # pdrmesh's ratios to each peer (tets per second, minimum angle).
 #   bench/peers.sh [SURFACE...]     (default: the small corpus surfaces; needs install-deps.sh --bench)
+#   PEERS_SIZE=diag100 bench/peers.sh ...   pdrmesh at --size = bounding-box diagonal / 100 (the
+#                                           refiner issue's second size; the peers follow its count)
+#   PEERS_TIMEOUT=S                         seconds each run may take (default 1800)
 set -uo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 corpus=${CORPUS:-$root/../shared/corpus}
 pdrmesh=${PDRMESH:-$root/build/client/pdrmesh}
 names=("$@"); ((${#names[@]})) || names=(sphere966 bunny_npm hinge elephant couplingdown knot2 fandisk primitives13)
+size=${PEERS_SIZE:-default}
+limit=${PEERS_TIMEOUT:-1800}
+[[ $size == default || $size == diag100 ]] || { echo "PEERS_SIZE: default or diag100" >&2; exit 1; }
 for tool in tetgen gmsh /usr/bin/time; do
   command -v "$tool" >/dev/null || { echo "needs $tool: scripts/install-deps.sh --bench" >&2; exit 1; }
 done
@@ -40,12 +46,19 @@ row() {  # row SURFACE TOOL MESHFILE
   echo "$(field tets "$q") $secs $(field min_dihedral "$q")" >"$tmp/$2.sum"
 }
 
+echo "pdrmesh size: $size"
 echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'); $(date -u +%F)"
 echo "versions: $("$pdrmesh" --version), TetGen 1.5 (Debian tetgen), Gmsh $(gmsh --version 2>&1 | head -1)"
 printf '%-13s %-8s %10s %8s %9s %8s %7s %7s %7s %7s %9s\n' surface tool tets seconds tets/s peak_MB min max imin imax under10
 for n in "${names[@]}"; do
   stl=$corpus/$n.stl
-  run pdrmesh 1800 "$pdrmesh" mesh -q "$stl" -o "$tmp/p.meshb"
+  size_args=()
+  if [[ $size == diag100 ]]; then  # the diagonal of the points' bounding box, from the .mesh twin
+    size_args=(--size "$(awk '/^Vertices/ { getline n; for (i = 0; i < n; ++i) { getline; for (k = 1; k <= 3; ++k) {
+      if (i == 0 || $k < lo[k]) lo[k] = $k; if (i == 0 || $k > hi[k]) hi[k] = $k } } exit }
+      END { printf "%.6g", sqrt((hi[1]-lo[1])^2 + (hi[2]-lo[2])^2 + (hi[3]-lo[3])^2) / 100 }' "$corpus/$n.mesh")")
+  fi
+  run pdrmesh "$limit" "$pdrmesh" mesh -q "$stl" "${size_args[@]}" -o "$tmp/p.meshb"
   row "$n" pdrmesh "$tmp/p.meshb" || continue
   tets=$(field tets "$tmp/pdrmesh.q"); vol=$(field volume "$tmp/pdrmesh.q")
   a=$(awk -v v="$vol" -v t="$tets" 'BEGIN { printf "%.6g", 2 * v / t }')
@@ -56,8 +69,8 @@ for n in "${names[@]}"; do
   # gave, so that its tet count matches pdrmesh's (within a few per cent).
   for pass in 1 2; do
     rm -f "$tmp"/s.1.* "$tmp/g.msh"
-    run tetgen 1800 tetgen -pYq1.414a"$a"gQ "$tmp/s.stl"
-    (cd "$tmp" && run gmsh-hxt 1800 gmsh -3 -nt 1 -setnumber Mesh.Algorithm3D 10 -setnumber Mesh.Optimize 1 \
+    run tetgen "$limit" tetgen -pYq1.414a"$a"gQ "$tmp/s.stl"
+    (cd "$tmp" && run gmsh-hxt "$limit" gmsh -3 -nt 1 -setnumber Mesh.Algorithm3D 10 -setnumber Mesh.Optimize 1 \
        -setnumber Mesh.MeshSizeMax "$h" s.geo -o g.msh -format msh41)
     [[ $pass == 2 ]] && break
     tt=$("$pdrmesh" quality --json "$tmp/s.1.mesh" 2>/dev/null | sed -n 's/.*"tets":\([0-9]*\).*/\1/p')
