@@ -630,12 +630,8 @@ class Optimizer {
       }
       if (best == kNoIndex) continue;
       fresh_.clear();
-      for (const auto& [s, lv] : star_) {
-        Tet n = m_.tet(s);
-        if (std::find(n.begin(), n.end(), best) != n.end()) continue;
-        n[static_cast<std::size_t>(lv)] = best;
-        fresh_.push_back(n);
-      }
+      for (const auto& [s, lv] : star_)
+        if (const std::optional<Tet> n = cone_tet(s, lv, best)) fresh_.push_back(*n);
       if (!fresh_holds(repair_floors(removal_star_))) continue;
       parent_.assign(fresh_.size(), 0);
       m_.replace_cavity(removal_star_, fresh_, parent_);
@@ -645,16 +641,24 @@ class Optimizer {
     return false;
   }
 
+  /// The tet of the cone from w that replaces star tet s (whose point lv is
+  /// the removed one): s with w in that place; none when s holds w (it goes).
+  std::optional<Tet> cone_tet(Index s, int lv, Index w) const {
+    Tet n = m_.tet(s);
+    if (std::find(n.begin(), n.end(), w) != n.end()) return std::nullopt;
+    n[static_cast<std::size_t>(lv)] = w;
+    return n;
+  }
+
   /// The worst measure of the cone from w over the link faces of star_'s
   /// point that do not hold w, -inf when one is not positive; it stops early,
   /// with a value <= `beat`, once the worst is no better than `beat`.
   double cone_quality(Index w, double beat) const {
     double q = std::numeric_limits<double>::infinity();
     for (const auto& [s, lv] : star_) {
-      Tet n = m_.tet(s);
-      if (std::find(n.begin(), n.end(), w) != n.end()) continue;
-      n[static_cast<std::size_t>(lv)] = w;
-      q = std::min(q, measured(n));
+      const std::optional<Tet> n = cone_tet(s, lv, w);
+      if (!n) continue;
+      q = std::min(q, measured(*n));
       if (!(q > beat)) break;
     }
     return q;
