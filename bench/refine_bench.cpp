@@ -186,11 +186,12 @@ void run(const std::string& dir, const std::string& name, bool fine) {
   }
   const double n = band.edges == 0 ? 1.0 : double(band.edges);
   const double cpu = refine_cpu + optimize_cpu;
-  fmt::print("{:<13} {:>5} {:>9} {:>4} {:>6.2f} {:>6.2f} {:>6.2f} {:>9.0f} {:>6.1f}% {:>5.1f}% {:>5.1f}% {:>6.1f} {:>6.1f} {:>6.1f} {:>6.1f} {:>6.1f}% {:>6.3f}% {}\n",
+  fmt::print("{:<13} {:>5} {:>9} {:>4} {:>6.2f} {:>6.2f} {:>6.2f} {:>9.0f} {:>6.1f}% {:>5.1f}% {:>5.1f}% {:>6.1f} {:>6.1f} {:>6.1f} {:>6.1f} {:>6.1f}% {:>6} {:>6.3f}% {}\n",
              name, fine ? "d/100" : "dflt", out.tets.size(), stats->passes.size(), refine_cpu, optimize_cpu,
              seconds, double(out.tets.size()) / cpu, 100.0 * double(band.within) / n, 100.0 * double(band.shorter) / n,
              100.0 * double(band.longer) / n, all.min, all.max, inner.min, inner.max,
              inner_tets ? 100.0 * double(inner_good) / double(inner_tets) : 0.0,
+             inner_tets - inner_good,
              out.tets.empty() ? 0.0 : 100.0 * double(under10) / double(out.tets.size()),
              report.ok() ? "valid" : "INVALID: " + (report.errors.empty() ? std::string() : report.errors[0]));
   std::fflush(stdout);
@@ -205,9 +206,9 @@ int main(int argc, char** argv) {
   if (names.empty())
     names = {"sphere966", "bunny_npm", "hinge", "elephant", "couplingdown",
              "knot2", "fandisk", "primitives13", "armadillo", "frame"};
-  fmt::print("{:<13} {:>5} {:>9} {:>4} {:>6} {:>6} {:>6} {:>9} {:>7} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>7} {:>7} {}\n", "surface",
+  fmt::print("{:<13} {:>5} {:>9} {:>4} {:>6} {:>6} {:>6} {:>9} {:>7} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>7} {:>6} {:>7} {}\n", "surface",
              "size", "tets", "pass", "ref_s", "opt_s", "wall_s", "tets/cpu_s", "in[.6,1.5]", "<.6", ">1.5", "dmin", "dmax", "idmin",
-             "idmax", "i[15,150]", "<10deg", "validate");
+             "idmax", "i[15,150]", "i_out", "<10deg", "validate");
   const char* sizes = std::getenv("PDRMESH_BENCH_SIZES");  // "dflt", "d100" or both (unset)
   for (const std::string& name : names)
     for (bool fine : {false, true})

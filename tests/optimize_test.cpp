@@ -356,6 +356,61 @@ TEST(Optimize, PolishingRoundsWorkOnTheInteriorAlone) {
   expect_valid(m, nullptr);
 }
 
+TEST(Optimize, MarginPolishRaisesInteriorTetsToTheTargetsAndLosesNoOther) {
+  // The margin polish alone (no sweeps, no angle polish): only points move,
+  // so the tets keep their slots and each can be compared with itself.
+  const VolumeMesh v = jittered_grid(5, 0.45);
+  const auto on_hull = hull_points(v);
+  TetMesh m = fixtures::build(v);
+  OptimizeOptions o;
+  o.sweeps = 0;
+  o.polish_angles = false;
+  o.target_min_dihedral = 35;
+  o.target_max_dihedral = 110;
+  const auto ranges = [](const TetMesh& mesh) {
+    std::vector<AngleRange> r(mesh.num_slots());
+    for (Index t = 0; t < mesh.num_slots(); ++t) {
+      const Tet& k = mesh.tet(t);
+      if (mesh.alive(t)) r[t] = dihedral_range(mesh.point(k[0]), mesh.point(k[1]), mesh.point(k[2]), mesh.point(k[3]));
+    }
+    return r;
+  };
+  const std::vector<AngleRange> before = ranges(m);
+  const std::size_t bad_before = interior_bad(m, on_hull, 35, 110);
+  const double volume = fixtures::total_volume(m);
+  auto st = optimize(m, nullptr, o);
+  ASSERT_TRUE(st.ok());
+  EXPECT_GT(st->margin_moves, 0u);
+  EXPECT_EQ(st->margin_moves, st->points_moved);
+  EXPECT_EQ(st->flips, 0u);
+  EXPECT_GT(bad_before, 0u);
+  EXPECT_LT(interior_bad(m, on_hull, 35, 110), bad_before);
+  const std::vector<AngleRange> after = ranges(m);
+  ASSERT_EQ(after.size(), before.size());
+  for (Index t = 0; t < m.num_slots(); ++t) {
+    if (!m.alive(t)) continue;
+    bool hull = false;
+    for (Index u : m.tet(t)) hull = hull || on_hull[m.point_id(u)] != 0;
+    if (hull) {  // a tet with a surface point stays within [min(10, old), max(165, old)]
+      EXPECT_GE(after[t].min, std::min(10.0, before[t].min)) << "tet " << t;
+      EXPECT_LE(after[t].max, std::max(165.0, before[t].max)) << "tet " << t;
+    } else if (before[t].min >= 35 && before[t].max <= 110) {  // within the targets: stays
+      EXPECT_GE(after[t].min, 35.0) << "tet " << t;
+      EXPECT_LE(after[t].max, 110.0) << "tet " << t;
+    }
+  }
+  // Off, nothing moves.
+  TetMesh still = fixtures::build(v);
+  o.polish_margins = false;
+  auto none = optimize(still, nullptr, o);
+  ASSERT_TRUE(none.ok());
+  EXPECT_EQ(none->points_moved, 0u);
+  EXPECT_EQ(interior_bad(still, on_hull, 35, 110), bad_before);
+  expect_hull_points_kept(m, v);
+  EXPECT_NEAR(fixtures::total_volume(m), volume, 1e-12 * volume);
+  expect_valid(m, nullptr);
+}
+
 /// `pdrmesh mesh` of corpus surface `name` at the default spacing: every
 /// dihedral angle within [lo, hi] (as `pdrmesh quality` reports), and valid.
 void expect_serial_angles_within(const char* name, double lo, double hi) {

@@ -134,6 +134,8 @@ constexpr std::array<double, 2> kRelaxedCapAngles{10.0, 165.0};
 /// more tets and 37.8% of them under 10 degrees instead of 33.2% without
 /// this bound; sphere966's flat tets lie on triangles of 15 degrees or more.
 constexpr double kCapMinTriangleAngle = 15.0;
+/// Rounds of the margin polish (polish_margins; each ends the polish when it moves nothing).
+constexpr int kMarginRounds = 4;
 
 AngleRange mesh_range(const TetMesh& m);
 
@@ -463,6 +465,31 @@ class Optimizer {
     for (Index v = 0; v < np; ++v)
       if (wanted[v] && (v >= fixed_.size() || !fixed_[v]) && polish_point(v, one_tet[v])) ++moved;
     st_.points_moved += moved;
+    return moved;
+  }
+
+  /// Margin polish (optimize.hpp, 7.): up to kMarginRounds rounds over the
+  /// free points of the bad tets with no surface point, ascending, each
+  /// moved by margin_point. Returns the moves.
+  std::size_t polish_margins() {
+    find_fixed();
+    std::size_t moved = 0;
+    for (int round = 0; round < kMarginRounds; ++round) {
+      const Index np = m_.num_points();
+      const std::vector<Index> one_tet = first_tet_per_point();
+      std::vector<char> wanted(np, 0);
+      for (Index t = 0; t < m_.num_slots(); ++t) {
+        if (!m_.alive(t) || badness(t) == Badness::kGood || repair_class(m_.tet(t)) == 1) continue;
+        for (Index v : m_.tet(t)) wanted[v] = 1;
+      }
+      std::size_t now = 0;
+      for (Index v = 0; v < np; ++v)
+        if (wanted[v] && !fixed_[v] && margin_point(v, one_tet[v])) ++now;
+      moved += now;
+      if (now == 0) break;
+    }
+    st_.points_moved += moved;
+    st_.margin_moves += moved;
     return moved;
   }
 
@@ -1067,6 +1094,65 @@ class Optimizer {
     return true;
   }
 
+  /// How far the dihedral angles of r lie inside the targets, in degrees:
+  /// negative for a tet outside them (by its worse side).
+  double margin(const AngleRange& r) const {
+    return std::min(r.min - o_.target_min_dihedral, o_.target_max_dihedral - r.max);
+  }
+
+  /// Margin polish of v (polish_margins): a compass search for the position
+  /// that raises the smallest margin() of v's star's tets with no surface
+  /// point, every tet positive (exact); such a tet within the targets stays
+  /// within them, and a tet with a surface point keeps its angles within
+  /// [min(kRelaxedCapAngles[0], its old smallest), max(kRelaxedCapAngles[1],
+  /// its old largest)]. True when v moved.
+  bool margin_point(Index v, Index start) {
+    gather_link(v, start);
+    const Vec3 old = m_.point(v);
+    double worst = std::numeric_limits<double>::infinity();
+    polish_bounds_.clear();
+    margin_kind_.clear();
+    for (const Tri& f : link_) {
+      const AngleRange r = dihedral_range(m_.point(f[0]), m_.point(f[1]), m_.point(f[2]), old);
+      if (on_surface(f)) {
+        margin_kind_.push_back(MarginKind::kSurface);
+        polish_bounds_.push_back({std::min(kRelaxedCapAngles[0], r.min), std::max(kRelaxedCapAngles[1], r.max)});
+        continue;
+      }
+      const double q = margin(r);
+      margin_kind_.push_back(q >= 0 ? MarginKind::kGood : MarginKind::kBad);
+      polish_bounds_.push_back(r);
+      worst = std::min(worst, q);
+    }
+    if (!(worst < 0)) return false;
+    gather_link_points();
+    const Vec3 best = compass_search(old, [&](const Vec3& y) {
+      double lowest = std::numeric_limits<double>::infinity();
+      for (std::size_t i = 0; i < link_.size(); ++i) {
+        const Vec3 &a = m_.point(link_[i][0]), &b = m_.point(link_[i][1]), &c = m_.point(link_[i][2]);
+        if (exact::orient3d(a, b, c, y) <= 0) return false;
+        const AngleRange r = dihedral_range(a, b, c, y);
+        switch (margin_kind_[i]) {
+          case MarginKind::kSurface:
+            if (r.min < polish_bounds_[i].min || r.max > polish_bounds_[i].max) return false;
+            break;
+          case MarginKind::kGood:
+            if (margin(r) < 0) return false;
+            break;
+          case MarginKind::kBad:
+            lowest = std::min(lowest, margin(r));
+            if (!(lowest > worst)) return false;
+            break;
+        }
+      }
+      worst = lowest;
+      return true;
+    });
+    if (best == old) return false;
+    move_point(v, best);
+    return true;
+  }
+
   /// Whether boundary triangle i is on the surface, not a leaf's interface: a
   /// non-zero id, or any triangle when there are no ids.
   bool surface_triangle(std::size_t i) const {
@@ -1499,7 +1585,11 @@ class Optimizer {
     double least2;
   };
   std::vector<EdgeBound> edge_bounds_;
-  std::vector<AngleRange> polish_bounds_;  ///< angle polish: per link_ face, the angles (degrees) accepted
+  std::vector<AngleRange> polish_bounds_;
+  /// Margin polish: per link_ face, the tet over it has a surface point, or
+  /// none and is within the targets, or none and is not.
+  enum class MarginKind : unsigned char { kSurface, kGood, kBad };
+  std::vector<MarginKind> margin_kind_;  ///< angle polish: per link_ face, the angles (degrees) accepted
   std::size_t flips_this_sweep_ = 0;
   std::size_t flip_budget_ = 0;
   /// Per slot: 1 + the Badness of the tet while known, 0 when unknown. Cleared
@@ -1626,6 +1716,9 @@ Result<OptimizeStats> optimize(TetMesh& mesh, const SizingField* sizing,
   // Angle polish (optimize.hpp, 6.): the free points of the tets under the
   // smallest-angle target, raising their stars' smallest angle.
   if (options.smooth && options.polish_angles && opt.polish_angles() > 0) bad = opt.bad_tets();
+  // Margin polish (optimize.hpp, 7.): the free points of the bad tets with
+  // no surface point, raising their stars' worst margin to the targets.
+  if (options.smooth && options.polish_margins && opt.polish_margins() > 0) bad = opt.bad_tets();
   st.bad_after = bad.size();
   if (st.points_removed > 0 && !options.keep_point_indices) mesh.remove_unused_points();
   const AngleRange after = mesh_range(mesh);
