@@ -726,6 +726,8 @@ TEST(Pdr, OptimizationLeafTasksRemovePointsAndKeepTheIndices) {
   EXPECT_GT(removed.load(), 0u);
   EXPECT_EQ(kept->profile.failed_leaves, 0u) << kept->profile.first_failure;
   expect_valid(kept->mesh, hinge);
+  // The profile counts the points of the result, after the removals.
+  EXPECT_EQ(kept->profile.interior_points, kept->mesh.points.size() - hinge.points.size());
   Result<ParallelResult> own = mesh_parallel(hinge, o);
   ASSERT_TRUE(own.ok()) << own.status().to_string();
   EXPECT_EQ(meshb_bytes(own->mesh, "pdr_removal_own"), meshb_bytes(kept->mesh, "pdr_removal_counted"));

@@ -916,7 +916,6 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
   prof.fixups = prof.partition_swap + prof.boundary_extraction;
 
   remove_unused_points(cur);  // nothing to remove when resumed after it
-  prof.interior_points = cur.points.size() - surface.points.size();
   if (options.optimize_kernel != nullptr || options.optimize) {
     if (!report("optimization", cur.tets.size())) return cancelled("stopped before the optimization");
     const auto t0 = Clock::now();
@@ -959,6 +958,7 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
     // (leaf_optimize_options).
     remove_unused_points(cur);
   }
+  prof.interior_points = cur.points.size() - surface.points.size();  // after the optimization's removals
   prof.final_tets = cur.tets.size();
   prof.total = initial_s + seconds_since(t_total);
   ids.to_user(cur.boundary_ids);
