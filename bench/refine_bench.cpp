@@ -7,15 +7,17 @@
 // wall time together, tets per CPU second of refinement + optimization, the share of interior edges (no boundary
 // endpoint) with length in [0.6, 1.5] h(midpoint) (and the shares below/above),
 // dihedral extremes over all tets and over interior tets (no boundary vertex),
-// the share of interior tets with every dihedral angle in [15, 150], and the
-// share of all tets with a dihedral angle under 10 degrees.
+// the share of interior tets with every dihedral angle in [15, 150] and the
+// number outside it (i_out), and the share of all tets with a dihedral angle
+// under 10 degrees.
 // Not a test: it asserts nothing.
 //   usage: pdrmesh_bench_refine [CORPUS_DIR [NAME...]]
 //   environment: PDRMESH_BENCH_SIZES=dflt|d100 (one size only), PDRMESH_BENCH_VERBOSE
 //   (per-pass lines), PDRMESH_BENCH_NO_OPTIMIZE, PDRMESH_BENCH_NO_MIN_MAX,
 //   PDRMESH_BENCH_EACH_INSERTION (min-max step after each insertion), PDRMESH_BENCH_MIN_MAX_ANGLE=A,
 //   PDRMESH_BENCH_SWEEPS=N (optimization sweeps), PDRMESH_BENCH_NO_REPAIR (no interior repair),
-//   PDRMESH_BENCH_NO_POLISH (no angle polish), PDRMESH_BENCH_LONG_EDGE_RATIO=R,
+//   PDRMESH_BENCH_NO_POLISH (no angle polish), PDRMESH_BENCH_NO_MARGIN (no margin polish),
+//   PDRMESH_BENCH_LONG_EDGE_RATIO=R,
 //   PDRMESH_BENCH_NO_VOID_MIDPOINTS, PDRMESH_BENCH_NO_SPATIAL_ORDER (RefineOptions::spatial_order off),
 //   PDRMESH_BENCH_SPATIAL_ORDER_MIN_TETS=N (RefineOptions::spatial_order_min_tets),
 //   PDRMESH_BENCH_REJECT=D, PDRMESH_BENCH_BOUNDARY_REJECT=D (RefineOptions' reject distances),
@@ -107,6 +109,7 @@ void run(const std::string& dir, const std::string& name, bool fine) {
     if (std::getenv("PDRMESH_BENCH_NO_INSERT") != nullptr) oo.insert_points = false;
     if (std::getenv("PDRMESH_BENCH_NO_CAPS") != nullptr) oo.repair_caps = false;
     if (std::getenv("PDRMESH_BENCH_NO_POLISH") != nullptr) oo.polish_angles = false;
+    if (std::getenv("PDRMESH_BENCH_NO_MARGIN") != nullptr) oo.polish_margins = false;
     if (std::getenv("PDRMESH_BENCH_NO_REMOVE") != nullptr) oo.remove_points = false;
     auto ostats = optimize(*mesh, &*field, oo);
     if (verbose && ostats.ok())
