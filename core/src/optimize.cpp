@@ -1585,11 +1585,13 @@ class Optimizer {
     double least2;
   };
   std::vector<EdgeBound> edge_bounds_;
+  /// Angle and margin polish: per link_ face, the angles (degrees) accepted
+  /// (the margin polish reads them for the tets with a surface point only).
   std::vector<AngleRange> polish_bounds_;
   /// Margin polish: per link_ face, the tet over it has a surface point, or
   /// none and is within the targets, or none and is not.
   enum class MarginKind : unsigned char { kSurface, kGood, kBad };
-  std::vector<MarginKind> margin_kind_;  ///< angle polish: per link_ face, the angles (degrees) accepted
+  std::vector<MarginKind> margin_kind_;
   std::size_t flips_this_sweep_ = 0;
   std::size_t flip_budget_ = 0;
   /// Per slot: 1 + the Badness of the tet while known, 0 when unknown. Cleared
