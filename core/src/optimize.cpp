@@ -476,12 +476,15 @@ class Optimizer {
     std::size_t moved = 0;
     for (int round = 0; round < kMarginRounds; ++round) {
       const Index np = m_.num_points();
-      const std::vector<Index> one_tet = first_tet_per_point();
       std::vector<char> wanted(np, 0);
+      bool any = false;
       for (Index t = 0; t < m_.num_slots(); ++t) {
         if (!m_.alive(t) || badness(t) == Badness::kGood || repair_class(m_.tet(t)) == 1) continue;
         for (Index v : m_.tet(t)) wanted[v] = 1;
+        any = true;
       }
+      if (!any) break;  // most meshes: no star walks, no vertex -> tet map
+      const std::vector<Index> one_tet = first_tet_per_point();
       std::size_t now = 0;
       for (Index v = 0; v < np; ++v)
         if (wanted[v] && !fixed_[v] && margin_point(v, one_tet[v])) ++now;
