@@ -484,6 +484,7 @@ class Optimizer {
         any = true;
       }
       if (!any) break;  // most meshes: no star walks, no vertex -> tet map
+      mesh_angles_ = mesh_range(m_);
       const std::vector<Index> one_tet = first_tet_per_point();
       std::size_t now = 0;
       for (Index v = 0; v < np; ++v)
@@ -1103,12 +1104,26 @@ class Optimizer {
     return std::min(r.min - o_.target_min_dihedral, o_.target_max_dihedral - r.max);
   }
 
+  /// The angles the margin polish lets a tet with a surface point reach from
+  /// `old`: a side within kRelaxedCapAngles stays within it (no tet crosses
+  /// 10 or 165 degrees), a side already past it may go as far as the mesh's
+  /// extreme on that side when the round began (mesh_angles_), so neither
+  /// the smallest angle over all tets nor the share under 10 degrees gets
+  /// worse. Next to needle triangles the tets on the surface are that bad
+  /// anyway: letting them move within that range took hinge at diag/100
+  /// from 376 interior tets outside [15, 150] to 333 and couplingdown from 25
+  /// to 23 (session 17, `pdrmesh_bench_refine`), where [min(10, old), max(165,
+  /// old)] held them to their own extremes.
+  AngleRange surface_bounds(const AngleRange& old) const {
+    return {old.min < kRelaxedCapAngles[0] ? std::min(mesh_angles_.min, old.min) : kRelaxedCapAngles[0],
+            old.max > kRelaxedCapAngles[1] ? std::max(mesh_angles_.max, old.max) : kRelaxedCapAngles[1]};
+  }
+
   /// Margin polish of v (polish_margins): a compass search for the position
   /// that raises the smallest margin() of v's star's tets with no surface
   /// point, every tet positive (exact); such a tet within the targets stays
   /// within them, and a tet with a surface point keeps its angles within
-  /// [min(kRelaxedCapAngles[0], its old smallest), max(kRelaxedCapAngles[1],
-  /// its old largest)]. True when v moved.
+  /// surface_bounds(its old angles). True when v moved.
   bool margin_point(Index v, Index start) {
     gather_link(v, start);
     const Vec3 old = m_.point(v);
@@ -1119,7 +1134,7 @@ class Optimizer {
       const AngleRange r = dihedral_range(m_.point(f[0]), m_.point(f[1]), m_.point(f[2]), old);
       if (on_surface(f)) {
         margin_kind_.push_back(MarginKind::kSurface);
-        polish_bounds_.push_back({std::min(kRelaxedCapAngles[0], r.min), std::max(kRelaxedCapAngles[1], r.max)});
+        polish_bounds_.push_back(surface_bounds(r));
         continue;
       }
       const double q = margin(r);
@@ -1595,6 +1610,8 @@ class Optimizer {
   /// none and is within the targets, or none and is not.
   enum class MarginKind : unsigned char { kSurface, kGood, kBad };
   std::vector<MarginKind> margin_kind_;
+  /// Margin polish: the mesh's extreme dihedral angles when the round began.
+  AngleRange mesh_angles_{};
   std::size_t flips_this_sweep_ = 0;
   std::size_t flip_budget_ = 0;
   /// Per slot: 1 + the Badness of the tet while known, 0 when unknown. Cleared

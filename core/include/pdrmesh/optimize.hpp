@@ -204,15 +204,18 @@
 //     inside the targets (min(smallest - target_min_dihedral,
 //     target_max_dihedral - largest), negative outside); every tet stays
 //     positive, such a tet within the targets stays within them, and a tet
-//     with a surface point keeps its angles within [min(10, its smallest),
-//     max(165, its largest)] degrees (so no tet falls under 10 degrees that
-//     was not). The angle polish above raises the smallest angle alone and
+//     with a surface point keeps each side within [10, 165] degrees where it
+//     was within, and within the mesh's extreme on that side where it was
+//     past (so no tet falls under 10 degrees that was not, and the extremes
+//     over all tets stay). The angle polish above raises the smallest angle alone and
 //     leaves tets that are bad by a large angle, or bad by both next to a
 //     worse neighbour; the repair rounds judge a star by the measure, which
 //     may balance a tet just outside the targets against others. This took
 //     couplingdown's interior at diag/100 from 42 tets outside [15, 150] to
 //     25 and hinge's from 552 to 376 (session 16, `pdrmesh_bench_refine`;
-//     the other surfaces had none and are unchanged).
+//     the other surfaces had none and are unchanged), and the bounds of the
+//     tets with a surface point as above (session 17; [min(10, smallest),
+//     max(165, largest)] before) to 23 and 333.
 //
 // Guarantees: frozen faces keep their vertices and coordinates (flips and
 // insertion refuse them; their points are fixed); hull faces and region
