@@ -560,12 +560,18 @@ class Optimizer {
 
   /// The floors of a repair operation replacing `tets`, per repair_class: the
   /// worst measure of the class, capped at 1 (at repair_floor() for class 1).
-  std::array<double, 3> repair_floors(std::span<const Index> tets) const {
+  /// With `worst`, also the worst measure over all of them, uncapped (each
+  /// tet is measured once).
+  std::array<double, 3> repair_floors(std::span<const Index> tets, double* worst = nullptr) const {
     std::array<double, 3> q{1.0, repair_floor_, 1.0};
+    double lowest = std::numeric_limits<double>::infinity();
     for (Index t : tets) {
+      const double m = measure(corners(m_, m_.tet(t)));
       double& f = q[static_cast<std::size_t>(repair_class(m_.tet(t)))];
-      f = std::min(f, measure(corners(m_, m_.tet(t))));
+      f = std::min(f, m);
+      lowest = std::min(lowest, m);
     }
+    if (worst != nullptr) *worst = lowest;
     return q;
   }
 
@@ -610,14 +616,14 @@ class Optimizer {
     EdgeRing r;
     if (removable_edge_ring(m_, t, e, 0, r) != FlipOutcome::kDone) return false;
     const auto old = std::span<const Index>(r.tets.data(), static_cast<std::size_t>(r.size));
-    double old_q = std::numeric_limits<double>::infinity();
-    for (Index u : old) old_q = std::min(old_q, measure(corners(m_, m_.tet(u))));
+    double old_q = 0.0;
+    const std::array<double, 3> floors = repair_floors(old, &old_q);
     RingTriangulation best;
     if (!best_ring_triangulation(
             r, old_q, [this](const Tet& k) { return measured(k); }, [](int, int, int) { return false; }, best))
       return false;
     fresh_.assign(best.tets.begin(), best.tets.begin() + best.count);
-    if (!fresh_holds(repair_floors(old))) return false;
+    if (!fresh_holds(floors)) return false;
     parent_.assign(fresh_.size(), 0);
     m_.replace_cavity(old, fresh_, parent_);
     forget_created();
@@ -638,11 +644,9 @@ class Optimizer {
     for (Index v : k) {
       if ((v < fixed_.size() && fixed_[v] != 0) || !gather_star(v, t, kRemovalMaxStar)) continue;
       removal_star_.clear();
-      double old_q = std::numeric_limits<double>::infinity();
-      for (const auto& [s, lv] : star_) {
-        removal_star_.push_back(s);
-        old_q = std::min(old_q, measure(corners(m_, m_.tet(s))));
-      }
+      for (const auto& [s, lv] : star_) removal_star_.push_back(s);
+      double old_q = 0.0;
+      const std::array<double, 3> floors = repair_floors(removal_star_, &old_q);
       removal_targets_.clear();
       for (const auto& [s, lv] : star_)
         for (Index u : m_.tet(s))
@@ -663,7 +667,7 @@ class Optimizer {
       fresh_.clear();
       for (const auto& [s, lv] : star_)
         if (const std::optional<Tet> n = cone_tet(s, lv, best)) fresh_.push_back(*n);
-      if (!fresh_holds(repair_floors(removal_star_))) continue;
+      if (!fresh_holds(floors)) continue;
       parent_.assign(fresh_.size(), 0);
       m_.replace_cavity(removal_star_, fresh_, parent_);
       forget_created();
@@ -705,12 +709,13 @@ class Optimizer {
     const Index a = kt[topo::kFaceVertex[f][0]], b = kt[topo::kFaceVertex[f][1]];
     const Index c = kt[topo::kFaceVertex[f][2]], d = kt[f];
     const Index e = m_.tet(u)[face_local(n)];
-    const double old_q = std::min(measure(corners(m_, kt)), measure(corners(m_, m_.tet(u))));
+    const std::array<Index, 2> old{t, u};
+    double old_q = 0.0;
+    const std::array<double, 3> floors = repair_floors(old, &old_q);
     fresh_.assign({Tet{a, b, d, e}, Tet{b, c, d, e}, Tet{c, a, d, e}});
     for (const Tet& k : fresh_)
       if (!(measured(k) > old_q)) return false;
-    const std::array<Index, 2> old{t, u};
-    if (!fresh_holds(repair_floors(old))) return false;
+    if (!fresh_holds(floors)) return false;
     parent_.assign(3, 0);
     m_.replace_cavity(old, fresh_, parent_);
     forget_created();
