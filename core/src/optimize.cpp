@@ -136,6 +136,7 @@ constexpr std::array<double, 2> kRelaxedCapAngles{10.0, 165.0};
 constexpr double kCapMinTriangleAngle = 15.0;
 /// Rounds of the margin polish (polish_margins; each ends the polish when it moves nothing).
 constexpr int kMarginRounds = 4;
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
 
 AngleRange mesh_range(const TetMesh& m);
 
@@ -1083,24 +1084,9 @@ class Optimizer {
       const AngleRange r = dihedral_range(m_.point(f[0]), m_.point(f[1]), m_.point(f[2]), old);
       polish_bounds_.push_back({std::min(o_.target_min_dihedral, r.min), std::max(o_.target_max_dihedral, r.max)});
     }
-    double best_min = before.min;
-    gather_link_points();
-    const Vec3 best = compass_search(old, [&](const Vec3& y) {
-      double smallest = 180.0;
-      for (std::size_t i = 0; i < link_.size(); ++i) {
-        const Vec3 &a = m_.point(link_[i][0]), &b = m_.point(link_[i][1]), &c = m_.point(link_[i][2]);
-        if (exact::orient3d(a, b, c, y) <= 0) return false;
-        const AngleRange r = dihedral_range(a, b, c, y);
-        if (r.min < polish_bounds_[i].min || r.max > polish_bounds_[i].max) return false;
-        smallest = std::min(smallest, r.min);
-      }
-      if (!(smallest > best_min)) return false;
-      best_min = smallest;
-      return true;
+    return move_by_score(v, before.min, [this](std::size_t i, const AngleRange& r) {
+      return within(r, polish_bounds_[i]) ? r.min : -kInfinity;
     });
-    if (best == old) return false;
-    move_point(v, best);
-    return true;
   }
 
   /// How far the dihedral angles of r lie inside the targets, in degrees:
@@ -1148,31 +1134,47 @@ class Optimizer {
       worst = std::min(worst, q);
     }
     if (!(worst < 0)) return false;
+    return move_by_score(v, worst, [this](std::size_t i, const AngleRange& r) {
+      switch (margin_kind_[i]) {
+        case MarginKind::kSurface:
+          return within(r, polish_bounds_[i]) ? kInfinity : -kInfinity;
+        case MarginKind::kGood:
+          return margin(r) >= 0 ? kInfinity : -kInfinity;
+        case MarginKind::kBad:
+          break;
+      }
+      return margin(r);
+    });
+  }
+
+  /// Whether the angles of r lie within `bounds`.
+  static bool within(const AngleRange& r, const AngleRange& bounds) {
+    return r.min >= bounds.min && r.max <= bounds.max;
+  }
+
+  /// The compass search of the angle and margin polish: v moves to the
+  /// position y that compass_search finds where every tet (link_ face i, y) is
+  /// positive (exact) and the lowest score(i, its dihedral angles) beats the
+  /// best so far, which starts at `floor`; a score of -kInfinity refuses y,
+  /// kInfinity leaves the tet out. Expects link_ (gather_link). True when v moved.
+  template <class Score>
+  bool move_by_score(Index v, double floor, Score&& score) {
+    const Vec3 old = m_.point(v);
     gather_link_points();
-    const Vec3 best = compass_search(old, [&](const Vec3& y) {
-      double lowest = std::numeric_limits<double>::infinity();
+    double best = floor;
+    const Vec3 to = compass_search(old, [&](const Vec3& y) {
+      double lowest = kInfinity;
       for (std::size_t i = 0; i < link_.size(); ++i) {
         const Vec3 &a = m_.point(link_[i][0]), &b = m_.point(link_[i][1]), &c = m_.point(link_[i][2]);
         if (exact::orient3d(a, b, c, y) <= 0) return false;
-        const AngleRange r = dihedral_range(a, b, c, y);
-        switch (margin_kind_[i]) {
-          case MarginKind::kSurface:
-            if (r.min < polish_bounds_[i].min || r.max > polish_bounds_[i].max) return false;
-            break;
-          case MarginKind::kGood:
-            if (margin(r) < 0) return false;
-            break;
-          case MarginKind::kBad:
-            lowest = std::min(lowest, margin(r));
-            if (!(lowest > worst)) return false;
-            break;
-        }
+        lowest = std::min(lowest, score(i, dihedral_range(a, b, c, y)));
+        if (!(lowest > best)) return false;
       }
-      worst = lowest;
+      best = lowest;
       return true;
     });
-    if (best == old) return false;
-    move_point(v, best);
+    if (to == old) return false;
+    move_point(v, to);
     return true;
   }
 
