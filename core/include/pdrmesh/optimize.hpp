@@ -196,26 +196,31 @@
 //     to within [15, 150], and with 5.'s relaxed additions armadillo's parallel
 //     minimum from 8.42 to 10.12 (its serial one's).
 //
-//  7. Margin polish (polish_margins, on; only with smooth), last: up to four
-//     rounds, while one moves a point, over the free points of the bad tets
-//     with no surface point, ascending: a compass search as in 3. for the
-//     position that raises the smallest margin of the star's tets with no
-//     surface point, the margin of a tet being how far its dihedral angles lie
-//     inside the targets (min(smallest - target_min_dihedral,
-//     target_max_dihedral - largest), negative outside); every tet stays
-//     positive, such a tet within the targets stays within them, and a tet
-//     with a surface point keeps each side within [10, 165] degrees where it
-//     was within, and within the mesh's extreme on that side where it was
-//     past (so no tet falls under 10 degrees that was not, and the extremes
-//     over all tets stay). The angle polish above raises the smallest angle alone and
-//     leaves tets that are bad by a large angle, or bad by both next to a
-//     worse neighbour; the repair rounds judge a star by the measure, which
-//     may balance a tet just outside the targets against others. This took
-//     couplingdown's interior at diag/100 from 42 tets outside [15, 150] to
-//     25 and hinge's from 552 to 376 (session 16, `pdrmesh_bench_refine`;
-//     the other surfaces had none and are unchanged), and the bounds of the
-//     tets with a surface point as above (session 17; [min(10, smallest),
-//     max(165, largest)] before) to 23 and 333.
+//  7. Margin polish (polish_margins, on; only with smooth), last: up to eight
+//     rounds, while one moves a point. The margin of a tet is how far its
+//     dihedral angles lie inside the targets (min(smallest -
+//     target_min_dihedral, target_max_dihedral - largest), negative outside).
+//     Each round moves, by a compass search as in 3., first the ring (the free
+//     points next to a free point of a bad tet with no surface point, not on
+//     such a tet), ascending, each to raise the smallest margin of its star's
+//     tets with no surface point (all within the targets: room for the bad
+//     tets' points), with keep_edge_sizes no edge off the surface made short;
+//     then the free points of those bad tets, ascending, each to raise the
+//     smallest margin of its star's bad tets with no surface point. Every tet
+//     stays positive, a tet with no surface point within the targets stays
+//     within them, and a tet with a surface point keeps each side within [10,
+//     165] degrees where it was within, and within the mesh's extreme on that
+//     side where it was past (so no tet falls under 10 degrees that was not,
+//     and the extremes over all tets stay). The angle polish above raises the
+//     smallest angle alone and leaves tets that are bad by a large angle, or
+//     bad by both next to a worse neighbour; the repair rounds judge a star by
+//     the measure, which may balance a tet just outside the targets against
+//     others. The bad tets' points alone (4 rounds) took couplingdown's
+//     interior at diag/100 from 42 tets outside [15, 150] to 25 and hinge's
+//     from 552 to 376 (session 16, `pdrmesh_bench_refine`; the other surfaces
+//     had none and are unchanged); the bounds of the tets with a surface point
+//     as above ([min(10, smallest), max(165, largest)] before) to 23 and 333,
+//     the ring and eight rounds to 8 and 206 (session 17).
 //
 // Guarantees: frozen faces keep their vertices and coordinates (flips and
 // insertion refuse them; their points are fixed); hull faces and region
