@@ -192,6 +192,9 @@ TEST(Optimize, RejectsBadOptions) {
   o.sweeps = -1;
   EXPECT_FALSE(optimize(m, nullptr, o).ok());
   o = {};
+  o.repair_cycles = -1;
+  EXPECT_FALSE(optimize(m, nullptr, o).ok());
+  o = {};
   o.insert_min_distance = std::nan("");
   EXPECT_FALSE(optimize(m, nullptr, o).ok());
   EXPECT_TRUE(optimize(m, nullptr, {}).ok());
@@ -409,6 +412,36 @@ TEST(Optimize, MarginPolishRaisesInteriorTetsToTheTargetsAndLosesNoOther) {
   ASSERT_TRUE(none.ok());
   EXPECT_EQ(none->points_moved, 0u);
   EXPECT_EQ(interior_bad(still, on_hull, 35, 110), bad_before);
+  expect_hull_points_kept(m, v);
+  EXPECT_NEAR(fixtures::total_volume(m), volume, 1e-12 * volume);
+  expect_valid(m, nullptr);
+}
+
+TEST(Optimize, RepairCyclesLeaveFewerInteriorTetsOutsideTheTargets) {
+  // Strict targets leave bad interior tets after the margin polish; the
+  // cycles of repair rounds and margin polish that follow leave fewer, and
+  // none runs when turned off.
+  const VolumeMesh v = jittered_grid(5, 0.45);
+  const auto on_hull = hull_points(v);
+  OptimizeOptions o;
+  o.target_min_dihedral = 40;
+  o.target_max_dihedral = 100;
+  o.repair_cycles = 0;
+  TetMesh once = fixtures::build(v);
+  auto without = optimize(once, nullptr, o);
+  ASSERT_TRUE(without.ok());
+  EXPECT_EQ(without->repair_cycles, 0);
+  const std::size_t left = interior_bad(once, on_hull, 40, 100);
+  ASSERT_GT(left, 0u);
+  o.repair_cycles = 4;
+  TetMesh m = fixtures::build(v);
+  const double volume = fixtures::total_volume(m);
+  auto with = optimize(m, nullptr, o);
+  ASSERT_TRUE(with.ok());
+  EXPECT_GE(with->repair_cycles, 1);
+  EXPECT_LE(with->repair_cycles, 4);
+  EXPECT_GT(with->repair_rounds, without->repair_rounds);
+  EXPECT_LT(interior_bad(m, on_hull, 40, 100), left);
   expect_hull_points_kept(m, v);
   EXPECT_NEAR(fixtures::total_volume(m), volume, 1e-12 * volume);
   expect_valid(m, nullptr);

@@ -1711,6 +1711,7 @@ Status validate(const OptimizeOptions& o) {
       o.target_max_dihedral <= o.target_min_dihedral)
     return bad("target_max_dihedral", o.target_max_dihedral);
   if (o.sweeps < 0) return bad("sweeps", o.sweeps);
+  if (o.repair_cycles < 0) return bad("repair_cycles", o.repair_cycles);
   if (!std::isfinite(o.insert_min_distance) || o.insert_min_distance < 0)
     return bad("insert_min_distance", o.insert_min_distance);
   if (!std::isfinite(o.max_flips_per_tet) || !(o.max_flips_per_tet > 0))
@@ -1770,7 +1771,8 @@ Result<OptimizeStats> optimize(TetMesh& mesh, const SizingField* sizing,
   // Interior repair: flips judged by the full measure, then smoothing of the
   // vertices of the bad tets with no fixed point, where a tet with a fixed
   // point may give way down to the repair floor, while their number falls.
-  if (options.interior_repair && st.sweeps_run > 0) {
+  const bool repair = options.interior_repair && st.sweeps_run > 0;
+  const auto repair_rounds = [&] {
     opt.find_fixed();
     opt.start_repair();
     while_interior_falls(kRepairRounds, st.repair_rounds, [&] {
@@ -1781,7 +1783,8 @@ Result<OptimizeStats> optimize(TetMesh& mesh, const SizingField* sizing,
         opt.set_interior_only(false);
       }
     });
-  }
+  };
+  if (repair) repair_rounds();
   // Cap repair: a point into a cavity around each bad tet with two or three
   // kept faces, two of them on the surface (a flat tet on a nearly flat patch
   // of the surface). No smoothing follows (it may trade an angle near 180
@@ -1798,7 +1801,18 @@ Result<OptimizeStats> optimize(TetMesh& mesh, const SizingField* sizing,
   if (options.smooth && options.polish_angles && opt.polish_angles() > 0) bad = opt.bad_tets();
   // Margin polish (optimize.hpp, 7.): the free points of the bad tets with
   // no surface point, raising their stars' worst margin to the targets.
-  if (options.smooth && options.polish_margins && opt.polish_margins() > 0) bad = opt.bad_tets();
+  const bool margins = options.smooth && options.polish_margins;
+  if (margins && opt.polish_margins() > 0) bad = opt.bad_tets();
+  // Repair cycles (optimize.hpp, 8.): the repair rounds and the margin polish
+  // again, while the bad tets with no fixed point get fewer.
+  for (int cycle = 0; repair && margins && cycle < options.repair_cycles; ++cycle) {
+    const std::size_t inner = opt.interior(bad).size();
+    if (inner == 0) break;
+    ++st.repair_cycles;
+    repair_rounds();
+    if (opt.polish_margins() > 0) bad = opt.bad_tets();
+    if (opt.interior(bad).size() >= inner) break;
+  }
   st.bad_after = bad.size();
   if (st.points_removed > 0 && !options.keep_point_indices) mesh.remove_unused_points();
   const AngleRange after = mesh_range(mesh);
