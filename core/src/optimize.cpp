@@ -139,6 +139,16 @@ constexpr double kCapMinTriangleAngle = 15.0;
 /// outside [15, 150] after 4 rounds, 206 after 8, 199 after 16 (1.5 CPU s more
 /// than 4); couplingdown 8 after each (session 17, `pdrmesh_bench_refine`).
 constexpr int kMarginRounds = 8;
+/// The compass search ends when its step falls below its first step over
+/// this (compass_search)...
+constexpr double kSearchEnd = 64.0;
+/// ... and over this in the margin polish's last pass (polish_margins): the
+/// tets it leaves are often within a fraction of a degree of the targets.
+/// couplingdown at diag/100 kept 2 interior tets outside [15, 150] before that
+/// pass and none after, hinge 113 and 81, 65, 68 with 256, 1024, 4096 (session
+/// 17, `pdrmesh_bench_refine`; no measurable time). The whole margin polish
+/// at 1024 instead moved hinge's count both ways (93 to 139 at 128 to 1024).
+constexpr double kFineSearchEnd = 1024.0;
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
 
 AngleRange mesh_range(const TetMesh& m);
@@ -476,8 +486,9 @@ class Optimizer {
   /// first the ring (the free points next to a free point of a bad tet with
   /// no surface point, not on such a tet themselves), ascending, each moved by
   /// ring_point, then the free points of those bad tets, ascending, each
-  /// moved by margin_point. Returns the moves.
-  std::size_t polish_margins() {
+  /// moved by margin_point; each compass search ends at 1/`end` of its first
+  /// step. Returns the moves.
+  std::size_t polish_margins(double end = kSearchEnd) {
     find_fixed();
     std::size_t moved = 0;
     for (int round = 0; round < kMarginRounds; ++round) {
@@ -501,9 +512,9 @@ class Optimizer {
       }
       std::size_t now = 0;
       for (Index v = 0; v < np; ++v)
-        if (ring[v] && ring_point(v, one_tet[v])) ++now;
+        if (ring[v] && ring_point(v, one_tet[v], end)) ++now;
       for (Index v = 0; v < np; ++v)
-        if (wanted[v] && !fixed_[v] && margin_point(v, one_tet[v])) ++now;
+        if (wanted[v] && !fixed_[v] && margin_point(v, one_tet[v], end)) ++now;
       moved += now;
       if (now == 0) break;
     }
@@ -964,10 +975,10 @@ class Optimizer {
   /// along each of the 6 axes and 8 diagonals; the last that `improves`
   /// (which keeps the best so far: each step it accepts beats it) is taken,
   /// else the step halves. The step starts at a quarter of the mean distance
-  /// to the link points and the search ends below 1/64 of it or after
+  /// to the link points and the search ends below 1/`end` of it or after
   /// kCompassRounds rounds. Expects link_points_ (gather_link_points).
   template <typename Improves>
-  Vec3 compass_search(const Vec3& old, Improves&& improves) {
+  Vec3 compass_search(const Vec3& old, Improves&& improves, double end = kSearchEnd) {
     double scale = 0;
     for (Index u : link_points_) scale += norm(m_.point(u) - old);
     scale /= static_cast<double>(std::max<std::size_t>(1, link_points_.size()));
@@ -988,7 +999,7 @@ class Optimizer {
     }();
     Vec3 x = old;
     double step = 0.25 * scale;
-    for (int round = 0; round < kCompassRounds && step > scale / 64.0; ++round) {
+    for (int round = 0; round < kCompassRounds && step > scale / end; ++round) {
       Vec3 next = x;
       for (const Vec3& d : dirs) {
         const Vec3 y = x + step * d;
@@ -1135,7 +1146,7 @@ class Optimizer {
   /// point, every tet positive (exact); such a tet within the targets stays
   /// within them, and a tet with a surface point keeps its angles within
   /// surface_bounds(its old angles). True when v moved.
-  bool margin_point(Index v, Index start) {
+  bool margin_point(Index v, Index start, double end) {
     gather_link(v, start);
     const Vec3 old = m_.point(v);
     double worst = std::numeric_limits<double>::infinity();
@@ -1164,7 +1175,7 @@ class Optimizer {
           break;
       }
       return margin(r);
-    });
+    }, end);
   }
 
   /// Margin polish of v next to a bad tet's point (polish_margins' ring): a
@@ -1178,7 +1189,7 @@ class Optimizer {
   /// couplingdown from 23 to 8 (4 rounds; without the edge guard 220 and 6,
   /// but hinge's interior edges within [0.6, 1.5] h fell from 90.3% to 89.8%;
   /// session 17, `pdrmesh_bench_refine`). True when v moved.
-  bool ring_point(Index v, Index start) {
+  bool ring_point(Index v, Index start, double end) {
     gather_link(v, start);
     const Vec3 old = m_.point(v);
     double worst = kInfinity;
@@ -1193,7 +1204,7 @@ class Optimizer {
     return move_by_score(v, worst, [this](std::size_t i, const AngleRange& r) {
       if (on_surface(link_[i])) return within(r, polish_bounds_[i]) ? kInfinity : -kInfinity;
       return margin(r);
-    });
+    }, end);
   }
 
   /// Whether the angles of r lie within `bounds`.
@@ -1206,9 +1217,10 @@ class Optimizer {
   /// when bound_edge_sizes set them) is broken, every tet (link_ face i, y) is
   /// positive (exact) and the lowest score(i, its dihedral angles) beats the
   /// best so far, which starts at `floor`; a score of -kInfinity refuses y,
-  /// kInfinity leaves the tet out. Expects link_ (gather_link). True when v moved.
+  /// kInfinity leaves the tet out; the search ends at 1/`end` of its first
+  /// step. Expects link_ (gather_link). True when v moved.
   template <class Score>
-  bool move_by_score(Index v, double floor, Score&& score) {
+  bool move_by_score(Index v, double floor, Score&& score, double end = kSearchEnd) {
     const Vec3 old = m_.point(v);
     gather_link_points();
     double best = floor;
@@ -1223,7 +1235,7 @@ class Optimizer {
       }
       best = lowest;
       return true;
-    });
+    }, end);
     if (to == old) return false;
     move_point(v, to);
     return true;
@@ -1813,6 +1825,8 @@ Result<OptimizeStats> optimize(TetMesh& mesh, const SizingField* sizing,
     if (opt.polish_margins() > 0) bad = opt.bad_tets();
     if (opt.interior(bad).size() >= inner) break;
   }
+  // The margin polish's last pass (optimize.hpp, 7.), with a finer search.
+  if (margins && !opt.interior(bad).empty() && opt.polish_margins(kFineSearchEnd) > 0) bad = opt.bad_tets();
   st.bad_after = bad.size();
   if (st.points_removed > 0 && !options.keep_point_indices) mesh.remove_unused_points();
   const AngleRange after = mesh_range(mesh);

@@ -220,7 +220,10 @@
 //     from 552 to 376 (session 16, `pdrmesh_bench_refine`; the other surfaces
 //     had none and are unchanged); the bounds of the tets with a surface point
 //     as above ([min(10, smallest), max(165, largest)] before) to 23 and 333,
-//     the ring and eight rounds to 8 and 206 (session 17).
+//     the ring and eight rounds to 8 and 206 (session 17). After the repair
+//     cycles (8.), while such bad tets are left, one more margin polish whose
+//     compass searches end at 1/1024 of their first step instead of 1/64:
+//     couplingdown 2 -> 0, hinge 113 -> 65 (session 17).
 //
 //  8. Repair cycles (repair_cycles, 4; with interior_repair and
 //     polish_margins): while bad tets with no fixed point remain and a cycle
