@@ -485,8 +485,8 @@ class Optimizer {
   /// Margin polish (optimize.hpp, 7.): up to kMarginRounds rounds; in each,
   /// first the ring (the free points next to a free point of a bad tet with
   /// no surface point, not on such a tet themselves), ascending, each moved by
-  /// ring_point, then the free points of those bad tets, ascending, each
-  /// moved by margin_point; each compass search ends at 1/`end` of its first
+  /// margin_point as the ring, then the free points of those bad tets,
+  /// ascending, each moved by margin_point; each compass search ends at 1/`end` of its first
   /// step. Returns the moves.
   std::size_t polish_margins(double end = kSearchEnd) {
     find_fixed();
@@ -512,9 +512,9 @@ class Optimizer {
       }
       std::size_t now = 0;
       for (Index v = 0; v < np; ++v)
-        if (ring[v] && ring_point(v, one_tet[v], end)) ++now;
+        if (ring[v] && margin_point(v, one_tet[v], end, /*ring=*/true)) ++now;
       for (Index v = 0; v < np; ++v)
-        if (wanted[v] && !fixed_[v] && margin_point(v, one_tet[v], end)) ++now;
+        if (wanted[v] && !fixed_[v] && margin_point(v, one_tet[v], end, /*ring=*/false)) ++now;
       moved += now;
       if (now == 0) break;
     }
@@ -1142,14 +1142,22 @@ class Optimizer {
   }
 
   /// Margin polish of v (polish_margins): a compass search for the position
-  /// that raises the smallest margin() of v's star's tets with no surface
+  /// that raises the smallest margin() of v's star's bad tets with no surface
   /// point, every tet positive (exact); such a tet within the targets stays
   /// within them, and a tet with a surface point keeps its angles within
-  /// surface_bounds(its old angles). True when v moved.
-  bool margin_point(Index v, Index start, double end) {
+  /// surface_bounds(its old angles). With `ring`, v is next to a bad tet's
+  /// point but on none (polish_margins' ring): every tet of its star with no
+  /// surface point is judged (all within the targets, and they stay within),
+  /// so that the bad tets' points find room next, and with keep_edge_sizes no
+  /// edge to a point off the surface is made short (bound_edge_sizes). The
+  /// ring took hinge at diag/100 from 333 interior tets outside [15, 150] to
+  /// 231 and couplingdown from 23 to 8 (4 rounds; without the edge guard 220
+  /// and 6, but hinge's interior edges within [0.6, 1.5] h fell from 90.3% to
+  /// 89.8%; session 17, `pdrmesh_bench_refine`). True when v moved.
+  bool margin_point(Index v, Index start, double end, bool ring) {
     gather_link(v, start);
     const Vec3 old = m_.point(v);
-    double worst = std::numeric_limits<double>::infinity();
+    double worst = kInfinity;
     polish_bounds_.clear();
     margin_kind_.clear();
     for (const Tri& f : link_) {
@@ -1160,11 +1168,13 @@ class Optimizer {
         continue;
       }
       const double q = margin(r);
-      margin_kind_.push_back(q >= 0 ? MarginKind::kGood : MarginKind::kBad);
+      const bool judged = ring || q < 0;
+      margin_kind_.push_back(judged ? MarginKind::kBad : MarginKind::kGood);
       polish_bounds_.push_back(r);
-      worst = std::min(worst, q);
+      if (judged) worst = std::min(worst, q);
     }
-    if (!(worst < 0)) return false;
+    if (ring ? worst == kInfinity : !(worst < 0)) return false;  // nothing to judge, or nothing bad
+    if (ring) bound_edge_sizes(old);
     return move_by_score(v, worst, [this](std::size_t i, const AngleRange& r) {
       switch (margin_kind_[i]) {
         case MarginKind::kSurface:
@@ -1174,35 +1184,6 @@ class Optimizer {
         case MarginKind::kBad:
           break;
       }
-      return margin(r);
-    }, end);
-  }
-
-  /// Margin polish of v next to a bad tet's point (polish_margins' ring): a
-  /// compass search for the position that raises the smallest margin() of
-  /// v's star's tets with no surface point (all within the targets: v is on
-  /// no bad one, and the tets stay within), so that the bad tets' points find
-  /// room next; every tet positive (exact), a tet with a surface point within
-  /// surface_bounds(its old angles), and with keep_edge_sizes no edge to a
-  /// point off the surface made short (bound_edge_sizes). The ring took hinge
-  /// at diag/100 from 333 interior tets outside [15, 150] to 231 and
-  /// couplingdown from 23 to 8 (4 rounds; without the edge guard 220 and 6,
-  /// but hinge's interior edges within [0.6, 1.5] h fell from 90.3% to 89.8%;
-  /// session 17, `pdrmesh_bench_refine`). True when v moved.
-  bool ring_point(Index v, Index start, double end) {
-    gather_link(v, start);
-    const Vec3 old = m_.point(v);
-    double worst = kInfinity;
-    polish_bounds_.clear();
-    for (const Tri& f : link_) {
-      const AngleRange r = dihedral_range(m_.point(f[0]), m_.point(f[1]), m_.point(f[2]), old);
-      polish_bounds_.push_back(on_surface(f) ? surface_bounds(r) : r);
-      if (!on_surface(f)) worst = std::min(worst, margin(r));
-    }
-    if (worst == kInfinity) return false;  // every tet has a surface point
-    bound_edge_sizes(old);
-    return move_by_score(v, worst, [this](std::size_t i, const AngleRange& r) {
-      if (on_surface(link_[i])) return within(r, polish_bounds_[i]) ? kInfinity : -kInfinity;
       return margin(r);
     }, end);
   }
@@ -1677,7 +1658,8 @@ class Optimizer {
   /// (the margin polish reads them for the tets with a surface point only).
   std::vector<AngleRange> polish_bounds_;
   /// Margin polish: per link_ face, the tet over it has a surface point, or
-  /// none and is within the targets, or none and is not.
+  /// none and is within the targets and must stay so, or none and is judged
+  /// (outside the targets; or any, for a ring point).
   enum class MarginKind : unsigned char { kSurface, kGood, kBad };
   std::vector<MarginKind> margin_kind_;
   /// Margin polish: the mesh's extreme dihedral angles when the round began.
