@@ -19,6 +19,7 @@
 #include "pdrmesh/insert.hpp"
 #include "pdrmesh/predicates.hpp"
 #include "bvh.hpp"
+#include "closest_point.hpp"
 #include "pdrmesh/topology.hpp"
 #include "stopwatch.hpp"
 
@@ -369,7 +370,10 @@ class Refiner {
             face_distance_bound(m_.point(k[topo::kFaceVertex[f][0]]), m_.point(k[topo::kFaceVertex[f][1]]),
                                 m_.point(k[topo::kFaceVertex[f][2]]), p);
         if (wall) {
-          if (lb < r_face) return false;
+          // The bound first (most walls are far), then the distance itself:
+          // the bound of a needle triangle many h long is its plane's
+          // distance, which rejected points far from the triangle.
+          if (lb < r_face && within_distance(k, f, p, r_face)) return false;
           continue;
         }
         if (lb < r_point && stamp_[face_tet(n)] != epoch_) {
@@ -380,6 +384,13 @@ class Refiner {
       }
     }
     return true;
+  }
+
+  /// Whether face f of tet k lies closer than r to p.
+  bool within_distance(const Tet& k, int f, const Vec3& p, double r) const {
+    const Vec3 y = closest_on_triangle(p, m_.point(k[topo::kFaceVertex[f][0]]), m_.point(k[topo::kFaceVertex[f][1]]),
+                                       m_.point(k[topo::kFaceVertex[f][2]]));
+    return dot(y - p, y - p) < r * r;
   }
 
   /// Where a candidate may be inserted: strictly inside a tet, or on an

@@ -79,7 +79,9 @@ struct RefineOptions {
   /// rejected. Lower packs points closer (more, shorter edges).
   double reject_distance = 0.6;
   /// A candidate closer than this * h(candidate) to a hull or frozen face is
-  /// rejected (keeps flat tets off the boundary).
+  /// rejected (keeps flat tets off the boundary). The distance to the face
+  /// itself: a bound by its plane (used until session 18) also rejected points
+  /// far beside a needle triangle many h long.
   double boundary_reject_distance = 0.5;
   /// A tet is active while an edge is longer than this * the mean h of its ends.
   double split_ratio = 1.4;
