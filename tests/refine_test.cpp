@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
+#include <cmath>
 #include <cstring>
 #include <map>
 #include <set>
@@ -13,6 +15,7 @@
 #include "pdrmesh/pipeline.hpp"
 #include "pdrmesh/predicates.hpp"
 #include "pdrmesh/surface_io.hpp"
+#include "pdrmesh/tetgen_adapter.hpp"
 #include "pdrmesh/validate.hpp"
 #include "test_fixtures.hpp"
 #include "tet_fixtures.hpp"
@@ -303,6 +306,78 @@ TEST(Refine, SubMeshKeepsItsCutFaces) {
   EXPECT_TRUE(report.ok()) << format_validation(report);
   EXPECT_EQ(hull_keys(out), hull_keys(sub));
   for (std::size_t v = 0; v < sub.points.size(); ++v) EXPECT_EQ(out.points[v], sub.points[v]);
+}
+
+/// The cross-section of the L-prism below, in (x, z), counter-clockwise: a
+/// 10 x 10 square without its upper right quarter.
+constexpr std::array<std::array<double, 2>, 6> kLSection{{{0, 0}, {10, 0}, {10, 5}, {5, 5}, {5, 10}, {0, 10}}};
+constexpr double kLLength = 20;
+
+/// The L-section extruded along y over [0, kLLength], every face outward:
+/// caps of four triangles, each side a rectangle of two 20-long triangles.
+SurfaceMesh l_prism_surface() {
+  SurfaceMesh s;
+  for (double y : {0.0, kLLength})
+    for (const auto& [x, z] : kLSection) s.points.push_back({x, y, z});
+  const Index n = kLSection.size();
+  // The section is counter-clockwise seen with x right and z up, so at y = 0
+  // this order faces -y; the far cap takes the reverse.
+  for (const Tri& t : {Tri{0, 1, 2}, Tri{0, 2, 3}, Tri{0, 3, 5}, Tri{3, 4, 5}}) {
+    s.triangles.push_back(t);
+    s.triangles.push_back({t[0] + n, t[2] + n, t[1] + n});
+  }
+  for (Index i = 0; i < n; ++i) {
+    const Index j = (i + 1) % n;
+    s.triangles.push_back({i, j + n, j});
+    s.triangles.push_back({i, i + n, j + n});
+  }
+  s.surface_ids.assign(s.triangles.size(), 1);
+  s.name = "l-prism";
+  return s;
+}
+
+/// Distance from p to the L-prism's boundary, for p inside it.
+double l_prism_depth(const Vec3& p) {
+  double d = std::min(p[1], kLLength - p[1]);
+  for (std::size_t i = 0; i < kLSection.size(); ++i) {
+    const auto& a = kLSection[i];
+    const auto& b = kLSection[(i + 1) % kLSection.size()];
+    const double ex = b[0] - a[0], ez = b[1] - a[1];
+    const double t = std::clamp(((p[0] - a[0]) * ex + (p[2] - a[1]) * ez) / (ex * ex + ez * ez), 0.0, 1.0);
+    d = std::min(d, std::hypot(p[0] - a[0] - t * ex, p[2] - a[1] - t * ez));
+  }
+  return d;
+}
+
+TEST(Refine, BoundaryRejectKeepsPointsOffTheFacesNotOffTheirPlanes) {
+  // The notch's floor (z = 5, x >= 5) is two triangles 20 long; its plane runs
+  // through the L's left arm (x < 5), where a point just above or below it is
+  // a unit or more from the floor itself. The refiner keeps its points
+  // boundary_reject_distance * h from every hull face, measured to the face
+  // (closest_on_triangle): none lies closer to the boundary than that, and
+  // points fill the arm across the floor's plane. (The plane bound that the
+  // reject used before session 18 also passes here: the proximity walk seldom
+  // reaches the floor's tets from the arm once the tets are small; on hinge it
+  // did, through the long tets over its needle triangles.)
+  const SurfaceMesh surface = l_prism_surface();
+  auto initial = tetrahedralize(surface);
+  ASSERT_TRUE(initial.ok()) << initial.status().to_string();
+  const double h = 1.0;
+  const SizingField field = uniform_field(surface, *initial, h);
+  TetMesh mesh = fixtures::build(*initial);
+  const RefineOptions options;
+  auto r = refine(mesh, field, options);
+  ASSERT_TRUE(r.ok()) << r.status().to_string();
+  const VolumeMesh out = mesh.to_volume_mesh();
+  const ValidationReport report = validate_mesh(out, &surface);
+  EXPECT_TRUE(report.ok()) << format_validation(report);
+  std::size_t across = 0;
+  for (std::size_t v = initial->points.size(); v < out.points.size(); ++v) {
+    const Vec3& p = out.points[v];
+    EXPECT_GE(l_prism_depth(p), options.boundary_reject_distance * h * (1 - 1e-9)) << "point " << v;
+    if (p[0] < 4.0 && std::fabs(p[2] - 5.0) < 0.4 && p[1] > 1.0 && p[1] < kLLength - 1.0) ++across;
+  }
+  EXPECT_GE(across, 5u);
 }
 
 TEST(Refine, RejectsBadOptions) {
