@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: AGPL-3.0-or-later
 // The closest point of a triangle to a point, for distance queries of the
 // kernel (the sizing field's nearest background tet, the refiner's boundary
-// reject). Floating point, not a predicate: no combinatorial decision rests
-// on it alone.
+// reject). A distance in floating point, not an orientation: it decides
+// spacing (which candidates the refiner keeps), never the mesh's topology.
 #pragma once
 
 #include "pdrmesh/types.hpp"
