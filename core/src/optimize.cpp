@@ -1164,11 +1164,18 @@ class Optimizer {
         continue;
       }
       const AngleRange r = dihedral_range(m_.point(f[0]), m_.point(f[1]), m_.point(f[2]), old);
-      polish_bounds_.push_back({std::min(o_.target_min_dihedral, r.min), std::max(o_.target_max_dihedral, r.max)});
+      polish_bounds_.push_back(target_bounds(r));
     }
     return move_by_score(v, before.min, [this](std::size_t i, const AngleRange& r) {
       return within(r, polish_bounds_[i]) ? r.min : -kInfinity;
     });
+  }
+
+  /// The angles a tet whose angles are r may reach: the targets, widened on
+  /// either side to r where r lies outside them (within stays within, outside
+  /// gets no worse).
+  AngleRange target_bounds(const AngleRange& r) const {
+    return {std::min(o_.target_min_dihedral, r.min), std::max(o_.target_max_dihedral, r.max)};
   }
 
   /// How far the dihedral angles of r lie inside the targets, in degrees:
@@ -1272,7 +1279,7 @@ class Optimizer {
     polish_bounds_.clear();
     for (const Tri& f : link_) {
       const AngleRange r = dihedral_range(m_.point(f[0]), m_.point(f[1]), m_.point(f[2]), old);
-      polish_bounds_.push_back({std::min(o_.target_min_dihedral, r.min), std::max(o_.target_max_dihedral, r.max)});
+      polish_bounds_.push_back(target_bounds(r));
     }
     const Vec3 to = compass_search(old, [&](const Vec3& y) {
       const std::pair<std::size_t, double> excess = size_excess(y);
