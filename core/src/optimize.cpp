@@ -93,11 +93,13 @@ constexpr double kShortEdge = 0.6;
 /// The upper end of that band: the size polish (polish_sizes) brings edges
 /// off the surface back within [kShortEdge, kLongEdge] h.
 constexpr double kLongEdge = 1.5;
-/// Rounds of the size polish (one that moves nothing ends it): 4 gave
-/// couplingdown 95.8% of its interior edges within the band at the default
-/// size against 95.5% with 2, for 0.1-0.2 CPU s more on sphere966 at diag/100
-/// (session 18, `pdrmesh_bench_refine`).
-constexpr int kSizeRounds = 2;
+/// Rounds of the size polish (one that moves nothing ends it): with the
+/// surface tets' room (surface_bounds), 4 gave hinge 83.0% of its interior
+/// edges within the band at the default size against 81.3% with 2 and 83.0%
+/// with 8, couplingdown 98.1% against 97.8% (session 19, limits [10, 165],
+/// which these two meshes' extremes give anyway;
+/// `pdrmesh_bench_refine`; the opt_s column moved within its noise).
+constexpr int kSizeRounds = 4;
 
 /// Line-search steps towards each smoothing target: 1, 1/2, ..., 1/64.
 constexpr int kLineSteps = 7;
@@ -546,6 +548,9 @@ class Optimizer {
       return h[v];
     };
     std::size_t moved = 0;
+    mesh_angles_ = mesh_range(m_);
+    size_limits_ = {std::max(kRelaxedCapAngles[0], mesh_angles_.min),
+                    std::min(kRelaxedCapAngles[1], mesh_angles_.max)};
     for (int round = 0; round < kSizeRounds; ++round) {
       std::vector<char> wanted(m_.num_points(), 0);
       for (Index t = 0; t < m_.num_slots(); ++t) {
@@ -1184,19 +1189,20 @@ class Optimizer {
     return std::min(r.min - o_.target_min_dihedral, o_.target_max_dihedral - r.max);
   }
 
-  /// The angles the margin polish lets a tet with a surface point reach from
-  /// `old`: a side within kRelaxedCapAngles stays within it (no tet crosses
-  /// 10 or 165 degrees), a side already past it may go as far as the mesh's
-  /// extreme on that side when the round began (mesh_angles_), so neither
-  /// the smallest angle over all tets nor the share under 10 degrees gets
-  /// worse. Next to needle triangles the tets on the surface are that bad
-  /// anyway: letting them move within that range took hinge at diag/100
-  /// from 376 interior tets outside [15, 150] to 333 and couplingdown from 25
-  /// to 23 (session 17, `pdrmesh_bench_refine`), where [min(10, old), max(165,
-  /// old)] held them to their own extremes.
-  AngleRange surface_bounds(const AngleRange& old) const {
-    return {old.min < kRelaxedCapAngles[0] ? std::min(mesh_angles_.min, old.min) : kRelaxedCapAngles[0],
-            old.max > kRelaxedCapAngles[1] ? std::max(mesh_angles_.max, old.max) : kRelaxedCapAngles[1]};
+  /// The angles a tet with a surface point may reach from `old` in the margin
+  /// and size polish: a side within `limits` stays within them, a side already
+  /// past them may go as far as the mesh's extreme on that side when the round
+  /// began (mesh_angles_), so neither extreme of the mesh gets worse, nor the
+  /// share of tets past the limits. The margin polish's limits are
+  /// kRelaxedCapAngles (no tet crosses 10 or 165 degrees). Next to needle
+  /// triangles the tets on the surface are that bad anyway: letting them move
+  /// within that range took hinge at diag/100 from 376 interior tets outside
+  /// [15, 150] to 333 and couplingdown from 25 to 23 (session 17,
+  /// `pdrmesh_bench_refine`), where [min(10, old), max(165, old)] held them to
+  /// their own extremes.
+  AngleRange surface_bounds(const AngleRange& old, const AngleRange& limits) const {
+    return {old.min < limits.min ? std::min(mesh_angles_.min, old.min) : limits.min,
+            old.max > limits.max ? std::max(mesh_angles_.max, old.max) : limits.max};
   }
 
   /// Margin polish of v (polish_margins): a compass search for the position
@@ -1222,7 +1228,7 @@ class Optimizer {
       const AngleRange r = dihedral_range(m_.point(f[0]), m_.point(f[1]), m_.point(f[2]), old);
       if (on_surface(f)) {
         margin_kind_.push_back(MarginKind::kSurface);
-        polish_bounds_.push_back(surface_bounds(r));
+        polish_bounds_.push_back(surface_bounds(r, {kRelaxedCapAngles[0], kRelaxedCapAngles[1]}));
         continue;
       }
       const double q = margin(r);
@@ -1263,9 +1269,10 @@ class Optimizer {
 
   /// Size polish of v (polish_sizes): a compass search for the position
   /// that lowers size_excess (fewer edges out of the band, then less far out),
-  /// every tet of the star positive (exact) and each within the targets or,
-  /// where it was outside, no worse on either side than it was. True when v
-  /// moved.
+  /// every tet of the star positive (exact); one with no surface point within
+  /// the targets or, where it was outside, no worse on either side than it
+  /// was; one with a surface point within surface_bounds(its old angles,
+  /// size_limits_). True when v moved.
   bool size_point(Index v, Index start) {
     gather_link(v, start);
     gather_link_points();
@@ -1279,7 +1286,7 @@ class Optimizer {
     polish_bounds_.clear();
     for (const Tri& f : link_) {
       const AngleRange r = dihedral_range(m_.point(f[0]), m_.point(f[1]), m_.point(f[2]), old);
-      polish_bounds_.push_back(target_bounds(r));
+      polish_bounds_.push_back(on_surface(f) ? surface_bounds(r, size_limits_) : target_bounds(r));
     }
     const Vec3 to = compass_search(old, [&](const Vec3& y) {
       const std::pair<std::size_t, double> excess = size_excess(y);
@@ -1785,6 +1792,7 @@ class Optimizer {
   std::vector<MarginKind> margin_kind_;
   /// Margin polish: the mesh's extreme dihedral angles when the round began.
   AngleRange mesh_angles_{};
+  AngleRange size_limits_{};  ///< polish_sizes' surface_bounds limits
   std::size_t flips_this_sweep_ = 0;
   std::size_t flip_budget_ = 0;
   /// Per slot: 1 + the Badness of the tet while known, 0 when unknown. Cleared
