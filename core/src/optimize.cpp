@@ -8,6 +8,7 @@
 #include <oneapi/tbb/parallel_reduce.h>
 
 #include <algorithm>
+#include <tuple>
 #include <array>
 #include <chrono>
 #include <cmath>
@@ -553,6 +554,7 @@ class Optimizer {
                     std::min(kRelaxedCapAngles[1], mesh_angles_.max)};
     for (int round = 0; round < kSizeRounds; ++round) {
       std::vector<char> wanted(m_.num_points(), 0);
+      long_edges_.clear();
       for (Index t = 0; t < m_.num_slots(); ++t) {
         if (!m_.alive(t)) continue;
         const Tet& k = m_.tet(t);
@@ -561,10 +563,14 @@ class Optimizer {
           if (surface_[a] != 0 || surface_[b] != 0 || !(touched(a) || touched(b))) continue;
           const Vec3 d = m_.point(a) - m_.point(b);
           const double mean = 0.5 * (h_at(a) + h_at(b)), l2 = dot(d, d);
+          if (l2 > kLongEdge * kLongEdge * mean * mean) long_edges_.push_back({std::min(a, b), std::max(a, b), t, e});
           if (l2 < kShortEdge * kShortEdge * mean * mean || l2 > kLongEdge * kLongEdge * mean * mean)
             wanted[a] = wanted[b] = 1;
         }
       }
+      const std::size_t flipped = o_.reconnect ? size_flips() : 0;
+      st_.flips += flipped;
+      st_.size_flips += flipped;
       const std::vector<Index> one_tet = first_tet_per_point();
       std::size_t now = 0;
       for (Index v = 0; v < m_.num_points(); ++v)
@@ -1267,6 +1273,64 @@ class Optimizer {
     return out;
   }
 
+  /// Size flips (before each round's moves): each long edge of long_edges_
+  /// (once, from the first tet in slot order that held it when the round
+  /// began, if that tet still does) is removed where a triangulation of its
+  /// ring exists whose new tets are positive (exact), those with no surface
+  /// point within the targets and those with one within size_limits_, and
+  /// whose new edges are all shorter than the removed one and, between two
+  /// points off the surface, within [kShortEdge, kLongEdge] h at their
+  /// midpoint: one edge fewer out of the band, none added. The triangulation
+  /// with the best smallest measure wins. Returns the flips.
+  std::size_t size_flips() {
+    std::sort(long_edges_.begin(), long_edges_.end());
+    long_edges_.erase(std::unique(long_edges_.begin(), long_edges_.end(),
+                                  [](const LongEdge& x, const LongEdge& y) { return x.a == y.a && x.b == y.b; }),
+                      long_edges_.end());
+    const auto off_surface = [this](Index v) { return v >= surface_.size() || surface_[v] == 0; };
+    const AngleRange targets{o_.target_min_dihedral, o_.target_max_dihedral};
+    std::size_t flips = 0;
+    for (const LongEdge& le : long_edges_) {
+      if (!m_.alive(le.t)) continue;
+      const Tet& k = m_.tet(le.t);
+      const Index u = k[topo::kEdgeVertex[le.e][0]], w = k[topo::kEdgeVertex[le.e][1]];
+      if (std::min(u, w) != le.a || std::max(u, w) != le.b) continue;  // the slot holds another tet now
+      EdgeRing r;
+      if (removable_edge_ring(m_, le.t, le.e, 0, r) != FlipOutcome::kDone) continue;
+      const Vec3 d = m_.point(r.a) - m_.point(r.b);
+      const double removed2 = dot(d, d);
+      const int n = r.size;
+      // A diagonal (ring[i], ring[j]) that is not a side of the ring polygon is a new edge.
+      const auto refused = [&](int i, int j) {
+        if (j - i < 2 || (i == 0 && j == n - 1)) return false;
+        const Vec3 &x = m_.point(r.ring[i]), &y = m_.point(r.ring[j]);
+        const double l2 = dot(x - y, x - y);
+        if (l2 >= removed2) return true;
+        if (!off_surface(r.ring[i]) || !off_surface(r.ring[j])) return false;
+        const double h = sizing_->at(0.5 * (x + y));
+        return l2 < kShortEdge * kShortEdge * h * h || l2 > kLongEdge * kLongEdge * h * h;
+      };
+      const auto quality = [&](const Tet& t) {
+        const double q = measured(t);
+        if (q == -kInfinity) return q;
+        const auto p = corners(m_, t);
+        const bool room = o_.size_polish_room && repair_class(t) == 1;
+        return within(dihedral_range(p[0], p[1], p[2], p[3]), room ? size_limits_ : targets)
+                   ? q
+                   : -kInfinity;
+      };
+      RingTriangulation best;
+      const auto excluded = [&](int i, int m, int j) { return refused(i, m) || refused(m, j) || refused(i, j); };
+      if (!best_ring_triangulation(r, -kInfinity, quality, excluded, best)) continue;
+      fresh_.assign(best.tets.begin(), best.tets.begin() + best.count);
+      parent_.assign(fresh_.size(), 0);
+      m_.replace_cavity(std::span<const Index>(r.tets.data(), static_cast<std::size_t>(n)), fresh_, parent_);
+      forget_created();
+      ++flips;
+    }
+    return flips;
+  }
+
   /// Size polish of v (polish_sizes): a compass search for the position
   /// that lowers size_excess (fewer edges out of the band, then less far out),
   /// every tet of the star positive (exact); one with no surface point within
@@ -1286,7 +1350,8 @@ class Optimizer {
     polish_bounds_.clear();
     for (const Tri& f : link_) {
       const AngleRange r = dihedral_range(m_.point(f[0]), m_.point(f[1]), m_.point(f[2]), old);
-      polish_bounds_.push_back(on_surface(f) ? surface_bounds(r, size_limits_) : target_bounds(r));
+      const bool room = o_.size_polish_room && on_surface(f);
+      polish_bounds_.push_back(room ? surface_bounds(r, size_limits_) : target_bounds(r));
     }
     const Vec3 to = compass_search(old, [&](const Vec3& y) {
       const std::pair<std::size_t, double> excess = size_excess(y);
@@ -1793,6 +1858,14 @@ class Optimizer {
   /// Margin polish: the mesh's extreme dihedral angles when the round began.
   AngleRange mesh_angles_{};
   AngleRange size_limits_{};  ///< polish_sizes' surface_bounds limits
+  struct LongEdge {
+    Index a, b;  ///< a < b
+    Index t;     ///< a tet holding it when found, and its local edge
+    int e;
+    bool operator<(const LongEdge& o) const { return std::tie(a, b, t, e) < std::tie(o.a, o.b, o.t, o.e); }
+    bool operator==(const LongEdge&) const = default;
+  };
+  std::vector<LongEdge> long_edges_;  ///< polish_sizes' long edges off the surface
   std::size_t flips_this_sweep_ = 0;
   std::size_t flip_budget_ = 0;
   /// Per slot: 1 + the Badness of the tet while known, 0 when unknown. Cleared

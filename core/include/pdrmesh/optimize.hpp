@@ -238,19 +238,27 @@
 //  9. Size polish (polish_sizes, on; with smooth and a sizing field), last:
 //     up to four rounds, while one moves a point. The edges between two points
 //     off the surface, one of them moved or inserted by the steps above, whose
-//     length is out of [0.6, 1.5] times the mean h of their ends; each free
-//     point of such an edge, ascending, moves by a compass search as in 3. to
-//     lower the number of its edges to points off the surface out of [0.6,
-//     1.5] h (h at each edge's midpoint when the search begins), then their
-//     summed distance to the band, every tet of its star positive (exact); a
+//     length is out of [0.6, 1.5] times the mean h of their ends. First (with
+//     reconnect) each such long edge, in the order of its ends, is removed
+//     where a triangulation of its ring exists (flips.hpp's search) whose new
+//     edges are all shorter and, off the surface, within the band at their
+//     midpoint, and whose new tets are positive (exact) and within the
+//     targets, or, with a surface point and the room below, within its
+//     limits; the best smallest measure wins. Then each free point of such
+//     an edge, ascending, moves by a compass search as in 3. to lower the
+//     number of its edges to points off the surface out of [0.6, 1.5] h (h
+//     at each edge's midpoint when the search begins), then their summed
+//     distance to the band, every tet of its star positive (exact); a
 //     tet with no surface point stays within the targets where it was, no
-//     worse on either side where it was not; a tet with a surface point stays
-//     within the limits [max(10, the mesh's smallest angle), min(165, its
-//     largest)] when the polish begins, and a side already past them goes no
-//     further than the mesh's extreme on that side: neither extreme of the
-//     mesh, nor the share under 10 degrees, gets worse, and a mesh whose tets
-//     all lie within the targets keeps them there. The steps above judge moves
-//     by angles (with keep_edge_sizes only against short edges) and leave
+//     worse on either side where it was not; with size_polish_room, a tet
+//     with a surface point stays within the limits [max(10, the mesh's
+//     smallest angle), min(165, its largest)] when the polish begins, and a
+//     side already past them goes no further than the mesh's extreme on that
+//     side: neither extreme of the mesh, nor the share under 10 degrees, gets
+//     worse, and a mesh whose tets all lie within the targets keeps them
+//     there (without the room, a parallel leaf task's, it is held as the
+//     others are). The steps above judge moves by angles (with
+//     keep_edge_sizes only against short edges) and leave
 //     edges stretched where they worked: with every tet held as the interior
 //     ones are (session 18), couplingdown's interior edges within the band
 //     went 91.4% -> 95.5% at the default size and 95.9% -> 97.3% at diag/100,
@@ -261,10 +269,12 @@
 //     zig-zag between the faces, went 64.0% -> 83.0%; couplingdown 95.5% ->
 //     98.1% (diag/100 97.3% -> 97.9%), primitives13 at diag/100 92.8% -> 96.0%,
 //     hinge at diag/100 93.1% -> 93.9%, the extremes and interior counts as
-//     they were (`pdrmesh_bench_refine`). With the limits at [10, 165] for
-//     every mesh, bunny_npm, elephant, knot2, fandisk and primitives13, all
-//     within [15, 150] or nearly, fell to minima of 10-12 degrees.
-
+//     they were (`pdrmesh_bench_refine`); the edge removals then took hinge
+//     to 85.0% and 94.5% at diag/100, couplingdown to 98.5% and 98.1%. With
+//     the limits at [10, 165] for every mesh, bunny_npm, elephant, knot2,
+//     fandisk and primitives13, all within [15, 150] or nearly, fell to
+//     minima of 10-12 degrees.
+//
 // Guarantees: frozen faces keep their vertices and coordinates (flips and
 // insertion refuse them; their points are fixed); hull faces and region
 // interfaces likewise; the total volume is conserved up to rounding (points
@@ -335,6 +345,13 @@ struct OptimizeOptions {
   int repair_cycles = 4;
   /// Size polish, last (9. above; with smooth and a sizing field).
   bool polish_sizes = true;
+  /// The size polish lets tets with a surface point give way within limits
+  /// taken from the mesh's extremes (9. above). Off, they are held as the
+  /// interior ones are. A parallel leaf task's sub-mesh is not the mesh: its
+  /// extremes when its polish begins include bad tets that its frozen hull
+  /// keeps until a later task (frame's parallel minimum went from 14.1 to
+  /// 10.7 degrees with the room there), so leaf_optimize_options turns it off.
+  bool size_polish_room = true;
   /// Safety cap on successful flips per sweep, times the number of tets at the
   /// start of the sweep (the min-max rule already guarantees an end).
   double max_flips_per_tet = 20;
@@ -356,6 +373,7 @@ struct OptimizeStats {
   std::size_t margin_moves = 0;   ///< moves of the margin polish (counted in points_moved too)
   int repair_cycles = 0;          ///< cycles of 8. run (their repair rounds count in repair_rounds)
   std::size_t size_moves = 0;     ///< moves of the size polish (counted in points_moved too)
+  std::size_t size_flips = 0;     ///< edge removals of the size polish (counted in flips too)
   double min_dihedral_before = 0, min_dihedral_after = 0;  ///< degrees, over all alive tets
   double max_dihedral_before = 0, max_dihedral_after = 0;
   double seconds = 0;  ///< wall time, measured only for reporting
