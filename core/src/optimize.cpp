@@ -94,13 +94,17 @@ constexpr double kShortEdge = 0.6;
 /// The upper end of that band: the size polish (polish_sizes) brings edges
 /// off the surface back within [kShortEdge, kLongEdge] h.
 constexpr double kLongEdge = 1.5;
-/// Rounds of the size polish (one that moves nothing ends it): with the
-/// surface tets' room (surface_bounds), 4 gave hinge 83.0% of its interior
-/// edges within the band at the default size against 81.3% with 2 and 83.0%
-/// with 8, couplingdown 98.1% against 97.8% (session 19, limits [10, 165],
-/// which these two meshes' extremes give anyway;
-/// `pdrmesh_bench_refine`; the opt_s column moved within its noise).
-constexpr int kSizeRounds = 4;
+/// Rounds of the size polish (one that changes nothing ends it): 6 gave
+/// hinge 90.4% of its interior edges within the band at the default size
+/// against 90.2% with 4 and 90.4% with 8 (session 19, `pdrmesh_bench_refine`);
+/// before the splits, with the surface tets' room, 4 gave 83.0% against 81.3%
+/// with 2.
+constexpr int kSizeRounds = 6;
+/// Where the size polish's splits try the new point along the edge, in this
+/// order. hinge at the default size, interior edges within the band: the
+/// midpoint alone 88.9%, 1/2, 2/5, 3/5, 3/10, 7/10 89.9% (both with 4 rounds),
+/// these nine 90.4% (90.2% with 4 rounds; session 19, `pdrmesh_bench_refine`).
+constexpr std::array<double, 9> kSplitAt{0.5, 0.45, 0.55, 0.4, 0.6, 0.35, 0.65, 0.3, 0.7};
 
 /// Line-search steps towards each smoothing target: 1, 1/2, ..., 1/64.
 constexpr int kLineSteps = 7;
@@ -553,6 +557,8 @@ class Optimizer {
     size_limits_ = {std::max(kRelaxedCapAngles[0], mesh_angles_.min),
                     std::min(kRelaxedCapAngles[1], mesh_angles_.max)};
     for (int round = 0; round < kSizeRounds; ++round) {
+      find_fixed();  // sized for the points the splits added
+      h.resize(m_.num_points(), -1.0);
       std::vector<char> wanted(m_.num_points(), 0);
       long_edges_.clear();
       for (Index t = 0; t < m_.num_slots(); ++t) {
@@ -571,12 +577,17 @@ class Optimizer {
       const std::size_t flipped = o_.reconnect ? size_flips() : 0;
       st_.flips += flipped;
       st_.size_flips += flipped;
+      const std::size_t split = o_.insert_points ? size_splits() : 0;
+      st_.points_inserted += split;
+      st_.size_splits += split;
+      find_fixed();
+      wanted.resize(m_.num_points(), 1);  // the new points: their edges may be out of the band
       const std::vector<Index> one_tet = first_tet_per_point();
       std::size_t now = 0;
       for (Index v = 0; v < m_.num_points(); ++v)
         if (wanted[v] != 0 && fixed_[v] == 0 && size_point(v, one_tet[v])) ++now;
       moved += now;
-      if (now == 0) break;
+      if (now + flipped + split == 0) break;
     }
     st_.points_moved += moved;
     st_.size_moves += moved;
@@ -1273,6 +1284,35 @@ class Optimizer {
     return out;
   }
 
+  /// An edge off the surface that polish_sizes found long.
+  struct LongEdge {
+    Index a, b;  ///< a < b
+    Index t;     ///< a tet holding it when found, and its local edge
+    int e;
+    bool operator<(const LongEdge& o) const { return std::tie(a, b, t, e) < std::tie(o.a, o.b, o.t, o.e); }
+    bool operator==(const LongEdge&) const = default;
+  };
+
+  /// Whether the long edge le is still where polish_sizes found it (its tet
+  /// alive and holding it: the slot may hold another tet now) and has a
+  /// removable ring (flips.hpp), then in r.
+  bool ring_of(const LongEdge& le, EdgeRing& r) const {
+    if (!m_.alive(le.t)) return false;
+    const Tet& k = m_.tet(le.t);
+    const Index u = k[topo::kEdgeVertex[le.e][0]], w = k[topo::kEdgeVertex[le.e][1]];
+    if (std::min(u, w) != le.a || std::max(u, w) != le.b) return false;
+    return removable_edge_ring(m_, le.t, le.e, 0, r) == FlipOutcome::kDone;
+  }
+
+  bool off_surface(Index v) const { return v >= surface_.size() || surface_[v] == 0; }
+
+  /// The angles a new tet of the size flips and splits must lie within: the
+  /// targets, or size_limits_ for a tet with a surface point with the room.
+  AngleRange size_bounds(const Tet& t) const {
+    if (o_.size_polish_room && repair_class(t) == 1) return size_limits_;
+    return {o_.target_min_dihedral, o_.target_max_dihedral};
+  }
+
   /// Size flips (before each round's moves): each long edge of long_edges_
   /// (once, from the first tet in slot order that held it when the round
   /// began, if that tet still does) is removed where a triangulation of its
@@ -1287,16 +1327,10 @@ class Optimizer {
     long_edges_.erase(std::unique(long_edges_.begin(), long_edges_.end(),
                                   [](const LongEdge& x, const LongEdge& y) { return x.a == y.a && x.b == y.b; }),
                       long_edges_.end());
-    const auto off_surface = [this](Index v) { return v >= surface_.size() || surface_[v] == 0; };
-    const AngleRange targets{o_.target_min_dihedral, o_.target_max_dihedral};
     std::size_t flips = 0;
     for (const LongEdge& le : long_edges_) {
-      if (!m_.alive(le.t)) continue;
-      const Tet& k = m_.tet(le.t);
-      const Index u = k[topo::kEdgeVertex[le.e][0]], w = k[topo::kEdgeVertex[le.e][1]];
-      if (std::min(u, w) != le.a || std::max(u, w) != le.b) continue;  // the slot holds another tet now
       EdgeRing r;
-      if (removable_edge_ring(m_, le.t, le.e, 0, r) != FlipOutcome::kDone) continue;
+      if (!ring_of(le, r)) continue;
       const Vec3 d = m_.point(r.a) - m_.point(r.b);
       const double removed2 = dot(d, d);
       const int n = r.size;
@@ -1314,10 +1348,7 @@ class Optimizer {
         const double q = measured(t);
         if (q == -kInfinity) return q;
         const auto p = corners(m_, t);
-        const bool room = o_.size_polish_room && repair_class(t) == 1;
-        return within(dihedral_range(p[0], p[1], p[2], p[3]), room ? size_limits_ : targets)
-                   ? q
-                   : -kInfinity;
+        return within(dihedral_range(p[0], p[1], p[2], p[3]), size_bounds(t)) ? q : -kInfinity;
       };
       RingTriangulation best;
       const auto excluded = [&](int i, int m, int j) { return refused(i, m) || refused(m, j) || refused(i, j); };
@@ -1329,6 +1360,69 @@ class Optimizer {
       ++flips;
     }
     return flips;
+  }
+
+  /// Size splits (after the size flips): each long edge of long_edges_ still
+  /// in the mesh gets a new point x on it, its ring's tets each split in two
+  /// (a and b in turn replaced by x), where every new tet is positive (exact)
+  /// and within the bounds of size_flips, and at most one new edge to a point
+  /// off the surface lies out of [kShortEdge, kLongEdge] h (x moves next, with
+  /// the polish's moves). x is tried at kSplitAt along the edge, the first
+  /// that holds taken. Returns the points added.
+  std::size_t size_splits() {
+    std::size_t splits = 0;
+    for (const LongEdge& le : long_edges_) {
+      EdgeRing r;
+      if (!ring_of(le, r)) continue;
+      // Whether the new tets of a split at x hold (fresh_ gets them, with
+      // kNoIndex for the new point).
+      const auto holds = [&](const Vec3& x) {
+        const auto out_of_band = [&](Index v) {
+          if (!off_surface(v)) return 0;
+          const Vec3& y = m_.point(v);
+          const double l = norm(x - y), hm = sizing_->at(0.5 * (x + y));
+          return l < kShortEdge * hm || l > kLongEdge * hm ? 1 : 0;
+        };
+        int out = out_of_band(r.a) + out_of_band(r.b);
+        for (int i = 0; i < r.size; ++i) out += out_of_band(r.ring[i]);
+        if (out > 1) return false;
+        fresh_.clear();
+        for (int i = 0; i < r.size; ++i) {
+          const Tet& t = m_.tet(r.tets[i]);
+          const AngleRange bounds = size_bounds(t);  // the two halves hold t's points
+          for (const Index replaced : {r.a, r.b}) {
+            Tet n = t;
+            std::array<Vec3, 4> p = corners(m_, t);
+            for (int j = 0; j < 4; ++j)
+              if (n[j] == replaced) {
+                p[j] = x;
+                n[j] = kNoIndex;
+              }
+            if (exact::orient3d(p[0], p[1], p[2], p[3]) <= 0 || !within(dihedral_range(p[0], p[1], p[2], p[3]), bounds))
+              return false;
+            fresh_.push_back(n);
+          }
+        }
+        return true;
+      };
+      const Vec3 &pa = m_.point(r.a), &pb = m_.point(r.b);
+      bool found = false;
+      Vec3 x{};
+      for (std::size_t c = 0; c < kSplitAt.size() && !found; ++c) {
+        x = pa + kSplitAt[c] * (pb - pa);
+        found = holds(x);
+      }
+      if (!found) continue;
+      const Index np = m_.add_point(x);
+      for (Tet& n : fresh_)
+        for (Index& v : n)
+          if (v == kNoIndex) v = np;
+      parent_.assign(fresh_.size(), 0);
+      m_.replace_cavity(std::span<const Index>(r.tets.data(), static_cast<std::size_t>(r.size)), fresh_, parent_);
+      forget_created();
+      ++splits;
+    }
+    return splits;
   }
 
   /// Size polish of v (polish_sizes): a compass search for the position
@@ -1858,13 +1952,6 @@ class Optimizer {
   /// Margin polish: the mesh's extreme dihedral angles when the round began.
   AngleRange mesh_angles_{};
   AngleRange size_limits_{};  ///< polish_sizes' surface_bounds limits
-  struct LongEdge {
-    Index a, b;  ///< a < b
-    Index t;     ///< a tet holding it when found, and its local edge
-    int e;
-    bool operator<(const LongEdge& o) const { return std::tie(a, b, t, e) < std::tie(o.a, o.b, o.t, o.e); }
-    bool operator==(const LongEdge&) const = default;
-  };
   std::vector<LongEdge> long_edges_;  ///< polish_sizes' long edges off the surface
   std::size_t flips_this_sweep_ = 0;
   std::size_t flip_budget_ = 0;
