@@ -8,13 +8,13 @@
 #include <oneapi/tbb/parallel_reduce.h>
 
 #include <algorithm>
-#include <tuple>
 #include <array>
 #include <chrono>
 #include <cmath>
 #include <limits>
 #include <optional>
 #include <span>
+#include <tuple>
 #include <vector>
 
 #include "pdrmesh/flips.hpp"
@@ -538,12 +538,14 @@ class Optimizer {
     return moved;
   }
 
-  /// Size polish (optimize.hpp, 9.): up to kSizeRounds rounds; in each, the
-  /// free points of the edges between two points off the surface, one of
-  /// them moved or inserted by the optimization (touched), that are out of
-  /// [kShortEdge, kLongEdge] times the mean h of their ends (h at the points,
-  /// measured once each), ascending, each moved by size_point. Returns the
-  /// moves.
+  /// Size polish (optimize.hpp, 9.): up to kSizeRounds rounds, while one
+  /// changes something; in each, of the edges between two points off the
+  /// surface, one of them moved or inserted by the optimization (touched),
+  /// that are out of [kShortEdge, kLongEdge] times the mean h of their ends
+  /// (h at the points, measured once each), the long ones are removed
+  /// (size_flips) or split (size_splits) where that holds, then the free
+  /// points of all of them and the new points, ascending, are moved by
+  /// size_point. Returns the moves.
   std::size_t polish_sizes() {
     find_fixed();
     const auto touched = [this](Index v) { return v >= first_new_point_ || (v < moved_.size() && moved_[v] != 0); };
@@ -574,6 +576,10 @@ class Optimizer {
             wanted[a] = wanted[b] = 1;
         }
       }
+      std::sort(long_edges_.begin(), long_edges_.end());  // each edge once, from its first tet
+      long_edges_.erase(std::unique(long_edges_.begin(), long_edges_.end(),
+                                    [](const LongEdge& x, const LongEdge& y) { return x.a == y.a && x.b == y.b; }),
+                        long_edges_.end());
       const std::size_t flipped = o_.reconnect ? size_flips() : 0;
       st_.flips += flipped;
       st_.size_flips += flipped;
@@ -1314,8 +1320,8 @@ class Optimizer {
   }
 
   /// Size flips (before each round's moves): each long edge of long_edges_
-  /// (once, from the first tet in slot order that held it when the round
-  /// began, if that tet still does) is removed where a triangulation of its
+  /// (in the order of its ends, from the first tet in slot order that held it
+  /// when the round began, if that tet still does) is removed where a triangulation of its
   /// ring exists whose new tets are positive (exact), those with no surface
   /// point within the targets and those with one within size_limits_, and
   /// whose new edges are all shorter than the removed one and, between two
@@ -1323,10 +1329,6 @@ class Optimizer {
   /// midpoint: one edge fewer out of the band, none added. The triangulation
   /// with the best smallest measure wins. Returns the flips.
   std::size_t size_flips() {
-    std::sort(long_edges_.begin(), long_edges_.end());
-    long_edges_.erase(std::unique(long_edges_.begin(), long_edges_.end(),
-                                  [](const LongEdge& x, const LongEdge& y) { return x.a == y.a && x.b == y.b; }),
-                      long_edges_.end());
     std::size_t flips = 0;
     for (const LongEdge& le : long_edges_) {
       EdgeRing r;
@@ -1949,7 +1951,8 @@ class Optimizer {
   /// (outside the targets; or any, for a ring point).
   enum class MarginKind : unsigned char { kSurface, kGood, kBad };
   std::vector<MarginKind> margin_kind_;
-  /// Margin polish: the mesh's extreme dihedral angles when the round began.
+  /// The mesh's extreme dihedral angles when a margin polish round, or the
+  /// size polish, began.
   AngleRange mesh_angles_{};
   AngleRange size_limits_{};  ///< polish_sizes' surface_bounds limits
   std::vector<LongEdge> long_edges_;  ///< polish_sizes' long edges off the surface
