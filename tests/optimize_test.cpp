@@ -454,9 +454,10 @@ TEST(Optimize, RepairCyclesLeaveFewerInteriorTetsOutsideTheTargets) {
 /// hull point may give way within the limits [max(10, mesh min), min(165,
 /// mesh max)] (with `room`; else as the others), a side past them going no
 /// further than the mesh's extreme, so neither extreme of the mesh gets worse.
-/// A new tet (an edge removal's or a split's) lies within the targets, or with a hull point
-/// within the limits. Returns how many tets with a hull point got worse than
-/// the interior's rule allows (the room the polish used).
+/// A new tet (an edge removal's or a split's) lies within the targets, or,
+/// with a hull point and `room`, within the limits. Returns how many tets with
+/// a hull point got worse than the interior's rule allows (the room the
+/// polish used).
 std::size_t expect_size_polish_bounds(const VolumeMesh& off, const VolumeMesh& on, bool room = true) {
   EXPECT_GE(on.points.size(), off.points.size());  // splits add points
   const OptimizeOptions targets;
@@ -505,9 +506,8 @@ std::size_t expect_size_polish_bounds(const VolumeMesh& off, const VolumeMesh& o
 
 TEST(Optimize, SizePolishBringsEdgesIntoTheBandAndKeepsTheAngleBounds) {
   // The jittered grid's long diagonals (1.73 at h = 1) lie out of [0.6, 1.5] h.
-  // The size polish, the last step, moves the points the optimization moved
-  // before so that fewer edges off the hull lie out of the band; it changes no
-  // tet's vertices and keeps the angle bounds above.
+  // The size polish, the last step, removes, splits and moves so that fewer
+  // edges off the hull lie out of the band, and keeps the angle bounds above.
   const VolumeMesh v = jittered_grid(5, 0.45);
   const SizingField h = uniform_sizing(v, 1.0);
   std::array<VolumeMesh, 2> out;
@@ -535,11 +535,12 @@ TEST(Optimize, SizePolishBringsEdgesIntoTheBandAndKeepsTheAngleBounds) {
 
 // hinge at the default spacing is a thin part (no point lies deeper than
 // about 0.85 h): its interior points form one sheet, which the smoothing
-// lets zig-zag between the two faces, stretching the sheet's edges. Held to
-// the interior's bounds on every tet, the size polish brought 62.8% of the
-// interior edges into [0.6, 1.5] h; with the room above for the tets on the
-// surface, 83.0%, 85.0% with its edge removals and 90.4% with its splits
-// (session 19, `pdrmesh_bench_refine`). Without the room (a leaf task's) it
+// lets zig-zag between the two faces, stretching the sheet's edges. Moving
+// points only and holding every tet to the interior's bounds, the size
+// polish took the share of interior edges within [0.6, 1.5] h from 62.8% to
+// 64.0%; with the room above for the tets on the surface to 83.0%, with its
+// edge removals to 85.0% and with its splits to 90.4% (sessions 18 and 19,
+// `pdrmesh_bench_refine`). Without the room (a leaf task's) it
 // keeps every tet on the surface as the interior ones are kept.
 TEST(Optimize, SizePolishUsesTheSurfaceTetsRoomOnAThinPart) {
   auto surface = read_surface(PDRMESH_CORPUS_DIR "/hinge.stl");
