@@ -235,52 +235,52 @@
 //     interior edges within [0.6, 1.5] h 90.3% -> 90.2%. Without the
 //     repair's smoothing the cycles left 7 and 174.
 //
-//  9. Size polish (polish_sizes, on; with smooth and a sizing field), last:
-//     up to six rounds, while one changes something. The edges between two
-//     points off the surface, one of them moved or inserted by the steps
-//     above, whose length is out of [0.6, 1.5] times the mean h of their
-//     ends. First (with reconnect) each such long edge, in the order of its
-//     ends, is removed
+//  9. Size polish (polish_sizes, on; with smooth and a sizing field), last: up
+//     to six rounds, while one changes something. The edges between two points
+//     off the surface, one of them moved or inserted by the steps above, whose
+//     length is out of [0.6, 1.5] times the mean h of their ends. First (with
+//     reconnect) each such long edge, in the order of its ends, is removed
 //     where a triangulation of its ring exists (flips.hpp's search) whose new
 //     edges are all shorter and, off the surface, within the band at their
 //     midpoint, and whose new tets are positive (exact) and within the
-//     targets, or, with a surface point and the room below, within its
-//     limits; the best smallest measure wins. Then (with insert_points) each
-//     long edge still there is split by a new point x on it (each tet of its
-//     ring in two) where the new tets hold the same bounds and at most one
-//     new edge to a point off the surface is out of the band (x is tried at
-//     1/2, then 0.45, 0.55, ..., 0.3, 0.7 of the edge; it moves next). Then
-//     each free point of such an edge, or new, ascending, moves by a compass
-//     search as in 3. to lower the number of its edges to points off the surface out of [0.6, 1.5] h (h
-//     at each edge's midpoint when the search begins), then their summed
-//     distance to the band, every tet of its star positive (exact); a
-//     tet with no surface point stays within the targets where it was, no
-//     worse on either side where it was not; with size_polish_room, a tet
-//     with a surface point stays within the limits [max(10, the mesh's
+//     targets, or, with a surface point and the room below, within its limits;
+//     the best smallest measure wins. Then (with insert_points) each long edge
+//     still there is split by a new point x on it (each tet of its ring in
+//     two) where the new tets hold the same bounds and at most one new edge to
+//     a point off the surface is out of the band (x is tried at 1/2, then
+//     0.45, 0.55, ..., 0.3, 0.7 of the edge; it moves next). Then each free
+//     point of such an edge, or new, ascending, moves by a compass search as
+//     in 3. to lower the number of its edges to points off the surface out of
+//     [0.6, 1.5] h (h at each edge's midpoint when the search begins), then
+//     their summed distance to the band, every tet of its star positive
+//     (exact); a tet with no surface point stays within the targets where it
+//     was, no worse on either side where it was not; with size_polish_room, a
+//     tet with a surface point stays within the limits [max(10, the mesh's
 //     smallest angle), min(165, its largest)] when the polish begins, and a
 //     side already past them goes no further than the mesh's extreme on that
 //     side: neither extreme of the mesh, nor the share under 10 degrees, gets
-//     worse, and a mesh whose tets all lie within the targets keeps them
-//     there (without the room, a parallel leaf task's, it is held as the
-//     others are). The steps above judge moves by angles (with
-//     keep_edge_sizes only against short edges) and leave
-//     edges stretched where they worked: with every tet held as the interior
-//     ones are (session 18), couplingdown's interior edges within the band
-//     went 91.4% -> 95.5% at the default size and 95.9% -> 97.3% at diag/100,
-//     hinge's at diag/100 90.4% -> 93.1%, for about 0.2 CPU s on sphere966's
-//     million tets. The room of the surface tets (session 19) matters on thin
-//     parts: hinge at the default size, where no point lies deeper than about
-//     0.85 h and the interior points form one sheet that the smoothing lets
-//     zig-zag between the faces, went 64.0% -> 83.0%; couplingdown 95.5% ->
-//     98.1% (diag/100 97.3% -> 97.9%), primitives13 at diag/100 92.8% -> 96.0%,
-//     hinge at diag/100 93.1% -> 93.9%, the extremes and interior counts as
-//     they were (`pdrmesh_bench_refine`); the edge removals then took hinge
-//     to 85.0% and 94.5% at diag/100, couplingdown to 98.5% and 98.1%, and
-//     the splits hinge to 90.4% and 95.2%, couplingdown to 98.9% and 98.4%
-//     (the tet counts +8.5%, +7.5%, +10%, +4%). With
-//     the limits at [10, 165] for every mesh, bunny_npm, elephant, knot2,
-//     fandisk and primitives13, all within [15, 150] or nearly, fell to
-//     minima of 10-12 degrees.
+//     worse, and a mesh whose tets all lie within the targets keeps them there
+//     (without the room, a parallel leaf task's, it is held as the others
+//     are).
+//
+//     The steps above judge moves by angles (with keep_edge_sizes only against
+//     short edges) and leave edges stretched where they worked: with every tet
+//     held as the interior ones are (session 18), couplingdown's interior
+//     edges within the band went 91.4% -> 95.5% at the default size and 95.9%
+//     -> 97.3% at diag/100, hinge's at diag/100 90.4% -> 93.1%, for about 0.2
+//     CPU s on sphere966's million tets. The room of the surface tets (session
+//     19) matters on thin parts: hinge at the default size, where no point
+//     lies deeper than about 0.85 h and the interior points form one sheet
+//     that the smoothing lets zig-zag between the faces, went 64.0% -> 83.0%;
+//     couplingdown 95.5% -> 98.1% (diag/100 97.3% -> 97.9%), primitives13 at
+//     diag/100 92.8% -> 96.0%, hinge at diag/100 93.1% -> 93.9%, the extremes
+//     and interior counts as they were (`pdrmesh_bench_refine`); the edge
+//     removals then took hinge to 85.0% and 94.5% at diag/100, couplingdown to
+//     98.5% and 98.1%, and the splits hinge to 90.4% and 95.2%, couplingdown
+//     to 98.9% and 98.4% (the tet counts +8.5%, +7.5%, +10%, +4%). With the
+//     limits at [10, 165] for every mesh, bunny_npm, elephant, knot2, fandisk
+//     and primitives13, all within [15, 150] or nearly, fell to minima of
+//     10-12 degrees.
 //
 // Guarantees: frozen faces keep their vertices and coordinates (flips and
 // insertion refuse them; their points are fixed); hull faces and region
