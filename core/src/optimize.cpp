@@ -547,7 +547,6 @@ class Optimizer {
   /// points of all of them and the new points, ascending, are moved by
   /// size_point. Returns the moves.
   std::size_t polish_sizes() {
-    find_fixed();
     const auto touched = [this](Index v) { return v >= first_new_point_ || (v < moved_.size() && moved_[v] != 0); };
     std::vector<double> h(m_.num_points(), -1.0);
     const auto h_at = [&](Index v) {
@@ -559,7 +558,7 @@ class Optimizer {
     size_limits_ = {std::max(kRelaxedCapAngles[0], mesh_angles_.min),
                     std::min(kRelaxedCapAngles[1], mesh_angles_.max)};
     for (int round = 0; round < kSizeRounds; ++round) {
-      find_fixed();  // sized for the points the splits added
+      find_fixed();  // also sized for the points the last round's splits added
       h.resize(m_.num_points(), -1.0);
       std::vector<char> wanted(m_.num_points(), 0);
       long_edges_.clear();
