@@ -18,6 +18,7 @@
 //   PDRMESH_BENCH_SWEEPS=N (optimization sweeps), PDRMESH_BENCH_NO_REPAIR (no interior repair),
 //   PDRMESH_BENCH_NO_POLISH (no angle polish), PDRMESH_BENCH_NO_MARGIN (no margin polish),
 //   PDRMESH_BENCH_REPAIR_CYCLES=N (OptimizeOptions::repair_cycles), PDRMESH_BENCH_NO_SIZE_POLISH (no size polish),
+//   PDRMESH_BENCH_NO_ABSORB (no absorption), PDRMESH_BENCH_DIVISOR=N (the fine size is diagonal / N, not / 100),
 //   PDRMESH_BENCH_LONG_EDGE_RATIO=R,
 //   PDRMESH_BENCH_NO_VOID_MIDPOINTS, PDRMESH_BENCH_NO_SPATIAL_ORDER (RefineOptions::spatial_order off),
 //   PDRMESH_BENCH_SPATIAL_ORDER_MIN_TETS=N (RefineOptions::spatial_order_min_tets),
@@ -57,6 +58,15 @@ using Clock = std::chrono::steady_clock;
 
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
+// The fine size's divisor of the bounding-box diagonal: 100, or PDRMESH_BENCH_DIVISOR.
+double divisor() {
+  const char* d = std::getenv("PDRMESH_BENCH_DIVISOR");
+  return d != nullptr ? std::atof(d) : 100.0;
+}
+
+// The fine size's name: d100 (file names) or d/100 (the table), after divisor().
+std::string fine_name(bool slash) { return fmt::format("d{}{:g}", slash ? "/" : "", divisor()); }
+
 void run(const std::string& dir, const std::string& name, bool fine) {
   auto surface = read_surface(dir + "/" + name + ".stl");
   if (!surface.ok()) {
@@ -69,7 +79,7 @@ void run(const std::string& dir, const std::string& name, bool fine) {
     return;
   }
   SizingOptions so;
-  if (fine) so.size = surface->bounds().diagonal() / 100.0;
+  if (fine) so.size = surface->bounds().diagonal() / divisor();
   auto field = SizingField::build(*surface, *initial, so);
   auto mesh = TetMesh::from_volume_mesh(*initial);
   if (!field.ok() || !mesh.ok()) {
@@ -112,6 +122,7 @@ void run(const std::string& dir, const std::string& name, bool fine) {
     if (std::getenv("PDRMESH_BENCH_NO_POLISH") != nullptr) oo.polish_angles = false;
     if (std::getenv("PDRMESH_BENCH_NO_MARGIN") != nullptr) oo.polish_margins = false;
     if (std::getenv("PDRMESH_BENCH_NO_SIZE_POLISH") != nullptr) oo.polish_sizes = false;
+    if (std::getenv("PDRMESH_BENCH_NO_ABSORB") != nullptr) oo.absorb = false;
     if (std::getenv("PDRMESH_BENCH_NO_REMOVE") != nullptr) oo.remove_points = false;
     if (const char* v = std::getenv("PDRMESH_BENCH_REPAIR_CYCLES")) oo.repair_cycles = std::atoi(v);
     auto ostats = optimize(*mesh, &*field, oo);
@@ -131,7 +142,7 @@ void run(const std::string& dir, const std::string& name, bool fine) {
   const VolumeMesh out = mesh->to_volume_mesh();
   const ValidationReport report = validate_mesh(out, &*surface);
   if (const char* out_dir = std::getenv("PDRMESH_BENCH_WRITE")) {
-    const std::string path = fmt::format("{}/{}-{}.mesh", out_dir, name, fine ? "d100" : "dflt");
+    const std::string path = fmt::format("{}/{}-{}.mesh", out_dir, name, fine ? fine_name(false) : "dflt");
     if (Status s = write_volume(out, path); !s.ok()) fmt::print(stderr, "{}\n", s.to_string());
   }
 
@@ -193,7 +204,7 @@ void run(const std::string& dir, const std::string& name, bool fine) {
   const double n = band.edges == 0 ? 1.0 : double(band.edges);
   const double cpu = refine_cpu + optimize_cpu;
   fmt::print("{:<13} {:>5} {:>9} {:>4} {:>6.2f} {:>6.2f} {:>6.2f} {:>9.0f} {:>6.1f}% {:>5.1f}% {:>5.1f}% {:>6.1f} {:>6.1f} {:>6.1f} {:>6.1f} {:>6.1f}% {:>6} {:>6.3f}% {}\n",
-             name, fine ? "d/100" : "dflt", out.tets.size(), stats->passes.size(), refine_cpu, optimize_cpu,
+             name, fine ? fine_name(true) : "dflt", out.tets.size(), stats->passes.size(), refine_cpu, optimize_cpu,
              seconds, double(out.tets.size()) / cpu, 100.0 * double(band.within) / n, 100.0 * double(band.shorter) / n,
              100.0 * double(band.longer) / n, all.min, all.max, inner.min, inner.max,
              inner_tets ? 100.0 * double(inner_good) / double(inner_tets) : 0.0,

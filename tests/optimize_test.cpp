@@ -421,12 +421,14 @@ TEST(Optimize, MarginPolishRaisesInteriorTetsToTheTargetsAndLosesNoOther) {
 TEST(Optimize, RepairCyclesLeaveFewerInteriorTetsOutsideTheTargets) {
   // Strict targets leave bad interior tets after the margin polish; the
   // cycles of repair rounds and margin polish that follow leave fewer, and
-  // none runs when turned off.
+  // none runs when turned off. (The absorption after them, off here, leaves
+  // none: see AbsorptionLeavesFewerInteriorTetsOutsideTheTargets.)
   const VolumeMesh v = jittered_grid(5, 0.45);
   const auto on_hull = hull_points(v);
   OptimizeOptions o;
   o.target_min_dihedral = 40;
   o.target_max_dihedral = 100;
+  o.absorb = false;
   o.repair_cycles = 0;
   TetMesh once = fixtures::build(v);
   auto without = optimize(once, nullptr, o);
@@ -442,6 +444,43 @@ TEST(Optimize, RepairCyclesLeaveFewerInteriorTetsOutsideTheTargets) {
   EXPECT_GE(with->repair_cycles, 1);
   EXPECT_LE(with->repair_cycles, 4);
   EXPECT_GT(with->repair_rounds, without->repair_rounds);
+  EXPECT_LT(interior_bad(m, on_hull, 40, 100), left);
+  expect_hull_points_kept(m, v);
+  EXPECT_NEAR(fixtures::total_volume(m), volume, 1e-12 * volume);
+  expect_valid(m, nullptr);
+}
+
+TEST(Optimize, AbsorptionLeavesFewerInteriorTetsOutsideTheTargets) {
+  // With strict targets the repair cycles leave bad tets with no hull point;
+  // the absorption (optimize.hpp, 10.) hands them to the tets on the hull
+  // (flips and point removals judged by the tets off it, those on it only
+  // kept positive and within the mesh's extremes): fewer are left, and it
+  // runs only when turned on and given the room (surface_room).
+  const VolumeMesh v = jittered_grid(5, 0.45);
+  const auto on_hull = hull_points(v);
+  OptimizeOptions o;
+  o.target_min_dihedral = 40;
+  o.target_max_dihedral = 100;
+  o.absorb = false;
+  TetMesh before = fixtures::build(v);
+  auto without = optimize(before, nullptr, o);
+  ASSERT_TRUE(without.ok());
+  EXPECT_EQ(without->absorb_cycles, 0);
+  const std::size_t left = interior_bad(before, on_hull, 40, 100);
+  ASSERT_GT(left, 0u);
+  o.absorb = true;
+  o.surface_room = false;
+  TetMesh no_room = fixtures::build(v);
+  auto held = optimize(no_room, nullptr, o);
+  ASSERT_TRUE(held.ok());
+  EXPECT_EQ(held->absorb_cycles, 0);
+  o.surface_room = true;
+  TetMesh m = fixtures::build(v);
+  const double volume = fixtures::total_volume(m);
+  auto with = optimize(m, nullptr, o);
+  ASSERT_TRUE(with.ok());
+  EXPECT_GE(with->absorb_cycles, 1);
+  EXPECT_GT(with->absorbed, 0u);
   EXPECT_LT(interior_bad(m, on_hull, 40, 100), left);
   expect_hull_points_kept(m, v);
   EXPECT_NEAR(fixtures::total_volume(m), volume, 1e-12 * volume);
@@ -554,7 +593,7 @@ TEST(Optimize, SizePolishUsesTheSurfaceTetsRoomOnAThinPart) {
   std::array<double, 3> share{};
   for (int run = 0; run < 3; ++run) {
     options.optimize->polish_sizes = run > 0;
-    options.optimize->size_polish_room = run == 1;
+    options.optimize->surface_room = run == 1;
     auto r = mesh_serial(*surface, options);
     ASSERT_TRUE(r.ok()) << r.status().to_string();
     EXPECT_EQ(r->optimize.size_moves > 0, run > 0);
@@ -905,6 +944,44 @@ TEST(Optimize, CouplingdownInteriorWithinTargets) { expect_interior_within_targe
 // with the floor following the mesh's worst tet (optimize.hpp, 4.) it is
 // within the targets.
 TEST(Optimize, HingeInteriorWithinTargets) { expect_interior_within_targets("hinge", 0, 100); }
+
+// hinge at --size = diagonal / 50 (33,000 tets): next to its triangles 35 h
+// long, the repair cycles leave 4 tets with no surface point outside [15,
+// 150] (14.0 / 150.8 degrees); the absorption (optimize.hpp, 10.) hands them
+// to the tets on the surface and none is left (session 20,
+// `PDRMESH_BENCH_DIVISOR=50 pdrmesh_bench_refine`). Its flips and removals
+// keep every tet with a surface point within the mesh's extremes, and its
+// repair rounds hold their floors (4.): the mesh's smallest angle stays, and
+// the share of tets under 10 degrees grows by a few tets at most.
+TEST(Optimize, AbsorptionHandsHingesLastInteriorTetsToTheSurface) {
+  auto surface = read_surface(PDRMESH_CORPUS_DIR "/hinge.stl");
+  ASSERT_TRUE(surface.ok()) << surface.status().to_string();
+  SerialOptions options;
+  options.sizing.size = surface->bounds().diagonal() / 50.0;
+  std::array<std::size_t, 2> outside{};
+  std::array<QualityReport, 2> quality{};
+  for (int run = 0; run < 2; ++run) {
+    options.optimize->absorb = run == 1;
+    auto r = mesh_serial(*surface, options);
+    ASSERT_TRUE(r.ok()) << r.status().to_string();
+    EXPECT_EQ(r->optimize.absorbed > 0, run == 1);
+    EXPECT_EQ(r->optimize.absorb_cycles > 0, run == 1);
+    const VolumeMesh& out = r->mesh;
+    const auto on_boundary = hull_points(out);
+    for (const Tet& k : out.tets) {
+      if (on_boundary[k[0]] || on_boundary[k[1]] || on_boundary[k[2]] || on_boundary[k[3]]) continue;
+      const AngleRange a = dihedral_range(out.points[k[0]], out.points[k[1]], out.points[k[2]], out.points[k[3]]);
+      if (a.min < 15.0 || a.max > 150.0) ++outside[run];
+    }
+    quality[run] = measure_quality(out);
+    const ValidationReport report = validate_mesh(out, &*surface);
+    EXPECT_TRUE(report.ok()) << format_validation(report);
+  }
+  EXPECT_GT(outside[0], 0u);  // what the absorption is for
+  EXPECT_EQ(outside[1], 0u);
+  EXPECT_GE(quality[1].min_dihedral, quality[0].min_dihedral);
+  EXPECT_LE(quality[1].share_below_10, quality[0].share_below_10 + 0.001);
+}
 
 // Next to needle triangles, smoothing judged by angles alone pulled interior
 // points together: 87.8% of couplingdown's interior edges within [0.6, 1.5] h

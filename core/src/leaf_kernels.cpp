@@ -17,7 +17,7 @@ double regular_tet_volume(double h) { return h * h * h / (6.0 * std::sqrt(2.0));
 
 OptimizeOptions leaf_optimize_options(OptimizeOptions options) {
   options.keep_point_indices = true;
-  options.size_polish_room = false;  // a sub-mesh's extremes are not the mesh's
+  options.surface_room = false;  // a sub-mesh's extremes are not the mesh's
   return options;
 }
 

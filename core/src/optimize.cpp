@@ -165,6 +165,11 @@ constexpr double kSearchEnd = 64.0;
 /// at 1024 instead moved hinge's count both ways (93 to 139 at 128 to 1024).
 constexpr double kFineSearchEnd = 1024.0;
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
+/// Absorption (optimize.hpp, 10.): at most this many cycles, and it stops
+/// after this many in a row that leave no fewer bad tets with no fixed point
+/// than the fewest so far (the count goes up and down from cycle to cycle).
+constexpr int kAbsorbCycles = 10;
+constexpr int kAbsorbPatience = 3;
 
 AngleRange mesh_range(const TetMesh& m);
 
@@ -433,6 +438,19 @@ class Optimizer {
     return done;
   }
 
+  /// Absorption (optimize.hpp, 10.): repair_flips over `seeds` with the
+  /// operations judged by judged()'s absorption rule, against the mesh's
+  /// extremes now, and no point inserted. Returns the operations.
+  std::size_t absorb(std::vector<Index> seeds) {
+    find_fixed();
+    mesh_angles_ = mesh_range(m_);
+    judge_ = Judge::kAbsorb;
+    const std::size_t done = repair_flips(std::move(seeds));
+    judge_ = Judge::kRepair;
+    st_.absorbed += done;
+    return done;
+  }
+
   /// Cap repair (optimize.hpp, 5.): one point inserted into a cavity around
   /// each cap (is_cap), worst first (insert_cap). With `relaxed` (the second
   /// pass) also around each free-apex cap (cap_kind) and each bad tet of four
@@ -502,8 +520,9 @@ class Optimizer {
   /// no surface point, not on such a tet themselves), ascending, each moved by
   /// margin_point as the ring, then the free points of those bad tets,
   /// ascending, each moved by margin_point; each compass search ends at 1/`end` of its first
-  /// step. Returns the moves.
-  std::size_t polish_margins(double end = kSearchEnd) {
+  /// step; with `extremes`, the tets with a surface point may use the mesh's
+  /// extremes (margin_point). Returns the moves.
+  std::size_t polish_margins(double end = kSearchEnd, bool extremes = false) {
     find_fixed();
     std::size_t moved = 0;
     for (int round = 0; round < kMarginRounds; ++round) {
@@ -527,9 +546,9 @@ class Optimizer {
       }
       std::size_t now = 0;
       for (Index v = 0; v < np; ++v)
-        if (ring[v] && margin_point(v, one_tet[v], end, /*ring=*/true)) ++now;
+        if (ring[v] && margin_point(v, one_tet[v], end, /*ring=*/true, extremes)) ++now;
       for (Index v = 0; v < np; ++v)
-        if (wanted[v] && !fixed_[v] && margin_point(v, one_tet[v], end, /*ring=*/false)) ++now;
+        if (wanted[v] && !fixed_[v] && margin_point(v, one_tet[v], end, /*ring=*/false, extremes)) ++now;
       moved += now;
       if (now == 0) break;
     }
@@ -643,6 +662,7 @@ class Optimizer {
   /// one, nor make a tet with a fixed point worse than the repair floor where
   /// the old ones with a fixed point were not.
   bool fresh_holds(const std::array<double, 3>& floors) const {
+    if (judge_ == Judge::kAbsorb) return true;  // judged() held the absorption's bounds
     for (const Tet& k : fresh_)
       if (measure(corners(m_, k)) < floors[repair_class(k)]) return false;
     return true;
@@ -677,6 +697,29 @@ class Optimizer {
     return q;
   }
 
+  /// The objective of the repair's operations: measured(); in the absorption
+  /// (judge_), measured() for a tet with no surface point only, while one
+  /// with a surface point scores +inf when it is positive (exact) and within
+  /// the mesh's extremes (mesh_angles_), else -inf: the operation is judged
+  /// by the tets off the surface, and no extreme of the mesh gets worse.
+  double judged(const Tet& k) const {
+    const double q = measured(k);
+    if (judge_ == Judge::kRepair || q == -kInfinity || repair_class(k) != 1) return q;
+    const auto p = corners(m_, k);
+    return within(dihedral_range(p[0], p[1], p[2], p[3]), mesh_angles_) ? kInfinity : -kInfinity;
+  }
+
+  /// What the new tets of an operation replacing `tets` must beat: the worst
+  /// measure among them (`worst`, from repair_floors) or, in the absorption,
+  /// the worst among those with no surface point (+inf when there are none).
+  double beat(std::span<const Index> tets, double worst) const {
+    if (judge_ == Judge::kRepair) return worst;
+    double q = kInfinity;
+    for (Index t : tets)
+      if (repair_class(m_.tet(t)) != 1) q = std::min(q, measure(corners(m_, m_.tet(t))));
+    return q;
+  }
+
   /// One repair flip around the bad tet t (repair_flips).
   bool repair_tet(Index t) {
     const auto p = corners(m_, m_.tet(t));
@@ -697,8 +740,9 @@ class Optimizer {
       for (int j = 0; j < 4; ++j)
         if (j != apex && remove_edge_measured(u, topo::kEdgeIndex[apex][j])) return true;
     }
-    // No flip: a point in the cavity of t and its face neighbours (as for slivers).
-    if (sizing_ != nullptr && o_.insert_points && insert_into(t, /*guard_free=*/true)) {
+    // No flip: a point in the cavity of t and its face neighbours (as for
+    // slivers; judged by the measure, so not in the absorption).
+    if (judge_ == Judge::kRepair && sizing_ != nullptr && o_.insert_points && insert_into(t, /*guard_free=*/true)) {
       ++st_.points_inserted;
       return true;
     }
@@ -722,7 +766,7 @@ class Optimizer {
     const std::array<double, 3> floors = repair_floors(old, &old_q);
     RingTriangulation best;
     if (!best_ring_triangulation(
-            r, old_q, [this](const Tet& k) { return measured(k); }, [](int, int, int) { return false; }, best))
+            r, beat(old, old_q), [this](const Tet& k) { return judged(k); }, [](int, int, int) { return false; }, best))
       return false;
     fresh_.assign(best.tets.begin(), best.tets.begin() + best.count);
     if (!fresh_holds(floors)) return false;
@@ -757,7 +801,7 @@ class Optimizer {
       removal_targets_.erase(std::unique(removal_targets_.begin(), removal_targets_.end()),
                              removal_targets_.end());
       Index best = kNoIndex;
-      double best_q = old_q;
+      double best_q = beat(removal_star_, old_q);
       for (Index w : removal_targets_) {
         const double q = cone_quality(w, best_q);
         if (q > best_q) {
@@ -795,7 +839,7 @@ class Optimizer {
     for (const auto& [s, lv] : star_) {
       const std::optional<Tet> n = cone_tet(s, lv, w);
       if (!n) continue;
-      q = std::min(q, measured(*n));
+      q = std::min(q, judged(*n));
       if (!(q > beat)) break;
     }
     return q;
@@ -815,8 +859,9 @@ class Optimizer {
     double old_q = 0.0;
     const std::array<double, 3> floors = repair_floors(old, &old_q);
     fresh_.assign({Tet{a, b, d, e}, Tet{b, c, d, e}, Tet{c, a, d, e}});
+    const double floor = beat(old, old_q);
     for (const Tet& k : fresh_)
-      if (!(measured(k) > old_q)) return false;
+      if (!(judged(k) > floor)) return false;
     if (!fresh_holds(floors)) return false;
     parent_.assign(3, 0);
     m_.replace_cavity(old, fresh_, parent_);
@@ -1231,7 +1276,8 @@ class Optimizer {
   /// that raises the smallest margin() of v's star's bad tets with no surface
   /// point, every tet positive (exact); such a tet within the targets stays
   /// within them, and a tet with a surface point keeps its angles within
-  /// surface_bounds(its old angles). With `ring`, v is next to a bad tet's
+  /// surface_bounds(its old angles, kRelaxedCapAngles), or with `extremes`
+  /// (the absorption's pass) within the mesh's extremes. With `ring`, v is next to a bad tet's
   /// point but on none (polish_margins' ring): every tet of its star with no
   /// surface point is judged (all within the targets, and they stay within),
   /// so that the bad tets' points find room next, and with keep_edge_sizes no
@@ -1240,7 +1286,7 @@ class Optimizer {
   /// 231 and couplingdown from 23 to 8 (4 rounds; without the edge guard 220
   /// and 6, but hinge's interior edges within [0.6, 1.5] h fell from 90.3% to
   /// 89.8%; session 17, `pdrmesh_bench_refine`). True when v moved.
-  bool margin_point(Index v, Index start, double end, bool ring) {
+  bool margin_point(Index v, Index start, double end, bool ring, bool extremes) {
     gather_link(v, start);
     const Vec3 old = m_.point(v);
     double worst = kInfinity;
@@ -1250,7 +1296,8 @@ class Optimizer {
       const AngleRange r = dihedral_range(m_.point(f[0]), m_.point(f[1]), m_.point(f[2]), old);
       if (on_surface(f)) {
         margin_kind_.push_back(MarginKind::kSurface);
-        polish_bounds_.push_back(surface_bounds(r, {kRelaxedCapAngles[0], kRelaxedCapAngles[1]}));
+        polish_bounds_.push_back(
+            surface_bounds(r, extremes ? mesh_angles_ : AngleRange{kRelaxedCapAngles[0], kRelaxedCapAngles[1]}));
         continue;
       }
       const double q = margin(r);
@@ -1314,7 +1361,7 @@ class Optimizer {
   /// The angles a new tet of the size flips and splits must lie within: the
   /// targets, or size_limits_ for a tet with a surface point with the room.
   AngleRange size_bounds(const Tet& t) const {
-    if (o_.size_polish_room && repair_class(t) == 1) return size_limits_;
+    if (o_.surface_room && repair_class(t) == 1) return size_limits_;
     return {o_.target_min_dihedral, o_.target_max_dihedral};
   }
 
@@ -1445,7 +1492,7 @@ class Optimizer {
     polish_bounds_.clear();
     for (const Tri& f : link_) {
       const AngleRange r = dihedral_range(m_.point(f[0]), m_.point(f[1]), m_.point(f[2]), old);
-      const bool room = o_.size_polish_room && on_surface(f);
+      const bool room = o_.surface_room && on_surface(f);
       polish_bounds_.push_back(room ? surface_bounds(r, size_limits_) : target_bounds(r));
     }
     const Vec3 to = compass_search(old, [&](const Vec3& y) {
@@ -1953,6 +2000,9 @@ class Optimizer {
   /// The mesh's extreme dihedral angles when a margin polish round, or the
   /// size polish, began.
   AngleRange mesh_angles_{};
+  /// How the repair's operations judge their new tets (judged, beat).
+  enum class Judge { kRepair, kAbsorb };
+  Judge judge_ = Judge::kRepair;
   AngleRange size_limits_{};  ///< polish_sizes' surface_bounds limits
   std::vector<LongEdge> long_edges_;  ///< polish_sizes' long edges off the surface
   std::size_t flips_this_sweep_ = 0;
@@ -2100,6 +2150,22 @@ Result<OptimizeStats> optimize(TetMesh& mesh, const SizingField* sizing,
   }
   // The margin polish's last pass (optimize.hpp, 7.), with a finer search.
   if (margins && !opt.interior(bad).empty() && opt.polish_margins(kFineSearchEnd) > 0) bad = opt.bad_tets();
+  // Absorption (optimize.hpp, 10.): the bad tets with no fixed point handed to
+  // the tets on the surface where they can take them, then the repair rounds
+  // and a margin polish within the mesh's extremes, while cycles find fewer.
+  if (repair && margins && options.absorb && options.surface_room) {
+    std::size_t best = opt.interior(bad).size();
+    for (int cycle = 0, stale = 0; cycle < kAbsorbCycles && stale < kAbsorbPatience && best > 0; ++cycle) {
+      ++st.absorb_cycles;
+      opt.start_sweep();
+      if (opt.absorb(opt.interior(bad)) > 0) bad = opt.bad_tets();
+      repair_rounds();
+      if (opt.polish_margins(kFineSearchEnd, /*extremes=*/true) > 0) bad = opt.bad_tets();
+      const std::size_t now = opt.interior(bad).size();
+      stale = now < best ? 0 : stale + 1;
+      best = std::min(best, now);
+    }
+  }
   // Size polish (optimize.hpp, 9.): the free points of the edges off the
   // surface out of the size band, moved back towards it where no tet gets worse.
   if (options.smooth && options.polish_sizes && sizing != nullptr && opt.polish_sizes() > 0) bad = opt.bad_tets();

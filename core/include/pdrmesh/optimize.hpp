@@ -254,7 +254,7 @@
 //     [0.6, 1.5] h (h at each edge's midpoint when the search begins), then
 //     their summed distance to the band, every tet of its star positive
 //     (exact); a tet with no surface point stays within the targets where it
-//     was, no worse on either side where it was not; with size_polish_room, a
+//     was, no worse on either side where it was not; with surface_room, a
 //     tet with a surface point stays within the limits [max(10, the mesh's
 //     smallest angle), min(165, its largest)] when the polish begins, and a
 //     side already past them goes no further than the mesh's extreme on that
@@ -281,6 +281,31 @@
 //     limits at [10, 165] for every mesh, bunny_npm, elephant, knot2, fandisk
 //     and primitives13, all within [15, 150] or nearly, fell to minima of
 //     10-12 degrees.
+//
+// 10. Absorption (absorb, on; with interior_repair, polish_margins and
+//     surface_room), after the margin polish's last pass and before the
+//     size polish, while bad tets with no fixed point remain: up to 10
+//     cycles, ending after 3 in a row that leave no fewer of them than the
+//     fewest so far (the count goes up and down). A cycle offers each such
+//     tet the repair's edge removals, 2-3 flips and point removal of 4.(a)
+//     (no insertion), judged another way: the new tets with no surface
+//     point must all beat the worst old such tet (by the measure), while
+//     those with a surface point need only be positive and within the mesh's
+//     extremes when the cycle begins; then the repair rounds of 4., then the
+//     margin polish's fine pass of 7. with the tets with a surface point
+//     held within the mesh's extremes instead of [10, 165]. Next to needle
+//     triangles the tets on the surface are far worse than any interior one
+//     anyway, and an interior tet that the steps above leave is often one
+//     flip or one removal away from being handed to them (its points then
+//     reach the surface). The absorption's own operations make no extreme
+//     of the mesh worse; its repair rounds hold the floors of 4. hinge,
+//     whose interior tets outside [15, 150] lie flat along surface triangles
+//     35 to 85 h long, went from 56 to 25 at diag/100, and at diag/90, /95,
+//     /105, /110 from 36, 44, 51, 72 to 4, 0, 2, 49 (the share of tets under
+//     10 degrees +0.004 to +0.018 points, the optimization 7-35% longer; the
+//     other surfaces have none left before it and are unchanged; session 20,
+//     `pdrmesh_bench_refine`, PDRMESH_BENCH_DIVISOR). Not in a parallel leaf
+//     task (surface_room off there: a sub-mesh's extremes are not the mesh's).
 //
 // Guarantees: frozen faces keep their vertices and coordinates (flips and
 // insertion refuse them; their points are fixed); hull faces and region
@@ -352,13 +377,17 @@ struct OptimizeOptions {
   int repair_cycles = 4;
   /// Size polish, last (9. above; with smooth and a sizing field).
   bool polish_sizes = true;
-  /// The size polish lets tets with a surface point give way within limits
-  /// taken from the mesh's extremes (9. above). Off, they are held as the
-  /// interior ones are. A parallel leaf task's sub-mesh is not the mesh: its
-  /// extremes when its polish begins include bad tets that its frozen hull
-  /// keeps until a later task (frame's parallel minimum went from 14.1 to
-  /// 10.7 degrees with the room there), so leaf_optimize_options turns it off.
-  bool size_polish_room = true;
+  /// Tets with a surface point may give way within limits taken from the
+  /// mesh's extremes: in the size polish (9. above; off, they are held as the
+  /// interior ones are) and the absorption (10.; off, it does not run). A
+  /// parallel leaf task's sub-mesh is not the mesh: its extremes include bad
+  /// tets that its frozen hull keeps until a later task (frame's parallel
+  /// minimum went from 14.1 to 10.7 degrees with the size polish's room
+  /// there), so leaf_optimize_options turns it off.
+  bool surface_room = true;
+  /// Absorption after the repair cycles (10. above; with interior_repair,
+  /// polish_margins and surface_room).
+  bool absorb = true;
   /// Safety cap on successful flips per sweep, times the number of tets at the
   /// start of the sweep (the min-max rule already guarantees an end).
   double max_flips_per_tet = 20;
@@ -382,6 +411,8 @@ struct OptimizeStats {
   std::size_t size_moves = 0;     ///< moves of the size polish (counted in points_moved too)
   std::size_t size_flips = 0;     ///< edge removals of the size polish (counted in flips too)
   std::size_t size_splits = 0;    ///< edge splits of the size polish (counted in points_inserted too)
+  int absorb_cycles = 0;          ///< cycles of 10. run (their repair rounds count in repair_rounds)
+  std::size_t absorbed = 0;       ///< operations of the absorption (counted in repair_flips and flips too)
   double min_dihedral_before = 0, min_dihedral_after = 0;  ///< degrees, over all alive tets
   double max_dihedral_before = 0, max_dihedral_after = 0;
   double seconds = 0;  ///< wall time, measured only for reporting
