@@ -418,36 +418,48 @@ TEST(Optimize, MarginPolishRaisesInteriorTetsToTheTargetsAndLosesNoOther) {
   expect_valid(m, nullptr);
 }
 
+/// Targets [40, 100]: strict enough that the steps before the repair cycles
+/// leave bad tets with no hull point on jittered_grid(5, 0.45).
+OptimizeOptions strict_targets() {
+  OptimizeOptions o;
+  o.target_min_dihedral = 40;
+  o.target_max_dihedral = 100;
+  return o;
+}
+
+/// optimize() of jittered_grid(5, 0.45) with `o` and no sizing field: its
+/// stats and the number of tets with no hull point it leaves outside o's
+/// targets. The hull points, the volume and the mesh's validity are checked.
+std::pair<OptimizeStats, std::size_t> optimize_jittered_grid(const OptimizeOptions& o) {
+  const VolumeMesh v = jittered_grid(5, 0.45);
+  TetMesh m = fixtures::build(v);
+  const double volume = fixtures::total_volume(m);
+  auto st = optimize(m, nullptr, o);
+  EXPECT_TRUE(st.ok());
+  expect_hull_points_kept(m, v);
+  EXPECT_NEAR(fixtures::total_volume(m), volume, 1e-12 * volume);
+  expect_valid(m, nullptr);
+  return {st.ok() ? *st : OptimizeStats{},
+          interior_bad(m, hull_points(v), o.target_min_dihedral, o.target_max_dihedral)};
+}
+
 TEST(Optimize, RepairCyclesLeaveFewerInteriorTetsOutsideTheTargets) {
   // Strict targets leave bad interior tets after the margin polish; the
   // cycles of repair rounds and margin polish that follow leave fewer, and
   // none runs when turned off. (The absorption after them, off here, leaves
   // none: see AbsorptionLeavesFewerInteriorTetsOutsideTheTargets.)
-  const VolumeMesh v = jittered_grid(5, 0.45);
-  const auto on_hull = hull_points(v);
-  OptimizeOptions o;
-  o.target_min_dihedral = 40;
-  o.target_max_dihedral = 100;
+  OptimizeOptions o = strict_targets();
   o.absorb = false;
   o.repair_cycles = 0;
-  TetMesh once = fixtures::build(v);
-  auto without = optimize(once, nullptr, o);
-  ASSERT_TRUE(without.ok());
-  EXPECT_EQ(without->repair_cycles, 0);
-  const std::size_t left = interior_bad(once, on_hull, 40, 100);
+  const auto [without, left] = optimize_jittered_grid(o);
+  EXPECT_EQ(without.repair_cycles, 0);
   ASSERT_GT(left, 0u);
   o.repair_cycles = 4;
-  TetMesh m = fixtures::build(v);
-  const double volume = fixtures::total_volume(m);
-  auto with = optimize(m, nullptr, o);
-  ASSERT_TRUE(with.ok());
-  EXPECT_GE(with->repair_cycles, 1);
-  EXPECT_LE(with->repair_cycles, 4);
-  EXPECT_GT(with->repair_rounds, without->repair_rounds);
-  EXPECT_LT(interior_bad(m, on_hull, 40, 100), left);
-  expect_hull_points_kept(m, v);
-  EXPECT_NEAR(fixtures::total_volume(m), volume, 1e-12 * volume);
-  expect_valid(m, nullptr);
+  const auto [with, now] = optimize_jittered_grid(o);
+  EXPECT_GE(with.repair_cycles, 1);
+  EXPECT_LE(with.repair_cycles, 4);
+  EXPECT_GT(with.repair_rounds, without.repair_rounds);
+  EXPECT_LT(now, left);
 }
 
 TEST(Optimize, AbsorptionLeavesFewerInteriorTetsOutsideTheTargets) {
@@ -456,35 +468,19 @@ TEST(Optimize, AbsorptionLeavesFewerInteriorTetsOutsideTheTargets) {
   // (flips and point removals judged by the tets off it, those on it only
   // kept positive and within the mesh's extremes): fewer are left, and it
   // runs only when turned on and given the room (surface_room).
-  const VolumeMesh v = jittered_grid(5, 0.45);
-  const auto on_hull = hull_points(v);
-  OptimizeOptions o;
-  o.target_min_dihedral = 40;
-  o.target_max_dihedral = 100;
+  OptimizeOptions o = strict_targets();
   o.absorb = false;
-  TetMesh before = fixtures::build(v);
-  auto without = optimize(before, nullptr, o);
-  ASSERT_TRUE(without.ok());
-  EXPECT_EQ(without->absorb_cycles, 0);
-  const std::size_t left = interior_bad(before, on_hull, 40, 100);
+  const auto [without, left] = optimize_jittered_grid(o);
+  EXPECT_EQ(without.absorb_cycles, 0);
   ASSERT_GT(left, 0u);
   o.absorb = true;
   o.surface_room = false;
-  TetMesh no_room = fixtures::build(v);
-  auto held = optimize(no_room, nullptr, o);
-  ASSERT_TRUE(held.ok());
-  EXPECT_EQ(held->absorb_cycles, 0);
+  EXPECT_EQ(optimize_jittered_grid(o).first.absorb_cycles, 0);
   o.surface_room = true;
-  TetMesh m = fixtures::build(v);
-  const double volume = fixtures::total_volume(m);
-  auto with = optimize(m, nullptr, o);
-  ASSERT_TRUE(with.ok());
-  EXPECT_GE(with->absorb_cycles, 1);
-  EXPECT_GT(with->absorbed, 0u);
-  EXPECT_LT(interior_bad(m, on_hull, 40, 100), left);
-  expect_hull_points_kept(m, v);
-  EXPECT_NEAR(fixtures::total_volume(m), volume, 1e-12 * volume);
-  expect_valid(m, nullptr);
+  const auto [with, now] = optimize_jittered_grid(o);
+  EXPECT_GE(with.absorb_cycles, 1);
+  EXPECT_GT(with.absorbed, 0u);
+  EXPECT_LT(now, left);
 }
 
 /// `on` is `off` after the size polish (moves, edge removals, splits). A tet of
