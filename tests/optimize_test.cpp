@@ -480,6 +480,7 @@ TEST(Optimize, AbsorptionLeavesFewerInteriorTetsOutsideTheTargets) {
   const auto [with, now] = optimize_jittered_grid(o);
   EXPECT_GE(with.absorb_cycles, 1);
   EXPECT_GT(with.absorbed, 0u);
+  EXPECT_GT(with.edges_collapsed, 0u);
   EXPECT_LT(now, left);
 }
 

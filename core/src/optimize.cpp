@@ -704,8 +704,13 @@ class Optimizer {
   /// by the tets off the surface, and no extreme of the mesh gets worse.
   double judged(const Tet& k) const {
     const double q = measured(k);
-    if (judge_ == Judge::kRepair || q == -kInfinity || repair_class(k) != 1) return q;
-    const auto p = corners(m_, k);
+    return q == -kInfinity ? q : judged(corners(m_, k), repair_class(k) == 1, q);
+  }
+
+  /// judged() of a positive tet with corners p, a surface point or not, and
+  /// measure q.
+  double judged(const std::array<Vec3, 4>& p, bool surface, double q) const {
+    if (judge_ == Judge::kRepair || !surface) return q;
     return within(dihedral_range(p[0], p[1], p[2], p[3]), mesh_angles_) ? kInfinity : -kInfinity;
   }
 
@@ -749,6 +754,11 @@ class Optimizer {
     // Nor a point: one of t's points removed.
     if (o_.remove_points && remove_point(t)) {
       ++st_.points_removed;
+      return true;
+    }
+    // In the absorption, last: two of t's points replaced by one.
+    if (judge_ == Judge::kAbsorb && o_.remove_points && collapse_edge(t)) {
+      ++st_.edges_collapsed;
       return true;
     }
     return false;
@@ -814,6 +824,80 @@ class Optimizer {
       for (const auto& [s, lv] : star_)
         if (const std::optional<Tet> n = cone_tet(s, lv, best)) fresh_.push_back(*n);
       if (!fresh_holds(floors)) continue;
+      parent_.assign(fresh_.size(), 0);
+      m_.replace_cavity(removal_star_, fresh_, parent_);
+      forget_created();
+      return true;
+    }
+    return false;
+  }
+
+  /// Edge collapse: the free points v and w of an edge of the bad tet t are
+  /// replaced by one new point x: the tets of both stars become the star of x
+  /// over their outer faces (the tets holding both go), x placed by a compass
+  /// search from the edge's midpoint for the best worst judged() tet; done
+  /// when every new tet is positive (exact) and that worst beats the stars'
+  /// (beat). v and w are left in no tet (optimize() drops them).
+  bool collapse_edge(Index t) {
+    const Tet k = m_.tet(t);
+    for (int e = 0; e < 6; ++e) {
+      const Index v = k[topo::kEdgeVertex[e][0]], w = k[topo::kEdgeVertex[e][1]];
+      if ((v < fixed_.size() && fixed_[v] != 0) || (w < fixed_.size() && fixed_[w] != 0)) continue;
+      if (!gather_star(v, t, kRemovalMaxStar)) continue;
+      removal_star_.clear();
+      fresh_.clear();
+      for (const auto& [s, lv] : star_) {
+        removal_star_.push_back(s);
+        const Tet& ks = m_.tet(s);
+        if (std::find(ks.begin(), ks.end(), w) != ks.end()) continue;
+        Tet n = ks;
+        n[static_cast<std::size_t>(lv)] = kNoIndex;
+        fresh_.push_back(n);
+      }
+      if (!gather_star(w, t, kRemovalMaxStar)) continue;
+      for (const auto& [s, lw] : star_) {
+        const Tet& ks = m_.tet(s);
+        if (std::find(ks.begin(), ks.end(), v) != ks.end()) continue;
+        removal_star_.push_back(s);
+        Tet n = ks;
+        n[static_cast<std::size_t>(lw)] = kNoIndex;
+        fresh_.push_back(n);
+      }
+      double old_q = 0.0;
+      repair_floors(removal_star_, &old_q);
+      const double floor = beat(removal_star_, old_q);
+      const auto score = [&](const Vec3& x) {
+        double q = kInfinity;
+        for (const Tet& n : fresh_) {
+          std::array<Vec3, 4> p{};
+          for (int j = 0; j < 4; ++j) p[j] = n[j] == kNoIndex ? x : m_.point(n[j]);
+          if (exact::orient3d(p[0], p[1], p[2], p[3]) <= 0) return -kInfinity;
+          bool surface = false;
+          for (Index u : n) surface = surface || (u != kNoIndex && !off_surface(u));
+          q = std::min(q, judged(p, surface, measure(p)));
+          if (q == -kInfinity) return q;
+        }
+        return q;
+      };
+      link_points_.clear();
+      for (const Tet& n : fresh_)
+        for (Index u : n)
+          if (u != kNoIndex) link_points_.push_back(u);
+      std::sort(link_points_.begin(), link_points_.end());
+      link_points_.erase(std::unique(link_points_.begin(), link_points_.end()), link_points_.end());
+      const Vec3 mid = 0.5 * (m_.point(v) + m_.point(w));
+      double best = score(mid);
+      const Vec3 x = compass_search(mid, [&](const Vec3& y) {
+        const double q = score(y);
+        if (!(q > best)) return false;
+        best = q;
+        return true;
+      });
+      if (!(best > floor)) continue;
+      const Index np = m_.add_point(x);
+      for (Tet& n : fresh_)
+        for (Index& u : n)
+          if (u == kNoIndex) u = np;
       parent_.assign(fresh_.size(), 0);
       m_.replace_cavity(removal_star_, fresh_, parent_);
       forget_created();
@@ -2170,7 +2254,7 @@ Result<OptimizeStats> optimize(TetMesh& mesh, const SizingField* sizing,
   // surface out of the size band, moved back towards it where no tet gets worse.
   if (options.smooth && options.polish_sizes && sizing != nullptr && opt.polish_sizes() > 0) bad = opt.bad_tets();
   st.bad_after = bad.size();
-  if (st.points_removed > 0 && !options.keep_point_indices) mesh.remove_unused_points();
+  if (st.points_removed + st.edges_collapsed > 0 && !options.keep_point_indices) mesh.remove_unused_points();
   const AngleRange after = mesh_range(mesh);
   st.min_dihedral_after = after.min;
   st.max_dihedral_after = after.max;

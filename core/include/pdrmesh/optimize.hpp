@@ -288,7 +288,10 @@
 //     cycles, ending after 3 in a row that leave no fewer of them than the
 //     fewest so far (the count goes up and down). A cycle offers each such
 //     tet the repair's edge removals, 2-3 flips and point removal of 4.(a)
-//     (no insertion), judged another way: the new tets with no surface
+//     (no insertion), then an edge collapse (two of its free points replaced
+//     by one new point, the tets of both stars by the star of the new point
+//     over their outer faces, the point placed by a compass search from the
+//     edge's midpoint), all judged another way: the new tets with no surface
 //     point must all beat the worst old such tet (by the measure), while
 //     those with a surface point need only be positive and within the mesh's
 //     extremes when the cycle begins; then the repair rounds of 4., then the
@@ -301,11 +304,13 @@
 //     of the mesh worse; its repair rounds hold the floors of 4. hinge,
 //     whose interior tets outside [15, 150] lie flat along surface triangles
 //     35 to 85 h long, went from 56 to 25 at diag/100, and at diag/90, /95,
-//     /105, /110 from 36, 44, 51, 72 to 4, 0, 2, 49 (the share of tets under
-//     10 degrees +0.004 to +0.018 points, the optimization 7-35% longer; the
-//     other surfaces have none left before it and are unchanged; session 20,
-//     `pdrmesh_bench_refine`, PDRMESH_BENCH_DIVISOR). Not in a parallel leaf
-//     task (surface_room off there: a sub-mesh's extremes are not the mesh's).
+//     /105, /110 from 36, 44, 51, 72 to 4, 0, 2, 49; the collapses then took
+//     diag/100 to 13 (14.4 / 150.6 degrees) and diag/90 to 0 (the share of
+//     tets under 10 degrees +0.005 to +0.008 points, the optimization 9-36%
+//     longer than without the absorption; the other surfaces have none left
+//     before it and are unchanged; session 20, `pdrmesh_bench_refine`,
+//     PDRMESH_BENCH_DIVISOR). Not in a parallel leaf task (surface_room off
+//     there: a sub-mesh's extremes are not the mesh's).
 //
 // Guarantees: frozen faces keep their vertices and coordinates (flips and
 // insertion refuse them; their points are fixed); hull faces and region
@@ -357,8 +362,9 @@ struct OptimizeOptions {
   bool polish_pins_fixed = true;
   /// Interior repair rounds after the polishing rounds (see above).
   bool interior_repair = true;
-  /// The interior repair may remove a free point (see above, 4.); optimize()
-  /// then drops it and renumbers the others (TetMesh::remove_unused_points).
+  /// The interior repair may remove a free point (see above, 4.), and the
+  /// absorption collapse an edge (10.); optimize() then drops the points left
+  /// in no tet and renumbers the others (TetMesh::remove_unused_points).
   bool remove_points = true;
   /// Removed points stay in the mesh, used by no tet, so that every point
   /// keeps its index; the caller drops them. For a leaf task, whose output
@@ -413,6 +419,7 @@ struct OptimizeStats {
   std::size_t size_splits = 0;    ///< edge splits of the size polish (counted in points_inserted too)
   int absorb_cycles = 0;          ///< cycles of 10. run (their repair rounds count in repair_rounds)
   std::size_t absorbed = 0;       ///< operations of the absorption (counted in repair_flips and flips too)
+  std::size_t edges_collapsed = 0;  ///< the absorption's edge collapses (counted in absorbed too)
   double min_dihedral_before = 0, min_dihedral_after = 0;  ///< degrees, over all alive tets
   double max_dihedral_before = 0, max_dihedral_after = 0;
   double seconds = 0;  ///< wall time, measured only for reporting
@@ -425,9 +432,9 @@ Status validate(const OptimizeOptions& options);
 /// Runs the final optimization on the alive tets of `mesh` (all of them, active
 /// or not). `sizing` may be null (no point insertion then). invalid_input on bad
 /// options; the mesh is left valid (TetMesh::check) in every case. When the
-/// interior repair removed points, the others are renumbered at the end
-/// (TetMesh::remove_unused_points: their order and global ids stay), unless
-/// keep_point_indices.
+/// interior repair removed points or the absorption collapsed edges, the
+/// others are renumbered at the end (TetMesh::remove_unused_points: their
+/// order and global ids stay), unless keep_point_indices.
 Result<OptimizeStats> optimize(TetMesh& mesh, const SizingField* sizing,
                                const OptimizeOptions& options = {});
 
