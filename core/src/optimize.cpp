@@ -440,7 +440,8 @@ class Optimizer {
 
   /// Absorption (optimize.hpp, 10.): repair_flips over `seeds` with the
   /// operations judged by judged()'s absorption rule, against the mesh's
-  /// extremes now, and no point inserted. Returns the operations.
+  /// extremes now, no point inserted into a cavity (insert_into) and an edge
+  /// collapse (collapse_edge) tried last. Returns the operations.
   std::size_t absorb(std::vector<Index> seeds) {
     find_fixed();
     mesh_angles_ = mesh_range(m_);
