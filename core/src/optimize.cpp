@@ -170,6 +170,12 @@ constexpr double kInfinity = std::numeric_limits<double>::infinity();
 /// than the fewest so far (the count goes up and down from cycle to cycle).
 constexpr int kAbsorbCycles = 10;
 constexpr int kAbsorbPatience = 3;
+/// Absorption: the depth of its margin polish's ring (polish_margins). hinge
+/// at diag/90, /95, /100, /105, /110, interior tets outside [15, 150]: 0, 0,
+/// 13, 2, 49 with one layer, 3, 0, 9, 1, 25 with two, 0, 2, 0, 0, 14 with
+/// three, for up to 2.4 times the optimization time (diag/110: 31 -> 75 s;
+/// session 20, `pdrmesh_bench_refine`, PDRMESH_BENCH_DIVISOR).
+constexpr int kAbsorbRingLayers = 3;
 
 AngleRange mesh_range(const TetMesh& m);
 
@@ -522,8 +528,10 @@ class Optimizer {
   /// margin_point as the ring, then the free points of those bad tets,
   /// ascending, each moved by margin_point; each compass search ends at 1/`end` of its first
   /// step; with `extremes`, the tets with a surface point may use the mesh's
-  /// extremes (margin_point). Returns the moves.
-  std::size_t polish_margins(double end = kSearchEnd, bool extremes = false) {
+  /// extremes (margin_point). The ring is `layers` deep: with more than one,
+  /// the free points next to the ring (not on a bad tet) join it, and so on.
+  /// Returns the moves.
+  std::size_t polish_margins(double end = kSearchEnd, bool extremes = false, int layers = 1) {
     find_fixed();
     std::size_t moved = 0;
     for (int round = 0; round < kMarginRounds; ++round) {
@@ -544,6 +552,16 @@ class Optimizer {
         gather_link(v, one_tet[v]);
         for (const Tri& f : link_)
           for (Index u : f) ring[u] = !wanted[u] && !fixed_[u];
+      }
+      for (int layer = 1; layer < layers; ++layer) {
+        const std::vector<char> inner = ring;
+        for (Index v = 0; v < np; ++v) {
+          if (!inner[v]) continue;
+          gather_link(v, one_tet[v]);
+          for (const Tri& f : link_)
+            for (Index u : f)
+              if (!wanted[u] && !fixed_[u]) ring[u] = 1;
+        }
       }
       std::size_t now = 0;
       for (Index v = 0; v < np; ++v)
@@ -2245,7 +2263,7 @@ Result<OptimizeStats> optimize(TetMesh& mesh, const SizingField* sizing,
       opt.start_sweep();
       if (opt.absorb(opt.interior(bad)) > 0) bad = opt.bad_tets();
       repair_rounds();
-      if (opt.polish_margins(kFineSearchEnd, /*extremes=*/true) > 0) bad = opt.bad_tets();
+      if (opt.polish_margins(kFineSearchEnd, /*extremes=*/true, kAbsorbRingLayers) > 0) bad = opt.bad_tets();
       const std::size_t now = opt.interior(bad).size();
       stale = now < best ? 0 : stale + 1;
       best = std::min(best, now);
