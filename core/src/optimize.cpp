@@ -553,15 +553,18 @@ class Optimizer {
         for (const Tri& f : link_)
           for (Index u : f) ring[u] = !wanted[u] && !fixed_[u];
       }
+      // Deeper layers: the points next to the last layer's (each walked once).
+      std::vector<char> last = layers > 1 ? ring : std::vector<char>{};
       for (int layer = 1; layer < layers; ++layer) {
-        const std::vector<char> inner = ring;
+        std::vector<char> next(np, 0);
         for (Index v = 0; v < np; ++v) {
-          if (!inner[v]) continue;
+          if (!last[v]) continue;
           gather_link(v, one_tet[v]);
           for (const Tri& f : link_)
             for (Index u : f)
-              if (!wanted[u] && !fixed_[u]) ring[u] = 1;
+              if (!wanted[u] && !fixed_[u] && !ring[u]) ring[u] = next[u] = 1;
         }
+        last = std::move(next);
       }
       std::size_t now = 0;
       for (Index v = 0; v < np; ++v)
@@ -913,16 +916,22 @@ class Optimizer {
         return true;
       });
       if (!(best > floor)) continue;
-      const Index np = m_.add_point(x);
-      for (Tet& n : fresh_)
-        for (Index& u : n)
-          if (u == kNoIndex) u = np;
-      parent_.assign(fresh_.size(), 0);
-      m_.replace_cavity(removal_star_, fresh_, parent_);
-      forget_created();
+      replace_with_point(removal_star_, x);
       return true;
     }
     return false;
+  }
+
+  /// Replaces the tets `old` by fresh_, in which kNoIndex stands for a new
+  /// point at x (collapse_edge, size_splits).
+  void replace_with_point(std::span<const Index> old, const Vec3& x) {
+    const Index np = m_.add_point(x);
+    for (Tet& n : fresh_)
+      for (Index& u : n)
+        if (u == kNoIndex) u = np;
+    parent_.assign(fresh_.size(), 0);
+    m_.replace_cavity(old, fresh_, parent_);
+    forget_created();
   }
 
   /// The tet of the cone from w that replaces star tet s (whose point lv is
@@ -1564,13 +1573,7 @@ class Optimizer {
         found = holds(x);
       }
       if (!found) continue;
-      const Index np = m_.add_point(x);
-      for (Tet& n : fresh_)
-        for (Index& v : n)
-          if (v == kNoIndex) v = np;
-      parent_.assign(fresh_.size(), 0);
-      m_.replace_cavity(std::span<const Index>(r.tets.data(), static_cast<std::size_t>(r.size)), fresh_, parent_);
-      forget_created();
+      replace_with_point(std::span<const Index>(r.tets.data(), static_cast<std::size_t>(r.size)), x);
       ++splits;
     }
     return splits;
