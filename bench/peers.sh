@@ -56,7 +56,7 @@ for n in "${names[@]}"; do
   if [[ $size == diag100 ]]; then  # the diagonal of the points' bounding box, from the .mesh twin
     size_args=(--size "$(awk '/^Vertices/ { getline n; for (i = 0; i < n; ++i) { getline; for (k = 1; k <= 3; ++k) {
       if (i == 0 || $k < lo[k]) lo[k] = $k; if (i == 0 || $k > hi[k]) hi[k] = $k } } exit }
-      END { printf "%.6g", sqrt((hi[1]-lo[1])^2 + (hi[2]-lo[2])^2 + (hi[3]-lo[3])^2) / 100 }' "$corpus/$n.mesh")")
+      END { printf "%.17g", sqrt((hi[1]-lo[1])^2 + (hi[2]-lo[2])^2 + (hi[3]-lo[3])^2) / 100 }' "$corpus/$n.mesh")")
   fi
   run pdrmesh "$limit" "$pdrmesh" mesh -q "$stl" "${size_args[@]}" -o "$tmp/p.meshb"
   row "$n" pdrmesh "$tmp/p.meshb" || continue
