@@ -268,7 +268,9 @@ TEST_F(Service, DeleteRemovesFinishedQueuedAndRunningJobsWithTheirFiles) {
 
 TEST_F(Service, FinishedJobsExpireAfterTheResultTtl) {
   Options o = options(1);
-  o.result_ttl_hours = 0.5 / 3600;  // half a second
+  // Two seconds: the watch below must see the job finish before the sweep
+  // takes it (with half a second the test failed once on a loaded machine).
+  o.result_ttl_hours = 2.0 / 3600;
   o.sweep_interval_s = 0.05;
   auto c = Coordinator::BuildAndStart(o);
   ASSERT_TRUE(c.ok()) << c.status().to_string();
