@@ -18,7 +18,8 @@
 //   PDRMESH_BENCH_SWEEPS=N (optimization sweeps), PDRMESH_BENCH_NO_REPAIR (no interior repair),
 //   PDRMESH_BENCH_NO_POLISH (no angle polish), PDRMESH_BENCH_NO_MARGIN (no margin polish),
 //   PDRMESH_BENCH_REPAIR_CYCLES=N (OptimizeOptions::repair_cycles), PDRMESH_BENCH_NO_SIZE_POLISH (no size polish),
-//   PDRMESH_BENCH_NO_ABSORB (no absorption), PDRMESH_BENCH_DIVISOR=N (the fine size is diagonal / N, not / 100),
+//   PDRMESH_BENCH_NO_ABSORB (no absorption), PDRMESH_BENCH_NO_LATE_CAPS (no late cap pass),
+//   PDRMESH_BENCH_DIVISOR=N (the fine size is diagonal / N, not / 100),
 //   PDRMESH_BENCH_LONG_EDGE_RATIO=R,
 //   PDRMESH_BENCH_NO_VOID_MIDPOINTS, PDRMESH_BENCH_NO_SPATIAL_ORDER (RefineOptions::spatial_order off),
 //   PDRMESH_BENCH_SPATIAL_ORDER_MIN_TETS=N (RefineOptions::spatial_order_min_tets),
@@ -123,6 +124,7 @@ void run(const std::string& dir, const std::string& name, bool fine) {
     if (std::getenv("PDRMESH_BENCH_NO_MARGIN") != nullptr) oo.polish_margins = false;
     if (std::getenv("PDRMESH_BENCH_NO_SIZE_POLISH") != nullptr) oo.polish_sizes = false;
     if (std::getenv("PDRMESH_BENCH_NO_ABSORB") != nullptr) oo.absorb = false;
+    if (std::getenv("PDRMESH_BENCH_NO_LATE_CAPS") != nullptr) oo.late_caps = false;
     if (std::getenv("PDRMESH_BENCH_NO_REMOVE") != nullptr) oo.remove_points = false;
     if (const char* v = std::getenv("PDRMESH_BENCH_REPAIR_CYCLES")) oo.repair_cycles = std::atoi(v);
     auto ostats = optimize(*mesh, &*field, oo);
