@@ -18,6 +18,7 @@ double regular_tet_volume(double h) { return h * h * h / (6.0 * std::sqrt(2.0));
 OptimizeOptions leaf_optimize_options(OptimizeOptions options) {
   options.keep_point_indices = true;
   options.surface_room = false;  // a sub-mesh's extremes are not the mesh's
+  options.late_caps = false;     // OptimizeOptions::late_caps says why
   return options;
 }
 

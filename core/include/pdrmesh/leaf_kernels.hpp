@@ -70,7 +70,8 @@ class TetgenLeafKernel final : public LeafKernel {
 /// keep_point_indices, since a leaf's output names its input points by index
 /// (NativeLeafKernel drops the removed new points; a removed input point is
 /// left out of the output's tets, as the TetGen kernel leaves out the
-/// interior ones, and run_pdr drops it after the optimization).
+/// interior ones, and run_pdr drops it after the optimization), and without
+/// surface_room and late_caps (OptimizeOptions says why).
 OptimizeOptions leaf_optimize_options(OptimizeOptions options = {});
 
 /// The kernel a job names: "native" (NativeLeafKernel running refine() with
