@@ -2273,7 +2273,8 @@ Result<OptimizeStats> optimize(TetMesh& mesh, const SizingField* sizing,
     }
   }
   // The cap repair's relaxed pass again (optimize.hpp, 5.): the caps and flat
-  // tets of four surface points that the steps since left, in new cavities.
+  // tets of four surface points that the steps since made, or left in changed
+  // cavities.
   if (options.repair_caps && options.late_caps && opt.repair_caps(true) > 0) bad = opt.bad_tets();
   // Size polish (optimize.hpp, 9.): the free points of the edges off the
   // surface out of the size band, moved back towards it where no tet gets worse.

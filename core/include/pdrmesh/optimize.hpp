@@ -183,11 +183,13 @@
 //     No smoothing follows (it could trade an angle near 180 degrees
 //     elsewhere for a star's worst tet); the angle polish (6.) does.
 //     The relaxed pass runs once more after the absorption (10.), before the
-//     size polish (late_caps): the polish and the repair cycles change the
-//     cavities around the tets it left, and some fit a star then. frame at
+//     size polish (late_caps): the steps between move points and flip tets,
+//     which makes new caps and flat tets of four surface points or changes
+//     the cavities around the ones left, and some fit a star then. frame at
 //     diag/100 kept a tet of four surface points across a plate 1.2 h thick
 //     (two short surface edges facing each other) at 5.49 degrees, which the
-//     late pass replaced (its smallest angle 10.0 degrees, no tet under 10);
+//     late pass replaced (the mesh's smallest angle then 10.0 degrees, no tet
+//     under 10);
 //     sphere966 at the default size went from 9.7 / 171.8 to 9.9 / 167.9
 //     degrees; no interior count changed (session 21, `pdrmesh_bench_refine`).
 //
