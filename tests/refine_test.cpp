@@ -355,10 +355,10 @@ TEST(Refine, BoundaryRejectKeepsPointsOffTheFacesNotOffTheirPlanes) {
   // a unit or more from the floor itself. The refiner keeps its points
   // boundary_reject_distance * h from every hull face, measured to the face
   // (closest_on_triangle): none lies closer to the boundary than that, and
-  // points fill the arm across the floor's plane. (The plane bound that the
-  // reject used before session 18 also passes here: the proximity walk seldom
-  // reaches the floor's tets from the arm once the tets are small; on hinge it
-  // did, through the long tets over its needle triangles.)
+  // points fill the arm across the floor's plane. (A bound by the floor's
+  // plane would also pass here: the proximity walk seldom reaches the floor's
+  // tets from the arm once the tets are small; on hinge it does, through the
+  // long tets over its needle triangles.)
   const SurfaceMesh surface = l_prism_surface();
   auto initial = tetrahedralize(surface);
   ASSERT_TRUE(initial.ok()) << initial.status().to_string();

@@ -80,8 +80,8 @@ struct RefineOptions {
   double reject_distance = 0.6;
   /// A candidate closer than this * h(candidate) to a hull or frozen face is
   /// rejected (keeps flat tets off the boundary). The distance to the face
-  /// itself: a bound by its plane (used until session 18) also rejected points
-  /// far beside a needle triangle many h long.
+  /// itself: a bound by its plane would also reject points far beside a
+  /// needle triangle many h long.
   double boundary_reject_distance = 0.5;
   /// A tet is active while an edge is longer than this * the mean h of its ends.
   double split_ratio = 1.4;
@@ -128,20 +128,14 @@ struct RefineOptions {
   /// above min_max_angle (flips.hpp remove_long_edge); 0: off.
   double long_edge_ratio = 1.2;
   /// Renumber the tets in the Morton order of their barycentres at the start of
-  /// a pass whenever the mesh grew by a quarter since the last renumbering
-  /// (fewer cache misses: sphere966 at diag/100 refined in about 60% of the
-  /// CPU time; armadillo's `pdrmesh mesh` in 13.5-14.3 s of user time against
-  /// 21.3 s, at a peak memory of 260 MB against 200 MB).
-  /// It changes the insertion order and so the mesh: the quality extremes move
-  /// both ways by up to a few degrees (sphere966 at diag/100: all-tet range
-  /// 11.0 / 155.8 -> 9.2 / 152.5, couplingdown at diag/100: interior 2.8 /
-  /// 173.2 -> 3.6 / 172.6; session 11, `pdrmesh_bench_refine`).
+  /// a pass whenever the mesh grew by a quarter since the last renumbering:
+  /// fewer cache misses, so the refinement takes markedly less CPU time on big
+  /// meshes. It changes the insertion order and so the mesh (the quality
+  /// extremes move either way by up to a few degrees).
   bool spatial_order = true;
   /// The renumbering starts once the mesh holds this many tets. A smaller
   /// mesh's arrays stay in cache, so renumbering it saves nothing and only
-  /// changes it: from 4,096 tets it moved sphere966's default-size all-tet
-  /// range from 6.9 / 166.0 to 4.9 / 171.8 degrees, and frame's parallel run
-  /// (its leaves) from 11.98 to 6.93 (session 11).
+  /// changes it.
   Index spatial_order_min_tets = 65536;
 };
 
