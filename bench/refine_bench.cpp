@@ -44,6 +44,7 @@
 #include "pdrmesh/optimize.hpp"
 #include "pdrmesh/quality.hpp"
 #include "pdrmesh/refine.hpp"
+#include "pdrmesh/size_band.hpp"
 #include "pdrmesh/sizing.hpp"
 #include "pdrmesh/surface_io.hpp"
 #include "pdrmesh/tet_mesh.hpp"

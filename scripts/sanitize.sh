@@ -6,8 +6,8 @@
 #     of tests/fuzz/regressions; then every fuzz target for FUZZ_SECONDS (default 5) each.
 #  2. build-tsan: clang-14, ThreadSanitizer, linked against oneTBB built with TSan from Debian's
 #     own source (scripts/tsan-tbb.sh: Debian's libtbb12 is not instrumented, so TSan could not
-#     see TBB's task hand-off). pdrmesh_thread_tests (tests/scheduler_test.cpp and
-#     tests/pdr_test.cpp: the lock table, the coloured and dynamic schedulers running leaves on
+#     see TBB's task hand-off). pdrmesh_thread_tests (tests/pdr/scheduler_test.cpp and
+#     tests/pdr/pdr_test.cpp: the lock table, the coloured and dynamic schedulers running leaves on
 #     several threads, the engine's parallel runs and merge; TSAN_FILTER narrows it) and
 #     pdrmesh_coordinator_thread_tests (tests/service/job_manager_test.cpp: the coordinator's
 #     runner threads, jobs of two users at once with the engine's leaf threads, cancel, delete

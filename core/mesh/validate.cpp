@@ -21,7 +21,7 @@
 #include <oneapi/tbb/parallel_reduce.h>
 #include <oneapi/tbb/parallel_sort.h>
 
-#include "fixed_chunks.hpp"
+#include "pdrmesh/fixed_chunks.hpp"
 
 #include "pdrmesh/predicates.hpp"
 #include "pdrmesh/topology.hpp"

@@ -18,9 +18,9 @@
 #include <tuple>
 #include <utility>
 
-#include "bvh.hpp"
+#include "pdrmesh/bvh.hpp"
 #include "pdrmesh/predicates.hpp"
-#include "union_find.hpp"
+#include "pdrmesh/union_find.hpp"
 
 namespace pdrmesh {
 namespace {

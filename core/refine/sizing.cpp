@@ -18,9 +18,9 @@
 #include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/parallel_sort.h>
 
-#include "atomic_extremum.hpp"
-#include "byte_codec.hpp"
-#include "closest_point.hpp"
+#include "pdrmesh/atomic_extremum.hpp"
+#include "pdrmesh/byte_codec.hpp"
+#include "pdrmesh/closest_point.hpp"
 #include "pdrmesh/predicates.hpp"
 
 namespace pdrmesh {

@@ -12,8 +12,6 @@
 
 namespace pdrmesh {
 
-class SizingField;
-
 /// The six interior dihedral angles of tetrahedron (a, b, c, d) in degrees, at
 /// the edges ab, ac, ad, bc, bd, cd. A degenerate tet yields 0 or 180 degrees.
 std::array<double, 6> dihedral_angles(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d);
@@ -62,16 +60,6 @@ struct QualityReport {
 /// the tets alone (a file's triangles may be every face: TetGen's -g output),
 /// by sorting the tets' faces (48 bytes per tet while it runs).
 QualityReport measure_quality(const VolumeMesh& mesh, bool interior = false);
-
-/// The refiner issue's size figure: the edges with no endpoint on a
-/// mesh.boundary triangle, each once, by length l against h at the midpoint.
-struct SizeBand {
-  std::size_t edges = 0;
-  std::size_t shorter = 0;  ///< l < 0.6 h
-  std::size_t within = 0;   ///< 0.6 h <= l <= 1.5 h
-  std::size_t longer = 0;   ///< l > 1.5 h
-};
-SizeBand measure_size_band(const VolumeMesh& mesh, const SizingField& h);
 
 /// Minimum dihedral angle of every tet, in mesh order.
 std::vector<double> min_dihedral_per_tet(const VolumeMesh& mesh);

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: AGPL-3.0-or-later
 // Construction of the Morton-ordered bounding-volume hierarchy (bvh.hpp).
-#include "bvh.hpp"
+#include "pdrmesh/bvh.hpp"
 
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>

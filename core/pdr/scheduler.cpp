@@ -13,8 +13,8 @@
 #include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/task_arena.h>
 
-#include "atomic_extremum.hpp"
-#include "stopwatch.hpp"
+#include "pdrmesh/atomic_extremum.hpp"
+#include "pdrmesh/stopwatch.hpp"
 
 namespace pdrmesh {
 

@@ -12,7 +12,7 @@
 #include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/parallel_sort.h>
 
-#include "fixed_chunks.hpp"
+#include "pdrmesh/fixed_chunks.hpp"
 
 namespace pdrmesh {
 namespace {

@@ -22,16 +22,16 @@
 #include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/parallel_sort.h>
 
-#include "atomic_extremum.hpp"
-#include "byte_codec.hpp"
+#include "pdrmesh/atomic_extremum.hpp"
+#include "pdrmesh/byte_codec.hpp"
 #include "pdrmesh/digest.hpp"
 #include "pdrmesh/leaf_kernels.hpp"
 #include "pdrmesh/surface_ids.hpp"
 #include "pdrmesh/tetgen_adapter.hpp"
 #include "pdrmesh/topology.hpp"
 #include "pdrmesh/validate.hpp"
-#include "stopwatch.hpp"
-#include "union_find.hpp"
+#include "pdrmesh/stopwatch.hpp"
+#include "pdrmesh/union_find.hpp"
 
 namespace pdrmesh {
 

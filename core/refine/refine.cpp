@@ -18,10 +18,10 @@
 #include "pdrmesh/flips.hpp"
 #include "pdrmesh/insert.hpp"
 #include "pdrmesh/predicates.hpp"
-#include "bvh.hpp"
-#include "closest_point.hpp"
+#include "pdrmesh/bvh.hpp"
+#include "pdrmesh/closest_point.hpp"
 #include "pdrmesh/topology.hpp"
-#include "stopwatch.hpp"
+#include "pdrmesh/stopwatch.hpp"
 
 namespace pdrmesh {
 namespace {

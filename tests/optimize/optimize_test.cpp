@@ -20,6 +20,7 @@
 #include "pdrmesh/predicates.hpp"
 #include "pdrmesh/quality.hpp"
 #include "pdrmesh/refine.hpp"
+#include "pdrmesh/size_band.hpp"
 #include "pdrmesh/sizing.hpp"
 #include "pdrmesh/surface_io.hpp"
 #include "pdrmesh/tetgen_adapter.hpp"

@@ -11,7 +11,7 @@
 #include <tuple>
 #include <utility>
 
-#include "byte_codec.hpp"
+#include "pdrmesh/byte_codec.hpp"
 #include "pdrmesh/predicates.hpp"
 #include "pdrmesh/topology.hpp"
 

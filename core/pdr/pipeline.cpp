@@ -14,7 +14,7 @@
 #include "pdrmesh/quality.hpp"
 #include "pdrmesh/surface_ids.hpp"
 #include "pdrmesh/tet_mesh.hpp"
-#include "stopwatch.hpp"
+#include "pdrmesh/stopwatch.hpp"
 
 namespace pdrmesh {
 

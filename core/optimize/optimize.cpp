@@ -22,7 +22,7 @@
 #include "pdrmesh/predicates.hpp"
 #include "pdrmesh/quality.hpp"
 #include "pdrmesh/topology.hpp"
-#include "stopwatch.hpp"
+#include "pdrmesh/stopwatch.hpp"
 
 namespace pdrmesh {
 namespace {

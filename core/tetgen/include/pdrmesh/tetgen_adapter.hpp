@@ -4,7 +4,7 @@
 // boundary of the result is exactly the input triangulation).
 //
 // TetGen runs in a helper process, the program pdrmesh-tetgen (built from
-// core/src/tetgen_child.cpp, installed beside pdrmesh), because it can crash,
+// core/tetgen/tetgen_child.cpp, installed beside pdrmesh), because it can crash,
 // hang, call exit() or throw on bad input, and re-initialises the global
 // predicate state (see predicates.hpp). Each call starts a fresh helper with
 // posix_spawn: it shares no lock with the caller's other threads, whatever they
