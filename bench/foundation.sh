@@ -2,11 +2,12 @@
 # Times `pdrmesh check` and the serial initial mesh (`pdrmesh mesh`, TetGen
 # boundary-conforming, no interior points) on every surface of the corpus and
 # prints a table with the machine it ran on.
-#   bench/foundation.sh [CORPUS_DIR]     (default: ../shared/corpus)
+#   bench/foundation.sh [CORPUS_DIR]     (default: $PDRMESH_CORPUS, else bench/corpus: bench/fetch-corpus.sh)
 # Needs GNU time (Debian package `time`; scripts/install-deps.sh --bench).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-corpus=${1:-$root/../shared/corpus}
+corpus=${1:-${PDRMESH_CORPUS:-$root/bench/corpus}}
+[[ -d $corpus ]] || { echo "no corpus in $corpus: run bench/fetch-corpus.sh" >&2; exit 1; }
 pdrmesh=${PDRMESH:-$root/build/client/pdrmesh}
 [[ -x $pdrmesh ]] || { echo "build first: scripts/build.sh" >&2; exit 1; }
 [[ -x /usr/bin/time ]] || { echo "needs /usr/bin/time: scripts/install-deps.sh --bench" >&2; exit 1; }

@@ -5,10 +5,11 @@
 # for all, and prints jobs per minute, tets per second and each user's wait
 # (submission to start) and turnaround (submission to end), with the machine.
 # Usage: bench/load.sh [BUILD_DIR] [SURFACE] [JOBS] [MESH OPTIONS...]
+# (SURFACE default: sphere966.stl of $PDRMESH_CORPUS, else bench/corpus: bench/fetch-corpus.sh)
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 build=${1:-$root/build}
-surface=${2:-$root/../shared/corpus/sphere966.stl}
+surface=${2:-${PDRMESH_CORPUS:-$root/bench/corpus}/sphere966.stl}
 jobs=${3:-20}
 shift $(( $# < 3 ? $# : 3 ))
 options=("$@")
@@ -16,7 +17,7 @@ pdrmesh=$build/client/pdrmesh
 coordinator=$build/server/pdrmesh-coordinator
 worker=$build/worker/pdrmesh-worker
 for b in "$pdrmesh" "$coordinator"; do [[ -x $b ]] || { echo "missing $b: build first"; exit 1; }; done
-[[ -f $surface ]] || { echo "missing $surface"; exit 1; }
+[[ -f $surface ]] || { echo "missing $surface (bench/fetch-corpus.sh)"; exit 1; }
 
 source "$root/tests/cli/coordinator_lib.sh"
 bench_setup

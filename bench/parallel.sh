@@ -10,9 +10,11 @@
 #                                               surface; the small corpus surfaces)
 #   VARIANTS="native" bench/parallel.sh ...    (a subset of: native no-iface tetgen)
 # Each run also writes its profile JSON; pdrmesh_bench_replay projects it to P workers.
+# Surfaces from $PDRMESH_CORPUS (default bench/corpus: bench/fetch-corpus.sh).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-corpus=${CORPUS:-$root/../shared/corpus}
+corpus=${PDRMESH_CORPUS:-$root/bench/corpus}  # bench/fetch-corpus.sh fills it
+[[ -d $corpus ]] || { echo "no corpus in $corpus: run bench/fetch-corpus.sh" >&2; exit 1; }
 pdrmesh=${PDRMESH:-$root/build/client/pdrmesh}
 replay=${REPLAY:-$root/build/bench/pdrmesh_bench_replay}
 depth=${1:-auto}; shift || true

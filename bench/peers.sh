@@ -13,9 +13,11 @@
 #   PEERS_SIZE=diag100 bench/peers.sh ...   pdrmesh at --size = bounding-box diagonal / 100 (the
 #                                           refiner issue's second size; the peers follow its count)
 #   PEERS_TIMEOUT=S                         seconds each run may take (default 1800)
+#   PDRMESH_CORPUS=DIR                      the surfaces (default bench/corpus: bench/fetch-corpus.sh)
 set -uo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-corpus=${CORPUS:-$root/../shared/corpus}
+corpus=${PDRMESH_CORPUS:-$root/bench/corpus}  # bench/fetch-corpus.sh fills it
+[[ -d $corpus ]] || { echo "no corpus in $corpus: run bench/fetch-corpus.sh" >&2; exit 1; }
 pdrmesh=${PDRMESH:-$root/build/client/pdrmesh}
 names=("$@"); ((${#names[@]})) || names=(sphere966 bunny_npm hinge elephant couplingdown knot2 fandisk primitives13)
 size=${PEERS_SIZE:-default}

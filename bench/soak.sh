@@ -7,10 +7,11 @@
 # its RSS after warm-up (the first report) by more than 10% fails the soak.
 # SOAK_EVERY=N reports every N jobs instead (for a short run on a loaded machine).
 # Usage: bench/soak.sh [BUILD_DIR] [SURFACE] [JOBS] [MESH OPTIONS...]
+# (SURFACE default: sphere966.stl of $PDRMESH_CORPUS, else bench/corpus: bench/fetch-corpus.sh)
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 build=${1:-$root/build}
-surface=${2:-$root/../shared/corpus/sphere966.stl}
+surface=${2:-${PDRMESH_CORPUS:-$root/bench/corpus}/sphere966.stl}
 jobs=${3:-200}
 shift $(( $# < 3 ? $# : 3 ))
 options=("$@")
@@ -19,7 +20,7 @@ pdrmesh=$build/client/pdrmesh
 coordinator=$build/server/pdrmesh-coordinator
 worker=$build/worker/pdrmesh-worker
 for b in "$pdrmesh" "$coordinator" "$worker"; do [[ -x $b ]] || { echo "missing $b: build first"; exit 1; }; done
-[[ -f $surface ]] || { echo "missing $surface"; exit 1; }
+[[ -f $surface ]] || { echo "missing $surface (bench/fetch-corpus.sh)"; exit 1; }
 every=${SOAK_EVERY:-20}
 
 source "$root/tests/cli/coordinator_lib.sh"

@@ -45,8 +45,9 @@ inline VolumeMesh unit_cube_mesh() {
   return m;
 }
 
-/// A corpus surface (NAME.mesh beside the project), read with the project's
-/// reader; an empty surface, and a test failure, when it cannot be read.
+/// A test surface (NAME.mesh of tests/data, copied into the build tree), read
+/// with the project's reader; an empty surface, and a test failure, when it
+/// cannot be read.
 inline SurfaceMesh corpus_surface(const std::string& name) {
   auto s = read_surface(std::string(PDRMESH_CORPUS_DIR) + "/" + name + ".mesh");
   if (!s.ok()) {

@@ -4,12 +4,12 @@
 
 # service_test_setup "$@" (the test's arguments PDRMESH COORDINATOR SURFACE
 # [MESH OPTIONS...]): sets pdrmesh, coordinator, surface, options and tmp (removed,
-# with the coordinator stopped, on exit); exits 77 when the corpus is absent; no
+# with the coordinator stopped, on exit); fails when the surface is absent; no
 # client config or token from the caller's environment leaks in.
 service_test_setup() {
   pdrmesh=$1 coordinator=$2 surface=$3
   options=("${@:4}")
-  [[ -f $surface ]] || { echo "corpus surface $surface not found: skipped"; exit 77; }
+  [[ -f $surface ]] || { echo "test surface $surface not found"; exit 1; }
   tmp=$(mktemp -d)
   trap 'stop_coordinator; rm -rf "$tmp"' EXIT
   unset PDRMESH_TOKEN PDRMESH_TOKEN_FILE PDRMESH_CONFIG PDRMESH_TLS_CA

@@ -5,11 +5,10 @@
 #   pdrmesh validate OUT --surface SURFACE
 #   pdrmesh quality OUT --json       (tets > 0)
 # Usage: corpus_surface.sh PDRMESH SURFACE FORMAT_SUFFIX [MESH_OPTIONS...]
-# Exits 77 (skipped) when the corpus is not beside the project.
 set -euo pipefail
 pdrmesh=$1 surface=$2 suffix=$3
 shift 3
-[[ -f $surface ]] || { echo "corpus surface $surface not found: skipped"; exit 77; }
+[[ -f $surface ]] || { echo "test surface $surface not found"; exit 1; }
 tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
 out="$tmp/out$suffix"
 

@@ -15,7 +15,7 @@
 set -euo pipefail
 pdrmesh=$1 coordinator=$2 worker_bin=$3 surface=$4
 options=("${@:5}")
-[[ -f $surface ]] || { echo "corpus surface $surface not found: skipped"; exit 77; }
+[[ -f $surface ]] || { echo "test surface $surface not found"; exit 1; }
 for tool in ip tc; do
   command -v "$tool" > /dev/null || { echo "no '$tool' command: namespace fault test skipped"; exit 77; }
 done

@@ -3,10 +3,9 @@
 # the mesh validates against the surface, and 1 and 2 workers write the same bytes.
 # Usage: run_workers.sh PDRMESH SURFACE DEPTH KERNEL [compare|single]
 #   single: the 2-worker run alone, validated (the sanitizer builds: no byte comparison).
-# Exits 77 (skipped) when the corpus is not beside the project.
 set -euo pipefail
 pdrmesh=$1 surface=$2 depth=$3 kernel=$4 mode=${5:-compare}
-[[ -f $surface ]] || { echo "corpus surface $surface not found: skipped"; exit 77; }
+[[ -f $surface ]] || { echo "test surface $surface not found"; exit 1; }
 [[ $mode == compare || $mode == single ]] || { echo "mode must be compare or single, got '$mode'"; exit 2; }
 tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
 

@@ -1,10 +1,11 @@
 // SPDX-License-Identifier: AGPL-3.0-or-later
 // Writes the fuzz targets' seed inputs into OUT/<target>/: small surfaces cut
-// from the shared corpus (CORPUS/sphere966.stl and hinge.mesh, the first
-// triangles of each) in every surface format, a small volume mesh in every
+// from the test surfaces (DATA_DIR/sphere966.mesh and hinge.mesh, normally
+// tests/data; the first triangles of each) in every surface format, a small volume mesh in every
 // volume format, valid leaf tasks and results, client requests; plus truncated
 // copies of each. Generated at build time, never committed.
-//   pdrmesh_fuzz_seeds CORPUS_DIR OUT_DIR
+//   pdrmesh_fuzz_seeds DATA_DIR OUT_DIR
+// Exits 1 when a test surface cannot be read.
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -77,13 +78,13 @@ std::string binary_stl(const SurfaceMesh& s) {
   return b;
 }
 
-void surface_seeds(const fs::path& corpus, const fs::path& out) {
+bool surface_seeds(const fs::path& data, const fs::path& out) {
   std::vector<SurfaceMesh> sources;
-  for (const char* file : {"sphere966.stl", "hinge.mesh"}) {
-    Result<SurfaceMesh> s = read_surface(corpus / file);
+  for (const char* file : {"sphere966.mesh", "hinge.mesh"}) {
+    Result<SurfaceMesh> s = read_surface(data / file);
     if (!s.ok()) {
       std::fprintf(stderr, "make_seeds: %s\n", s.status().to_string().c_str());
-      continue;
+      return false;
     }
     sources.push_back(first_triangles(*s, 4));
     sources.push_back(first_triangles(*s, 24));
@@ -119,6 +120,7 @@ void surface_seeds(const fs::path& corpus, const fs::path& out) {
                         "\x00\x02\x01" "\x00\x01\x03" "\x00\x03\x02" "\x01\x02\x03", 2 + 12 + 12);
   put(out / "surface_check", "tetrahedron", tet);
   put(out / "surface_check", "crossing", tet.substr(0, 14) + "\x01\x02\x04");
+  return true;
 }
 
 void volume_seeds(const fs::path& out) {
@@ -194,11 +196,11 @@ void request_seeds(const fs::path& out) {
 
 int main(int argc, char** argv) {
   if (argc != 3) {
-    std::fprintf(stderr, "usage: %s CORPUS_DIR OUT_DIR\n", argv[0]);
+    std::fprintf(stderr, "usage: %s DATA_DIR OUT_DIR\n", argv[0]);
     return 2;
   }
-  const fs::path corpus = argv[1], out = argv[2];
-  surface_seeds(corpus, out);
+  const fs::path data = argv[1], out = argv[2];
+  if (!surface_seeds(data, out)) return 1;
   volume_seeds(out);
   leaf_seeds(out);
   request_seeds(out);

@@ -1,12 +1,13 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: AGPL-3.0-or-later
-# Runs every libFuzzer target for SECONDS each, from seeds cut from ../shared/corpus, and prints
+# Runs every libFuzzer target for SECONDS each, from seeds cut from tests/data, and prints
 # a table: target, executions, exec/s, corpus size, crashes. Exit status 1 if any target crashed
 # (the inputs are in BUILD/fuzz/crashes/<target>/: minimise one, add it to
 # tests/fuzz/regressions/<target>/ and fix the bug).
 #   tests/fuzz/run.sh SECONDS [TARGET...]
 # Environment: FUZZ_BUILD_DIR (default build-asan: a clang build with PDRMESH_FUZZ=ON),
-# FUZZ_JOBS (targets run at once, default nproc), PDRMESH_CORPUS (default ../shared/corpus).
+# FUZZ_JOBS (targets run at once, default nproc), PDRMESH_TEST_DATA (the test surfaces the seeds
+# are cut from, default tests/data).
 # The working corpus (BUILD/fuzz/corpus/<target>) is kept between runs, so runs add up.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
@@ -14,7 +15,7 @@ seconds=${1:?usage: tests/fuzz/run.sh SECONDS [TARGET...]}
 shift
 build=${FUZZ_BUILD_DIR:-$root/build-asan}
 bin=$build/tests/fuzz
-corpus=${PDRMESH_CORPUS:-$root/../shared/corpus}
+data=${PDRMESH_TEST_DATA:-$root/tests/data}
 work=$build/fuzz
 [[ -x $bin/pdrmesh_fuzz_seeds ]] || { echo "run.sh: no fuzz build in $build (clang, -DPDRMESH_FUZZ=ON)" >&2; exit 2; }
 
@@ -27,7 +28,7 @@ if ((${#targets[@]} == 0)); then
 fi
 
 rm -rf "$work/seeds"
-"$bin/pdrmesh_fuzz_seeds" "$corpus" "$work/seeds" >/dev/null
+"$bin/pdrmesh_fuzz_seeds" "$data" "$work/seeds" >/dev/null
 # Leaks are real findings here (libFuzzer checks them per input); UBSan stops at the first report.
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:halt_on_error=1}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-halt_on_error=1:print_stacktrace=1}

@@ -105,7 +105,7 @@ TEST(Pdr, TetgenKernelMeshesACube) {
 
 TEST(Pdr, BothKernelsMeshSphere966) {
   const Sphere* sp = sphere();
-  if (sp == nullptr) GTEST_SKIP() << "sphere966.mesh not readable";
+  ASSERT_NE(sp, nullptr) << "sphere966.mesh not readable";
   const NativeLeafKernel native(barycenter_hook(20));
   const TetgenLeafKernel tetgen;
   for (const LeafKernel* k : {static_cast<const LeafKernel*>(&native), static_cast<const LeafKernel*>(&tetgen)}) {
@@ -144,7 +144,7 @@ std::string meshb_bytes(const VolumeMesh& m, const std::string& name) {
 
 TEST(Pdr, ByteIdenticalFor1To8WorkersAndBothPolicies) {
   const Sphere* sp = sphere();
-  if (sp == nullptr) GTEST_SKIP() << "sphere966.mesh not readable";
+  ASSERT_NE(sp, nullptr) << "sphere966.mesh not readable";
   const VolumeMesh one = run_native(*sp, 1);
   expect_valid(one, sp->surface);
   const std::string ref = meshb_bytes(one, "pdr_w1");
@@ -166,7 +166,7 @@ TEST(Pdr, ByteIdenticalFor1To8WorkersAndBothPolicies) {
 // bytes stay those of one worker.
 TEST(Pdr, ByteIdenticalWhenTheConcurrencyChangesDuringTheRun) {
   const Sphere* sp = sphere();
-  if (sp == nullptr) GTEST_SKIP() << "sphere966.mesh not readable";
+  ASSERT_NE(sp, nullptr) << "sphere966.mesh not readable";
   const std::string ref = meshb_bytes(run_native(*sp, 1, SchedulePolicy::kDynamic), "pdr_c1");
   for (SchedulePolicy policy : {SchedulePolicy::kDynamic, SchedulePolicy::kColoured}) {
     const NativeLeafKernel kernel(barycenter_hook(20));
@@ -297,7 +297,7 @@ std::vector<std::array<Vec3, 4>> tets_beyond(const VolumeMesh& m, double x0) {
 TEST(Pdr, OptimizationTasksGetOnlyTheSelectedTetsAndTheirHalo) {
   // sphere966 with the real refiner: edges about h long, so a vertex layer is short.
   const Sphere* sp = sphere();
-  if (sp == nullptr) GTEST_SKIP() << "sphere966.mesh not readable";
+  ASSERT_NE(sp, nullptr) << "sphere966.mesh not readable";
   const std::unique_ptr<LeafKernel> kernel = make_leaf_kernel("native").value();
   PdrOptions o = depth2(2);
   Result<VolumeMesh> plain = run_pdr(sp->surface, *sp->sizing, *kernel, o, nullptr);  // no optimization
@@ -342,7 +342,7 @@ TEST(Pdr, OptimizationTasksGetOnlyTheSelectedTetsAndTheirHalo) {
 
 TEST(Pdr, InterfaceRoundsGetOnlyTheTetsNearTheLastInterfaces) {
   const Sphere* sp = sphere();
-  if (sp == nullptr) GTEST_SKIP() << "sphere966.mesh not readable";
+  ASSERT_NE(sp, nullptr) << "sphere966.mesh not readable";
   const std::unique_ptr<LeafKernel> kernel = make_leaf_kernel("native").value();
   PdrOptions o = depth2(2);
   o.interface_halo = 0;  // whole leaves
@@ -518,7 +518,7 @@ TEST(Pdr, HonestResultsStayFarBelowTheirLeafsByteLimit) {
   // The limit is a bound an honest kernel never nears: on sphere966's graded
   // field, every round's results stay under a tenth of it.
   const Sphere* sp = sphere();
-  if (sp == nullptr) GTEST_SKIP() << "sphere966.mesh not readable";
+  ASSERT_NE(sp, nullptr) << "sphere966.mesh not readable";
   const MeasuringKernel kernel;
   PdrOptions o = depth2(2);
   o.initial_volume_divisor = PdrOptions{}.initial_volume_divisor;
@@ -612,7 +612,7 @@ TEST(Pdr, ProgressCanStopTheRun) {
 
 TEST(Pdr, ACallerMadeInitialMeshGivesRunPdrsResult) {
   const Sphere* sp = sphere();
-  if (sp == nullptr) GTEST_SKIP() << "sphere966.mesh not readable";
+  ASSERT_NE(sp, nullptr) << "sphere966.mesh not readable";
   const NativeLeafKernel kernel(barycenter_hook(20));
   const PdrOptions o = depth2(2);
   Result<VolumeMesh> whole = run_pdr(sp->surface, *sp->sizing, kernel, o, nullptr);
@@ -638,7 +638,7 @@ TEST(Pdr, DepthZeroStartsFromTheSerialInitialMesh) {
   // only moved the count: sphere966 0.963 times the serial tets with them),
   // while at depth 1 the seed lattice fills the leaves.
   const Sphere* sp = sphere();
-  if (sp == nullptr) GTEST_SKIP() << "sphere966.mesh not readable";
+  ASSERT_NE(sp, nullptr) << "sphere966.mesh not readable";
   const NativeLeafKernel kernel(barycenter_hook(20));
   const double h = surface_spacing(sp->surface, *sp->sizing);
   PdrOptions o;
@@ -658,7 +658,7 @@ TEST(Pdr, MeshParallelIsByteIdenticalWithTheInitialMeshBesideTheSizing) {
   // 1 worker: sizing, then the initial mesh; 2 and 4: both at once (the plan
   // from SizingField::surface_values). The bytes must not change.
   const Sphere* sp = sphere();
-  if (sp == nullptr) GTEST_SKIP() << "sphere966.mesh not readable";
+  ASSERT_NE(sp, nullptr) << "sphere966.mesh not readable";
   const NativeLeafKernel kernel(barycenter_hook(20));
   ParallelOptions o;
   o.pdr = depth2();
@@ -685,7 +685,7 @@ TEST(Pdr, TheOptimizeKernelIsMeshParallelsOwnOptimization) {
   // make_leaf_kernel("optimize"): that kernel must give the bytes of the
   // optimizer mesh_parallel runs in its own process.
   const Sphere* sp = sphere();
-  if (sp == nullptr) GTEST_SKIP() << "sphere966.mesh not readable";
+  ASSERT_NE(sp, nullptr) << "sphere966.mesh not readable";
   const std::unique_ptr<LeafKernel> optimizer = make_leaf_kernel("optimize").value();
   EXPECT_EQ(optimizer->name(), "optimize");
   ParallelOptions o;
@@ -746,7 +746,7 @@ TEST(Pdr, ResumingFromEachRoundsCheckpointGivesTheSameBytes) {
   // A coordinator that restarts goes on from the last round's checkpoint: the
   // result must be the uninterrupted run's, from every round.
   const Sphere* sp = sphere();
-  if (sp == nullptr) GTEST_SKIP() << "sphere966.mesh not readable";
+  ASSERT_NE(sp, nullptr) << "sphere966.mesh not readable";
   ParallelOptions o;
   o.pdr = depth2(2);
   std::vector<std::string> saved;

@@ -271,7 +271,7 @@ TEST(SizingField, GrowthLimitMatchesBruteForceOnGradedGrid) {
 
 TEST(SizingField, GrowthLimitMatchesBruteForceOnSphere966) {
   const SphereWithBackground* sp = sphere_with_background();
-  if (sp == nullptr) GTEST_SKIP() << "sphere966.mesh not readable or not star-shaped";
+  ASSERT_NE(sp, nullptr) << "sphere966.mesh not readable or not star-shaped";
   const Box b = sp->surface.bounds();
   check_growth(sp->surface, sp->background, 1.002, b,
                [](const Vec3& x) { return norm(x) < 9.0; },  // the sphere has radius ~10 about 0
@@ -280,7 +280,7 @@ TEST(SizingField, GrowthLimitMatchesBruteForceOnSphere966) {
 
 TEST(SizingField, SphereBoundarySpacingAndCentre) {
   const SphereWithBackground* sp = sphere_with_background();
-  if (sp == nullptr) GTEST_SKIP() << "sphere966.mesh not readable or not star-shaped";
+  ASSERT_NE(sp, nullptr) << "sphere966.mesh not readable or not star-shaped";
   const auto f = build_ok(sp->surface, sp->background, growth(kHuge));
   const auto spacing = mean_incident_edge(sp->surface);
   double lo = 1e300, hi = 0;
@@ -365,7 +365,7 @@ TEST(SizingField, EncodeDecodeIsBitIdenticalOnCube) {
 
 TEST(SizingField, EncodeDecodeIsBitIdenticalOnSphere966) {
   const SphereWithBackground* sp = sphere_with_background();
-  if (sp == nullptr) GTEST_SKIP() << "sphere966.mesh not readable or not star-shaped";
+  ASSERT_NE(sp, nullptr) << "sphere966.mesh not readable or not star-shaped";
   SizingOptions o = growth(1.01);
   o.hmin = 0.9;
   check_roundtrip(sp->surface, sp->background, o, "EncodeDecodeIsBitIdenticalOnSphere966");
@@ -389,7 +389,7 @@ TEST(SizingField, ParallelQueriesMatchSerial) {
 
 TEST(SizingField, SurfaceValuesMatchTheBuiltFieldBitForBit) {
   const SphereWithBackground* sp = sphere_with_background();
-  if (sp == nullptr) GTEST_SKIP() << "sphere966.mesh not readable or not star-shaped";
+  ASSERT_NE(sp, nullptr) << "sphere966.mesh not readable or not star-shaped";
   SizingOptions clamped;
   clamped.hmin = 0.9;
   clamped.hmax = 1.1;
