@@ -105,6 +105,7 @@ Result<std::unique_ptr<Coordinator>> Coordinator::BuildAndStart(const Options& o
   config.data_dir = options.data_dir;
   config.limits = options.limits;
   config.runner_threads = options.runner_threads;
+  config.memory_budget_bytes = options.memory_budget_bytes;
   config.default_time_limit_s = options.default_time_limit_s;
   config.max_time_limit_s = options.max_time_limit_s;
   config.result_ttl_s = options.result_ttl_hours * 3600.0;

@@ -234,10 +234,10 @@ void JobRunner::stop() {
   threads_.clear();
 }
 
-void JobRunner::enqueue(const JobRecord& job) {
+void JobRunner::enqueue(const JobRecord& job, double peak_bytes) {
   {
     std::lock_guard lock(mu_);
-    queue_.push_back({job.id, job.user});
+    queue_.push_back({job.id, job.user, peak_bytes});
   }
   cv_.notify_all();
 }
@@ -280,9 +280,14 @@ void JobRunner::loop() {
     Entry entry;
     {
       std::unique_lock lock(mu_);
+      // The oldest job whose user is under the running limit and that fits in
+      // the memory budget beside the running jobs (a job alone always fits:
+      // admission refused the ones over the budget).
       auto pick = [&] {
         return std::find_if(queue_.begin(), queue_.end(), [&](const Entry& e) {
-          return running_per_user_[e.user] < options_.max_running_per_user;
+          const bool fits = options_.memory_budget_bytes <= 0 || running_.empty() ||
+                            running_bytes_ + e.peak_bytes <= options_.memory_budget_bytes;
+          return running_per_user_[e.user] < options_.max_running_per_user && fits;
         });
       };
       cv_.wait(lock, [&] { return stopping_ || pick() != queue_.end(); });
@@ -292,12 +297,14 @@ void JobRunner::loop() {
       queue_.erase(it);
       running_[entry.id] = Running{};
       ++running_per_user_[entry.user];
+      running_bytes_ += entry.peak_bytes;
     }
     run_job(entry);
     {
       std::lock_guard lock(mu_);
       running_.erase(entry.id);
       --running_per_user_[entry.user];
+      running_bytes_ = running_.empty() ? 0 : running_bytes_ - entry.peak_bytes;
     }
     cv_.notify_all();
   }
