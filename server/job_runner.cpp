@@ -12,6 +12,7 @@
 #include <functional>
 #include <fstream>
 #include <iterator>
+#include <new>
 #include <nlohmann/json.hpp>
 
 #include "pdrmesh/digest.hpp"
@@ -358,7 +359,17 @@ void JobRunner::run_job(const Entry& entry) {
   job.started_ms = now_unix_ms();
   RunnerProgress progress(job, store_, changes_, keep_going);
   spdlog::info("job {} ({}): running", job.id, job.user);
-  const Status status = mesh_job(job, progress);
+  // An allocation failure (or any exception) in one job's steps fails that
+  // job, not the coordinator: the job's memory is freed as the stack unwinds.
+  Status status;
+  try {
+    status = mesh_job(job, progress);
+  } catch (const std::bad_alloc&) {
+    status = resource_exhausted(fmt::format("out of memory while meshing (in phase '{}'; a larger --size or "
+                                            "fewer jobs at once needs less)", job.phase));
+  } catch (const std::exception& e) {
+    status = internal_error(fmt::format("unexpected error while meshing (in phase '{}'): {}", job.phase, e.what()));
+  }
   keep_going();  // reads the latest cancel and stop requests
   job.leaves_done = job.leaves_total = 0;
   if (remove) {  // DeleteJob asked while it ran: the record and files go
