@@ -147,6 +147,7 @@ int run_mesh(const MeshArgs& a) {
   if (auto f = volume_format_from_path(a.output); !f.ok()) return fail(f.status());
   SurfaceMesh surface;
   if (int code = load_checked_surface(a.surface, progress, surface); code != kExitOk) return code;
+  if (Status s = a.size.check_tet_limit(surface, !a.no_refine); !s.ok()) return fail(s);
 
   if (a.no_refine) {
     TetgenOptions options;
@@ -232,6 +233,7 @@ int run_run(const RunArgs& a) {
   SurfaceMesh surface;
   StepTimes times;
   if (int code = load_checked_surface(a.surface, progress, surface, &times); code != kExitOk) return code;
+  if (Status s = a.mesh.size.check_tet_limit(surface, true); !s.ok()) return fail(s);
 
   auto kernel = make_leaf_kernel(a.mesh.kernel);
   if (!kernel.ok()) return fail(kernel.status());

@@ -2,6 +2,8 @@
 // The run/submit mesh options: flags, and their two translations.
 #include "run_options.hpp"
 
+#include "pdrmesh/estimate.hpp"
+
 namespace pdrmesh::cli {
 
 void SizeArgs::add_to(CLI::App* cmd) {
@@ -11,6 +13,18 @@ void SizeArgs::add_to(CLI::App* cmd) {
   cmd->add_option("--hmax", hmax, "largest target edge length")->check(CLI::PositiveNumber);
   cmd->add_option("--growth", growth, "how fast the spacing may grow away from the boundary (> 1)")
       ->capture_default_str();
+  cmd->add_option("--max-tets", max_tets,
+                  "refuse before meshing when the estimated tet count is over this "
+                  "(default: what this machine's available memory holds)")
+      ->check(CLI::PositiveNumber);
+}
+
+Status SizeArgs::check_tet_limit(const SurfaceMesh& surface, bool machine_default) const {
+  if (max_tets <= 0 && !machine_default) return {};
+  const SizingOptions o = options();
+  PDR_ASSIGN_OR_RETURN(const MeshEstimate e, estimate_mesh(surface, o));
+  if (max_tets > 0) return pdrmesh::check_tet_limit(e, o, max_tets, "--max-tets");
+  return pdrmesh::check_tet_limit(e, o, default_max_tets(), "--max-tets, from this machine's memory");
 }
 
 SizingOptions SizeArgs::options() const {

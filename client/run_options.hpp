@@ -10,6 +10,8 @@
 
 #include "pdrmesh/pipeline.hpp"
 #include "pdrmesh/sizing.hpp"
+#include "pdrmesh/status.hpp"
+#include "pdrmesh/surface.hpp"
 #include "pdrmesh/v1/pdrmesh.pb.h"
 
 namespace pdrmesh::cli {
@@ -17,9 +19,15 @@ namespace pdrmesh::cli {
 /// Size options shared by the commands that refine (the point distribution function).
 struct SizeArgs {
   double size = 0, hmin = 0, hmax = 0, growth = 1.2;
+  double max_tets = 0;  ///< --max-tets; 0: from this machine's memory (default_max_tets)
 
   void add_to(CLI::App* cmd);
   SizingOptions options() const;
+  /// Estimates the mesh of `surface` with these options (estimate.hpp) and
+  /// refuses (invalid_input, with the estimate and the smallest sensible
+  /// --size) when it is over --max-tets, or over this machine's memory when
+  /// --max-tets is not given and `machine_default` is set.
+  Status check_tet_limit(const SurfaceMesh& surface, bool machine_default) const;
 };
 
 /// --depth --kernel --no-interface-round --no-optimize and the size options.

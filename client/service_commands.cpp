@@ -25,6 +25,7 @@
 #include "progress_display.hpp"
 #include "run_options.hpp"
 #include "service_client.hpp"
+#include "pdrmesh/surface_io.hpp"
 
 namespace pdrmesh::cli {
 namespace {
@@ -314,6 +315,14 @@ int run_submit(Common& c, const SubmitArgs& a) {
     fmt::print(stderr, "pdrmesh: {}: unknown volume mesh suffix (.vtu .mesh .meshb .ugrid .lb8.ugrid .b8.ugrid .msh "
                        ".su2)\n", a.out);
     return kExitUsage;
+  }
+  if (a.mesh.size.max_tets > 0 && a.max_volume <= 0) {  // the coordinator checks its own limits in any case
+    auto surface = read_surface(a.surface);
+    Status s = surface.ok() ? a.mesh.size.check_tet_limit(*surface, false) : surface.status();
+    if (!s.ok()) {
+      fmt::print(stderr, "pdrmesh: error: {}\n", s.to_string());
+      return cli::exit_code_for(s);
+    }
   }
   v1::MeshOptions options = a.mesh.mesh_options();
   if (a.max_volume > 0) options.set_max_volume(a.max_volume);

@@ -105,16 +105,22 @@ Result<std::unique_ptr<Coordinator>> Coordinator::BuildAndStart(const Options& o
   config.data_dir = options.data_dir;
   config.limits = options.limits;
   config.runner_threads = options.runner_threads;
+  config.memory_budget_bytes = options.memory_budget_bytes;
   config.default_time_limit_s = options.default_time_limit_s;
   config.max_time_limit_s = options.max_time_limit_s;
   config.result_ttl_s = options.result_ttl_hours * 3600.0;
   config.sweep_interval_s = options.sweep_interval_s;
+  const std::size_t threads =
+      options.leaf_threads > 0 ? options.leaf_threads : std::max(1U, std::thread::hardware_concurrency());
   if (!engine && c->remote_dispatch_) {
-    engine = std::make_unique<PdrEngine>(c->remote_dispatch_);
-    spdlog::info("leaves run on worker daemons");
+    // No worker known at all (none listed, none registered yet): the leaves
+    // run here rather than wait for one.
+    std::shared_ptr<WorkerPool> pool = c->pool_;
+    engine = std::make_unique<PdrEngine>(std::make_shared<FallbackLeafDispatch>(
+        c->remote_dispatch_, std::make_shared<LocalLeafDispatch>(threads),
+        [pool] { return !pool->workers().empty(); }));
+    spdlog::info("leaves run on worker daemons (in this process on {} thread(s) while no worker is known)", threads);
   } else if (!engine) {
-    const std::size_t threads =
-        options.leaf_threads > 0 ? options.leaf_threads : std::max(1U, std::thread::hardware_concurrency());
     engine = std::make_unique<PdrEngine>(std::make_shared<LocalLeafDispatch>(threads));
     spdlog::info("leaves run in this process on {} thread(s)", threads);
   }

@@ -31,7 +31,11 @@ struct Options {
   std::filesystem::path data_dir;     ///< required
   std::filesystem::path tokens_file;  ///< required: lines `user token`
   UserLimits limits;
-  int runner_threads = 1;
+  /// Jobs run at once at most (each within the memory budget).
+  int runner_threads = 4;
+  /// Bytes the running jobs' estimated peaks may add up to; 0: 80% of the
+  /// memory available at start (ManagerConfig::memory_budget_bytes).
+  double memory_budget_bytes = 0;
   double default_time_limit_s = 600;
   double max_time_limit_s = 3600;
   /// PEM files; both or neither. Without them the server speaks plaintext.

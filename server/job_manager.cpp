@@ -43,7 +43,8 @@ JobManager::JobManager(ManagerConfig config, std::unique_ptr<JobStore> store, st
       store_(std::move(store)),
       engine_(std::move(engine)),
       runner_(*store_, config_.data_dir, *engine_,
-              RunnerOptions{config_.runner_threads, config_.limits.max_running_jobs}, changes_) {}
+              RunnerOptions{config_.runner_threads, config_.limits.max_running_jobs, config_.memory_budget_bytes},
+              changes_) {}
 
 JobManager::~JobManager() { stop(); }
 
@@ -58,13 +59,16 @@ void JobManager::stop() {
 }
 
 Result<std::unique_ptr<JobManager>> JobManager::open(ManagerConfig config, std::unique_ptr<MeshEngine> engine) {
+  if (config.memory_budget_bytes <= 0) config.memory_budget_bytes = 0.8 * available_memory_bytes();
+  spdlog::info("memory budget of the running jobs: {:.1f} GB ({:.3g} tets in one job)",
+               config.memory_budget_bytes / 1e9, tets_for_bytes(config.memory_budget_bytes));
   std::error_code ec;
   std::filesystem::create_directories(config.data_dir / "jobs", ec);
   if (ec) return io_error(fmt::format("{}: cannot create the data directory: {}", config.data_dir.string(), ec.message()));
   PDR_ASSIGN_OR_RETURN(auto store, JobStore::open(config.data_dir / "jobs.db"));
   PDR_ASSIGN_OR_RETURN(const auto queued, store->recover());
   std::unique_ptr<JobManager> m(new JobManager(std::move(config), std::move(store), std::move(engine)));
-  for (const JobRecord& j : queued) m->runner_.enqueue(j);
+  for (const JobRecord& j : queued) m->runner_.enqueue(j, m->stored_job_peak_bytes(j));
   if (!queued.empty()) spdlog::info("re-queued {} job(s) from the previous run", queued.size());
   m->runner_.start();
   if (m->config_.result_ttl_s > 0) {
@@ -112,6 +116,14 @@ Result<JobRecord> JobManager::submit(std::string_view user, std::string_view fil
   // The whole check before anything is stored: a broken surface costs nothing else.
   PDR_ASSIGN_OR_RETURN(const SurfaceMesh surface, parse_surface(bytes, format, name));
   PDR_TRY(require_meshable(check_surface(surface), name));
+  // What meshing it would cost, before anything is stored (the initial mesh
+  // alone, with max_volume, is TetGen's and bounded by its time limit).
+  double peak_bytes = 0;
+  if (!options.max_volume) {
+    PDR_ASSIGN_OR_RETURN(const MeshEstimate estimate, estimate_mesh(surface, options.sizing));
+    PDR_TRY(check_estimate(estimate, options.sizing));
+    peak_bytes = estimate.peak_bytes;
+  }
 
   JobRecord job;
   job.id = new_job_id();
@@ -137,10 +149,30 @@ Result<JobRecord> JobManager::submit(std::string_view user, std::string_view fil
       return s;
     }
   }
-  runner_.enqueue(job);
+  runner_.enqueue(job, peak_bytes);
   changes_.notify();
   spdlog::info("job {} ({}): queued {} ({} bytes)", job.id, job.user, name, bytes.size());
   return job;
+}
+
+Status JobManager::check_estimate(const MeshEstimate& estimate, const SizingOptions& sizing) const {
+  const double machine = tets_for_bytes(config_.memory_budget_bytes);
+  const double user = config_.limits.max_job_tets;
+  const bool user_lower = user > 0 && user < machine;
+  const Status s = check_tet_limit(estimate, sizing, user_lower ? user : machine,
+                                   user_lower ? "max_job_tets, the coordinator's per-user limit"
+                                              : "the coordinator's memory budget");
+  if (s.ok()) return s;
+  return resource_exhausted(s.message());
+}
+
+double JobManager::stored_job_peak_bytes(const JobRecord& job) const {
+  auto options = JobOptions::from_json(job.options_json);
+  if (!options.ok() || options->max_volume) return 0;
+  auto surface = read_surface(JobPaths::input(config_.data_dir, job));
+  if (!surface.ok()) return 0;
+  auto estimate = estimate_mesh(*surface, options->sizing);
+  return estimate.ok() ? estimate->peak_bytes : 0;
 }
 
 Result<JobRecord> JobManager::get(std::string_view user, std::string_view id) { return store_->get(id, user); }

@@ -17,6 +17,7 @@
 
 #include "job_runner.hpp"
 #include "job_store.hpp"
+#include "pdrmesh/estimate.hpp"
 #include "pdrmesh/status.hpp"
 
 namespace pdrmesh::server {
@@ -28,12 +29,19 @@ struct UserLimits {
   int max_running_jobs = 1;                       ///< running at once (more wait queued)
   int max_open_streams = 16;                      ///< uploads, watches and downloads open at once
   double max_upload_s = 600;                      ///< one upload, first byte to last
+  /// Estimated tets of one job (estimate.hpp), checked at upload; 0: only the
+  /// coordinator's memory budget limits them.
+  double max_job_tets = 0;
 };
 
 struct ManagerConfig {
   std::filesystem::path data_dir;  ///< jobs.db and jobs/<id>/ live here
   UserLimits limits;
   int runner_threads = 1;  ///< 0: jobs are queued but never run (tests, drain)
+  /// Bytes the running jobs' estimated peaks may add up to (a job that does
+  /// not fit waits; one over it alone is refused at upload); 0: 80% of the
+  /// memory available when the coordinator starts.
+  double memory_budget_bytes = 0;
   double default_time_limit_s = 600;
   double max_time_limit_s = 3600;  ///< a job asking for more is refused
   /// Finished jobs older than this (seconds since they finished) are deleted,
@@ -55,6 +63,9 @@ class JobManager {
   Status admit(std::string_view user, std::uint64_t total_bytes) const;
   /// Checks the surface (parse + surface check) and creates a queued job; a
   /// defective surface is invalid_input naming the defects and creates nothing.
+  /// A job whose estimate (estimate.hpp) is over max_job_tets or the memory
+  /// budget is resource_exhausted with the estimate and the smallest sensible
+  /// size, and creates nothing.
   Result<JobRecord> submit(std::string_view user, std::string_view file_name, std::string_view bytes,
                            JobOptions options);
   Result<JobRecord> get(std::string_view user, std::string_view id);
@@ -79,6 +90,10 @@ class JobManager {
 
  private:
   JobManager(ManagerConfig config, std::unique_ptr<JobStore> store, std::unique_ptr<MeshEngine> engine);
+  /// The refusal of a job whose estimate is over the limits; ok otherwise.
+  Status check_estimate(const MeshEstimate& estimate, const SizingOptions& sizing) const;
+  /// The estimated peak bytes of a stored job (0 when it cannot be estimated).
+  double stored_job_peak_bytes(const JobRecord& job) const;
 
   ManagerConfig config_;
   std::unique_ptr<JobStore> store_;

@@ -12,6 +12,7 @@
 #include <functional>
 #include <fstream>
 #include <iterator>
+#include <new>
 #include <nlohmann/json.hpp>
 
 #include "pdrmesh/digest.hpp"
@@ -234,10 +235,10 @@ void JobRunner::stop() {
   threads_.clear();
 }
 
-void JobRunner::enqueue(const JobRecord& job) {
+void JobRunner::enqueue(const JobRecord& job, double peak_bytes) {
   {
     std::lock_guard lock(mu_);
-    queue_.push_back({job.id, job.user});
+    queue_.push_back({job.id, job.user, peak_bytes});
   }
   cv_.notify_all();
 }
@@ -280,9 +281,14 @@ void JobRunner::loop() {
     Entry entry;
     {
       std::unique_lock lock(mu_);
+      // The oldest job whose user is under the running limit and that fits in
+      // the memory budget beside the running jobs (a job alone always fits:
+      // admission refused the ones over the budget).
       auto pick = [&] {
         return std::find_if(queue_.begin(), queue_.end(), [&](const Entry& e) {
-          return running_per_user_[e.user] < options_.max_running_per_user;
+          const bool fits = options_.memory_budget_bytes <= 0 || running_.empty() ||
+                            running_bytes_ + e.peak_bytes <= options_.memory_budget_bytes;
+          return running_per_user_[e.user] < options_.max_running_per_user && fits;
         });
       };
       cv_.wait(lock, [&] { return stopping_ || pick() != queue_.end(); });
@@ -292,12 +298,14 @@ void JobRunner::loop() {
       queue_.erase(it);
       running_[entry.id] = Running{};
       ++running_per_user_[entry.user];
+      running_bytes_ += entry.peak_bytes;
     }
     run_job(entry);
     {
       std::lock_guard lock(mu_);
       running_.erase(entry.id);
       --running_per_user_[entry.user];
+      running_bytes_ = running_.empty() ? 0 : running_bytes_ - entry.peak_bytes;
     }
     cv_.notify_all();
   }
@@ -351,7 +359,17 @@ void JobRunner::run_job(const Entry& entry) {
   job.started_ms = now_unix_ms();
   RunnerProgress progress(job, store_, changes_, keep_going);
   spdlog::info("job {} ({}): running", job.id, job.user);
-  const Status status = mesh_job(job, progress);
+  // An allocation failure (or any exception) in one job's steps fails that
+  // job, not the coordinator: the job's memory is freed as the stack unwinds.
+  Status status;
+  try {
+    status = mesh_job(job, progress);
+  } catch (const std::bad_alloc&) {
+    status = resource_exhausted(fmt::format("out of memory while meshing (in phase '{}'; a larger --size or "
+                                            "fewer jobs at once needs less)", job.phase));
+  } catch (const std::exception& e) {
+    status = internal_error(fmt::format("unexpected error while meshing (in phase '{}'): {}", job.phase, e.what()));
+  }
   keep_going();  // reads the latest cancel and stop requests
   job.leaves_done = job.leaves_total = 0;
   if (remove) {  // DeleteJob asked while it ran: the record and files go

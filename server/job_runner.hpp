@@ -116,6 +116,9 @@ class MeshEngine {
 struct RunnerOptions {
   int threads = 1;                ///< jobs run at once in total; 0: none run (queue only)
   int max_running_per_user = 1;   ///< a user's further jobs wait in the queue
+  /// The estimated peak bytes of the running jobs add up to at most this: a
+  /// job that does not fit beside them waits (one alone always runs); 0: no budget.
+  double memory_budget_bytes = 0;
 };
 
 class JobRunner {
@@ -132,8 +135,9 @@ class JobRunner {
   /// restart, from its last round checkpoint); the TetGen step itself is not
   /// interrupted.
   void stop();
-  /// Appends a queued job (stored already) to the queue.
-  void enqueue(const JobRecord& job);
+  /// Appends a queued job (stored already) to the queue, with its estimated
+  /// peak bytes (estimate.hpp; 0: unknown, counted as nothing).
+  void enqueue(const JobRecord& job, double peak_bytes = 0);
   /// Cancels `job` (read from the store by the caller): a queued job becomes
   /// cancelled now; a running one at its next phase boundary (one that stores
   /// its result first stays succeeded); a final job is returned unchanged.
@@ -148,6 +152,7 @@ class JobRunner {
   struct Entry {
     std::string id;
     std::string user;
+    double peak_bytes = 0;
   };
   void loop();
   void run_job(const Entry& entry);
@@ -170,6 +175,7 @@ class JobRunner {
   };
   std::map<std::string, Running> running_;       ///< job id -> requests
   std::map<std::string, int> running_per_user_;  ///< user -> jobs running
+  double running_bytes_ = 0;                     ///< estimated peak bytes of the running jobs
   std::vector<std::thread> threads_;
 };
 

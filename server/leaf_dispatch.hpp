@@ -51,4 +51,24 @@ class LocalLeafDispatch final : public LeafDispatch {
   std::size_t threads_;
 };
 
+/// Leaves go to `remote` while `has_workers()` is true, and run through
+/// `local` otherwise: a coordinator with a worker registry but no worker at
+/// all refines its leaves itself instead of waiting. Decided per leaf (the
+/// bytes are the same either way), so a worker that registers mid-job takes
+/// the next leaves.
+class FallbackLeafDispatch final : public LeafDispatch {
+ public:
+  FallbackLeafDispatch(std::shared_ptr<LeafDispatch> remote, std::shared_ptr<LeafDispatch> local,
+                       std::function<bool()> has_workers)
+      : remote_(std::move(remote)), local_(std::move(local)), has_workers_(std::move(has_workers)) {}
+  Result<std::unique_ptr<LeafKernel>> kernel_for(const LeafJob& job) override;
+  std::size_t concurrency() const override {
+    return has_workers_() ? remote_->concurrency() : local_->concurrency();
+  }
+
+ private:
+  std::shared_ptr<LeafDispatch> remote_, local_;
+  std::function<bool()> has_workers_;
+};
+
 }  // namespace pdrmesh::server

@@ -43,7 +43,16 @@ int main(int argc, char** argv) {
                  "together get three quarters of them, further ones RESOURCE_EXHAUSTED")
       ->check(CLI::Range(4, 100000))
       ->capture_default_str();
-  app.add_option("--threads", o.runner_threads, "jobs run at once in total")
+  app.add_option("--threads", o.runner_threads, "jobs run at once in total (within --memory-budget)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  double memory_budget_gb = 0;
+  app.add_option("--memory-budget", memory_budget_gb,
+                 "GB the running jobs' estimated peaks may add up to; a job that does not fit waits, one over "
+                 "it alone is refused (default: 80% of the memory available at start)")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--max-job-tets", o.limits.max_job_tets,
+                 "per user: estimated tets of one job at most (0: only the memory budget limits them)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   app.add_option("--default-time-limit", o.default_time_limit_s, "seconds a job may mesh unless it asks otherwise")
@@ -87,6 +96,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error, off")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
+  o.memory_budget_bytes = memory_budget_gb * 1e9;
   // glibc gives each thread that allocates its own malloc arena, up to 8 per
   // core, and rarely returns their memory: the coordinator's RSS grew about
   // 15% over 50 jobs of bench/soak.sh, and stayed flat with two arenas (README,

@@ -61,6 +61,10 @@ int main(int argc, char** argv) {
     o.test_leaf_delay = std::chrono::milliseconds(std::atoi(delay));
     spdlog::warn("test mode: every leaf waits {} ms first (PDRMESH_WORKER_TEST_LEAF_DELAY_MS)", o.test_leaf_delay.count());
   }
+  if (const char* fail = std::getenv("PDRMESH_WORKER_TEST_LEAF_BAD_ALLOC"); fail != nullptr && fail[0] == '1') {
+    o.test_leaf_bad_alloc = true;
+    spdlog::warn("test mode: every leaf runs out of memory (PDRMESH_WORKER_TEST_LEAF_BAD_ALLOC)");
+  }
 
   // Signals are taken synchronously by this thread; every later thread inherits the mask.
   sigset_t stop_signals;

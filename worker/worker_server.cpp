@@ -15,6 +15,7 @@
 #include <list>
 #include <map>
 #include <mutex>
+#include <new>
 #include <thread>
 
 #include "pdrmesh/leaf_kernels.hpp"
@@ -147,6 +148,13 @@ class ActiveCall {
   Worker::State& s_;
 };
 
+/// TEST ONLY (WorkerOptions::test_leaf_bad_alloc): a kernel that runs out of memory.
+class BadAllocKernel final : public LeafKernel {
+ public:
+  Result<LeafTaskOutput> run(const LeafTaskInput&, const SizingField&) const override { throw std::bad_alloc(); }
+  std::string_view name() const override { return "test-bad-alloc"; }
+};
+
 class WorkerServiceImpl final : public v1::WorkerService::Service {
  public:
   explicit WorkerServiceImpl(Worker::State& s) : s_(s) {}
@@ -161,8 +169,24 @@ class WorkerServiceImpl final : public v1::WorkerService::Service {
     return grpc::Status::OK;
   }
 
+  /// An allocation failure anywhere in a call (reading the task, the kernel,
+  /// encoding the result) answers that call, never takes the worker down.
   grpc::Status RefineLeaf(grpc::ServerContext* context,
                           grpc::ServerReaderWriter<v1::RefineLeafResponse, v1::RefineLeafRequest>* stream) override {
+    try {
+      return refine_leaf(context, stream);
+    } catch (const std::bad_alloc&) {
+      spdlog::error("RefineLeaf: out of memory");
+      return rpc_error(grpc::StatusCode::RESOURCE_EXHAUSTED, "out of memory while refining a leaf on this worker");
+    } catch (const std::exception& e) {
+      spdlog::error("RefineLeaf: {}", e.what());
+      return rpc_error(grpc::StatusCode::INTERNAL, fmt::format("unexpected error on this worker: {}", e.what()));
+    }
+  }
+
+ private:
+  grpc::Status refine_leaf(grpc::ServerContext* context,
+                           grpc::ServerReaderWriter<v1::RefineLeafResponse, v1::RefineLeafRequest>* stream) {
     if (grpc::Status st = check_cluster_token(*context, s_.options.cluster_token); !st.ok()) {
       spdlog::warn("RefineLeaf from {}: {}", context->peer(), st.error_message());
       return st;
@@ -258,7 +282,8 @@ class WorkerServiceImpl final : public v1::WorkerService::Service {
     }
     if (s_.options.test_leaf_delay.count() > 0) std::this_thread::sleep_for(s_.options.test_leaf_delay);
     const auto t0 = Clock::now();
-    Result<LeafTaskOutput> out = (*kernel)->run(*in, *sizing);
+    Result<LeafTaskOutput> out = s_.options.test_leaf_bad_alloc ? run_leaf_kernel(BadAllocKernel{}, *in, *sizing)
+                                                                 : run_leaf_kernel(**kernel, *in, *sizing);
     const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
     s_.release();
 
@@ -287,7 +312,6 @@ class WorkerServiceImpl final : public v1::WorkerService::Service {
     return grpc::Status::OK;
   }
 
- private:
   Worker::State& s_;
 };
 

@@ -45,6 +45,9 @@ struct WorkerOptions {
   /// catch a worker in the middle of a job (main.cpp reads it from the
   /// environment variable PDRMESH_WORKER_TEST_LEAF_DELAY_MS; never set it in production).
   std::chrono::milliseconds test_leaf_delay{0};
+  /// TEST ONLY: every leaf's kernel throws std::bad_alloc, as when the machine
+  /// runs out of memory (main.cpp: PDRMESH_WORKER_TEST_LEAF_BAD_ALLOC=1).
+  bool test_leaf_bad_alloc = false;
 };
 
 struct WorkerStats {

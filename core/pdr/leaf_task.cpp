@@ -7,6 +7,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <exception>
+#include <new>
 #include <numbers>
 #include <tuple>
 #include <utility>
@@ -312,10 +314,27 @@ LeafTaskOutput leaf_output_from(const LeafTaskInput& in, const TetMesh& mesh) {
   return out;
 }
 
+Result<LeafTaskOutput> run_leaf_kernel(const LeafKernel& kernel, const LeafTaskInput& in,
+                                       const SizingField& sizing) {
+  try {
+    return kernel.run(in, sizing);
+  } catch (const std::bad_alloc&) {
+    return resource_exhausted(fmt::format("out of memory while refining ({} kernel, {} input tets, {} points)",
+                                          kernel.name(), in.tets.size(), in.points.size()));
+  } catch (const std::exception& e) {
+    return internal_error(fmt::format("{} kernel: unexpected error: {}", kernel.name(), e.what()));
+  }
+}
+
 Result<std::string> run_leaf_task(const LeafKernel& kernel, std::string_view input, const SizingField& sizing) {
-  PDR_ASSIGN_OR_RETURN(LeafTaskInput in, LeafTaskInput::decode(input));
-  PDR_ASSIGN_OR_RETURN(LeafTaskOutput out, kernel.run(in, sizing));
-  return out.encode();
+  try {
+    PDR_ASSIGN_OR_RETURN(LeafTaskInput in, LeafTaskInput::decode(input));
+    PDR_ASSIGN_OR_RETURN(LeafTaskOutput out, run_leaf_kernel(kernel, in, sizing));
+    return out.encode();
+  } catch (const std::bad_alloc&) {  // decoding or encoding
+    return resource_exhausted(fmt::format("out of memory while refining ({} kernel, {} input bytes)", kernel.name(),
+                                          input.size()));
+  }
 }
 
 bool is_kernel_failure(const Status& s) {

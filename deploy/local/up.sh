@@ -101,7 +101,7 @@ cleanup() {
 }
 trap cleanup EXIT
 
-start() {  # start NAME BINARY ARGS...: in its own session, detached from this shell's output
+start() {  # start NAME BINARY ARGS...: in its own process group, detached from this shell's output
   local name=$1; shift
   setsid "$@" </dev/null >"$dir/logs/$name.out" 2>"$dir/logs/$name.log" &
   local pid=$!

@@ -5,7 +5,9 @@
 #include <gtest/gtest.h>
 #include <spdlog/spdlog.h>
 
+#include <atomic>
 #include <condition_variable>
+#include <new>
 #include <fstream>
 #include <mutex>
 #include <memory>
@@ -68,6 +70,22 @@ class GatedEngine final : public MeshEngine {
   PdrEngine engine_{std::make_shared<LocalLeafDispatch>(1)};
 };
 
+/// The result of job `id` (of the sphere), fetched as .meshb, read and
+/// validated against the sphere (failures are the test's); empty when unreadable.
+VolumeMesh fetch_valid_sphere_mesh(cli::ServiceClient& c, const std::string& id, const std::filesystem::path& dir) {
+  const auto meshb = dir / "out.meshb";
+  const grpc::Status fetched = c.fetch(id, meshb);
+  EXPECT_TRUE(fetched.ok()) << fetched.error_message();
+  auto mesh = read_volume(meshb);
+  EXPECT_TRUE(mesh.ok()) << mesh.status().to_string();
+  auto surface = read_surface(kSphere);
+  EXPECT_TRUE(surface.ok());
+  if (!mesh.ok() || !surface.ok()) return {};
+  const ValidationReport report = validate_mesh(*mesh, &*surface);
+  EXPECT_TRUE(report.ok()) << format_validation(report);
+  return std::move(mesh).value();
+}
+
 TEST_F(Service, SubmitWatchFetchGivesAValidMeshOfTheSurface) {
   start(1);
   auto alice = client("tok-alice");
@@ -87,24 +105,16 @@ TEST_F(Service, SubmitWatchFetchGivesAValidMeshOfTheSurface) {
   }
   EXPECT_GE(events.back().elapsed_s(), 0.0);
 
-  const auto meshb = dir_.path() / "out.meshb";
-  const grpc::Status fetched = alice->fetch(job.id(), meshb);
-  ASSERT_TRUE(fetched.ok()) << fetched.error_message();
-  auto mesh = read_volume(meshb);
-  ASSERT_TRUE(mesh.ok()) << mesh.status().to_string();
-  auto surface = read_surface(kSphere);
-  ASSERT_TRUE(surface.ok());
-  const ValidationReport report = validate_mesh(*mesh, &*surface);
-  EXPECT_TRUE(report.ok()) << format_validation(report);
-  EXPECT_EQ(mesh->tets.size(), done.tets());
+  const VolumeMesh mesh = fetch_valid_sphere_mesh(*alice, job.id(), dir_.path());
+  EXPECT_EQ(mesh.tets.size(), done.tets());
 
   // Another format, converted by the coordinator: the same mesh.
   const auto vtu = dir_.path() / "out.lb8.ugrid";
   ASSERT_TRUE(alice->fetch(job.id(), vtu).ok());
   auto again = read_volume(vtu);
   ASSERT_TRUE(again.ok()) << again.status().to_string();
-  EXPECT_EQ(again->tets, mesh->tets);
-  EXPECT_EQ(again->points, mesh->points);
+  EXPECT_EQ(again->tets, mesh.tets);
+  EXPECT_EQ(again->points, mesh.points);
 }
 
 TEST_F(Service, DefectiveSurfaceIsInvalidArgumentNamingTheDefectAndCreatesNoJob) {
@@ -284,6 +294,101 @@ TEST(VolumeFormatOf, PicksTheLongestSuffix) {
   EXPECT_EQ(cli::volume_format_of("b.stl"), "");
   EXPECT_EQ(volume_suffix("").value(), ".meshb");
   EXPECT_EQ(volume_suffix("../x.vtu").status().code(), StatusCode::kUnsupported);
+}
+
+TEST_F(Service, AJobOverTheTetLimitsIsResourceExhaustedWithTheEstimateAndCreatesNoJob) {
+  // Without a per-user limit: far beyond any memory, the coordinator's memory budget refuses it.
+  start(0);
+  v1::MeshOptions tiny;
+  tiny.set_size(1e-9);
+  v1::Job job;
+  grpc::Status s = client("tok-bob")->submit(kSphere, tiny, job);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_NE(s.error_message().find("--size 1e-09 would make about"), std::string::npos) << s.error_message();
+  EXPECT_NE(s.error_message().find("(the coordinator's memory budget); use --size "), std::string::npos)
+      << s.error_message();
+  coordinator_.reset();
+  // The per-user limit, when lower, is the one named.
+  UserLimits limits;
+  limits.max_job_tets = 1000;  // the sphere at its own spacing is about 15,000
+  start(0, limits);
+  auto alice = client("tok-alice");
+  s = alice->submit(kSphere, v1::MeshOptions(), job);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_NE(s.error_message().find("the default sizing would make about"), std::string::npos) << s.error_message();
+  EXPECT_NE(s.error_message().find("the limit is 1,000 tets (max_job_tets"), std::string::npos) << s.error_message();
+  EXPECT_NE(s.error_message().find("use --size "), std::string::npos) << s.error_message();
+  v1::ListJobsResponse jobs;
+  ASSERT_TRUE(alice->list(jobs).ok());
+  EXPECT_EQ(jobs.jobs_size(), 0);
+  // Under the limit: accepted.
+  v1::MeshOptions coarse;
+  coarse.set_size(8);
+  EXPECT_TRUE(alice->submit(kSphere, coarse, job).ok());
+}
+
+/// Runs out of memory in its first job, then meshes like the PdrEngine.
+class OutOfMemoryOnceEngine final : public MeshEngine {
+ public:
+  Result<VolumeMesh> mesh(const JobRecord& job, const SurfaceMesh& surface, const JobOptions& options,
+                          JobProgress& progress, const JobCheckpoint* checkpoint) override {
+    if (!thrown_.exchange(true)) throw std::bad_alloc();
+    return engine_.mesh(job, surface, options, progress, checkpoint);
+  }
+
+ private:
+  std::atomic<bool> thrown_{false};
+  PdrEngine engine_{std::make_shared<LocalLeafDispatch>(1)};
+};
+
+TEST_F(Service, AnAllocationFailureFailsItsJobAndTheCoordinatorGoesOn) {
+  start(1, {}, std::make_unique<OutOfMemoryOnceEngine>());
+  auto alice = client("tok-alice");
+  v1::Job first, second;
+  ASSERT_TRUE(alice->submit(kSphere, v1::MeshOptions(), first).ok());
+  const v1::Job failed = watch(*alice, first.id());
+  EXPECT_EQ(failed.state(), v1::JOB_STATE_FAILED);
+  EXPECT_NE(failed.error().find("out of memory while meshing"), std::string::npos) << failed.error();
+  ASSERT_TRUE(alice->submit(kSphere, v1::MeshOptions(), second).ok());
+  EXPECT_EQ(watch(*alice, second.id()).state(), v1::JOB_STATE_SUCCEEDED);
+}
+
+TEST_F(Service, AJobThatDoesNotFitTheMemoryBudgetBesideARunningOneWaits) {
+  auto gate = std::make_shared<Gate>();
+  Options o = options(2);
+  // The sphere's estimate is 32 MB of fixed part and a few MB of tets: one fits, two do not.
+  o.memory_budget_bytes = 50e6;
+  start(o, std::make_unique<GatedEngine>(gate));
+  auto alice = client("tok-alice");
+  auto bob = client("tok-bob");
+  v1::Job a, b;
+  ASSERT_TRUE(alice->submit(kSphere, v1::MeshOptions(), a).ok());
+  ASSERT_TRUE(gate->wait_entered(1));
+  ASSERT_TRUE(bob->submit(kSphere, v1::MeshOptions(), b).ok());
+  EXPECT_FALSE(gate->wait_entered(2)) << "bob's job started beside alice's over the budget";
+  v1::Job seen;
+  ASSERT_TRUE(bob->get(b.id(), seen).ok());
+  EXPECT_EQ(seen.state(), v1::JOB_STATE_QUEUED);
+  gate->release();
+  EXPECT_EQ(watch(*alice, a.id()).state(), v1::JOB_STATE_SUCCEEDED);
+  EXPECT_EQ(watch(*bob, b.id()).state(), v1::JOB_STATE_SUCCEEDED);
+}
+
+TEST_F(Service, ACoordinatorWithAWorkerRegistryButNoWorkerRefinesLeavesItself) {
+  Options o = options(1);
+  o.worker_listen_address = "127.0.0.1:0";
+  o.cluster_token_file = dir_.path() / "cluster-token";
+  std::ofstream(o.cluster_token_file) << "test-cluster-token-0123456789\n";
+  start(o);
+  ASSERT_NE(coordinator_->remote_dispatch(), nullptr);
+  auto alice = client("tok-alice");
+  v1::MeshOptions depth1;
+  depth1.set_depth(1);
+  v1::Job job;
+  ASSERT_TRUE(alice->submit(kSphere, depth1, job).ok());
+  const v1::Job done = watch(*alice, job.id());
+  ASSERT_EQ(done.state(), v1::JOB_STATE_SUCCEEDED) << done.error();
+  EXPECT_GT(fetch_valid_sphere_mesh(*alice, job.id(), dir_.path()).tets.size(), 0U);
 }
 
 }  // namespace

@@ -16,6 +16,7 @@
 #include <spdlog/spdlog.h>
 
 #include <chrono>
+#include <csignal>
 #include <cstring>
 #include <fstream>
 #include <future>
@@ -667,6 +668,28 @@ TEST_F(Workers, BadResultsGoToAnotherWorkerAndKernelErrorsDoNot) {
     EXPECT_NE(out.status().message().find("this leaf cannot be refined"), std::string::npos);
     EXPECT_EQ(dispatch.stats().retried, 0U);
   }
+}
+
+TEST_F(Workers, ALeafOutOfMemoryFailsItsJobWithoutRetryingOrTakingTheWorkerOut) {
+  std::unique_ptr<test::Process> w;
+  const std::string address =
+      start_worker(w, {"--threads", "2"}, {"PDRMESH_WORKER_TEST_LEAF_BAD_ALLOC=1"});
+  auto pool = WorkerPool::create(pool_options({address})).value();
+  RemoteLeafDispatch dispatch(pool);
+  Result<ParallelResult> res = mesh_remote(dispatch);
+  ASSERT_FALSE(res.ok());
+  EXPECT_EQ(res.status().code(), StatusCode::kResourceExhausted) << res.status().to_string();
+  const std::string& m = res.status().message();
+  EXPECT_NE(m.find("out of memory while refining"), std::string::npos) << m;
+  EXPECT_EQ(m.rfind("leaf ", 0), 0U) << m;  // the engine names the leaf first
+  EXPECT_EQ(dispatch.stats().retried, 0U);
+  // The worker lives on and stays in the pool.
+  EXPECT_EQ(::kill(w->pid(), 0), 0);
+  EXPECT_EQ(health(address), 1);
+  const auto workers = pool->workers();
+  ASSERT_EQ(workers.size(), 1U);
+  EXPECT_TRUE(workers[0].available);
+  EXPECT_EQ(workers[0].failures, 0U);
 }
 
 TEST_F(Workers, AJobWaitsForAWorkerToJoin) {

@@ -128,8 +128,16 @@ class LeafKernel {
 /// kCancelled): keeping the leaf then would make the output depend on faults.
 bool is_kernel_failure(const Status& s);
 
-/// Bytes in, bytes out: decodes an input, runs the kernel, encodes its output.
-/// What a remote worker runs.
+/// kernel.run(in, sizing), with an exception turned into the leaf's status:
+/// std::bad_alloc is kResourceExhausted "out of memory while refining (...)"
+/// (the machine, not the leaf, is at fault, so it is not kept unrefined: the
+/// run fails with that message), any other exception kInternal. What the
+/// engine's tasks and a worker run, so that no leaf takes its process down.
+Result<LeafTaskOutput> run_leaf_kernel(const LeafKernel& kernel, const LeafTaskInput& in,
+                                       const SizingField& sizing);
+
+/// Bytes in, bytes out: decodes an input, runs the kernel (run_leaf_kernel),
+/// encodes its output.
 Result<std::string> run_leaf_task(const LeafKernel& kernel, std::string_view input,
                                   const SizingField& sizing);
 
