@@ -68,6 +68,6 @@ small_tets=$(PDRMESH_TOKEN=tok-bob "$pdrmesh" status "$(head -n 1 "$tmp/loaded.o
 printf '%-34s %10s %12s\n' "job" "tets" "seconds"
 printf '%-34s %10s %12.2f\n' "bob's small job, idle service" "$small_tets" "$idle"
 printf '%-34s %10s %12.2f\n' "bob's small job, beside alice's" "$small_tets" "$loaded"
-printf '%-34s %10s %12s\n' "alice's big job (tets so far)" "$big_tets" "$big_s"
+printf '%-34s %10s %12s\n' "alice's big job" "$big_tets" "$big_s"  # cancelled: its tets so far
 ratio=$(echo "scale=2; $loaded / $idle" | bc)
 echo "small job beside the big one / alone: ${ratio}x (goal: at most 3x)"
