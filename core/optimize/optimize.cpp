@@ -5,10 +5,10 @@
 #include <fmt/format.h>
 #include <oneapi/tbb/blocked_range.h>
 #include <oneapi/tbb/parallel_for.h>
-#include <oneapi/tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <array>
+#include <iterator>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -96,14 +96,14 @@ constexpr double kShortEdge = 0.6;
 constexpr double kLongEdge = 1.5;
 /// Rounds of the size polish (one that changes nothing ends it): 6 gave
 /// hinge 90.4% of its interior edges within the band at the default size
-/// against 90.2% with 4 and 90.4% with 8 (session 19, `pdrmesh_bench_refine`);
+/// against 90.2% with 4 and 90.4% with 8 (`pdrmesh_bench_refine`);
 /// before the splits, with the surface tets' room, 4 gave 83.0% against 81.3%
 /// with 2.
 constexpr int kSizeRounds = 6;
 /// Where the size polish's splits try the new point along the edge, in this
 /// order. hinge at the default size, interior edges within the band: the
 /// midpoint alone 88.9%, 1/2, 2/5, 3/5, 3/10, 7/10 89.9% (both with 4 rounds),
-/// these nine 90.4% (90.2% with 4 rounds; session 19, `pdrmesh_bench_refine`).
+/// these nine 90.4% (90.2% with 4 rounds; `pdrmesh_bench_refine`).
 constexpr std::array<double, 9> kSplitAt{0.5, 0.45, 0.55, 0.4, 0.6, 0.35, 0.65, 0.3, 0.7};
 
 /// Line-search steps towards each smoothing target: 1, 1/2, ..., 1/64.
@@ -111,8 +111,8 @@ constexpr int kLineSteps = 7;
 /// Most rounds of the interior repair (see optimize.hpp). With point removal,
 /// rounds 5 and 6 took the tets outside the targets at diag/100 from 883 to
 /// 552 on hinge and from 87 to 42 on couplingdown, at 6% more optimization
-/// time on hinge; more rounds found nothing more (session 15,
-/// `pdrmesh_bench_refine`). The rounds stop early anyway where nothing falls.
+/// time on hinge; more rounds found nothing more
+/// (`pdrmesh_bench_refine`). The rounds stop early anyway where nothing falls.
 constexpr int kRepairRounds = 6;
 /// Interior repair: a tet with a surface point may fall to this measure (about
 /// 10 degrees, or 160 on the obtuse side, at the default targets) when a
@@ -152,7 +152,7 @@ constexpr double kCapMinTriangleAngle = 15.0;
 /// Rounds of the margin polish (polish_margins; one that moves nothing ends
 /// it). With the ring's moves, hinge at diag/100 kept 231 interior tets
 /// outside [15, 150] after 4 rounds, 206 after 8, 199 after 16 (1.5 CPU s more
-/// than 4); couplingdown 8 after each (session 17, `pdrmesh_bench_refine`).
+/// than 4); couplingdown 8 after each (`pdrmesh_bench_refine`).
 constexpr int kMarginRounds = 8;
 /// The compass search ends when its step falls below its first step over
 /// this (compass_search)...
@@ -160,8 +160,8 @@ constexpr double kSearchEnd = 64.0;
 /// ... and over this in the margin polish's last pass (polish_margins): the
 /// tets it leaves are often within a fraction of a degree of the targets.
 /// couplingdown at diag/100 kept 2 interior tets outside [15, 150] before that
-/// pass and none after, hinge 113 and 81, 65, 68 with 256, 1024, 4096 (session
-/// 17, `pdrmesh_bench_refine`; no measurable time). The whole margin polish
+/// pass and none after, hinge 113 and 81, 65, 68 with 256, 1024, 4096
+/// (`pdrmesh_bench_refine`; no measurable time). The whole margin polish
 /// at 1024 instead moved hinge's count both ways (93 to 139 at 128 to 1024).
 constexpr double kFineSearchEnd = 1024.0;
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
@@ -174,10 +174,115 @@ constexpr int kAbsorbPatience = 3;
 /// at diag/90, /95, /100, /105, /110, interior tets outside [15, 150]: 0, 0,
 /// 13, 2, 49 with one layer, 3, 0, 9, 1, 25 with two, 0, 2, 0, 0, 14 with
 /// three, for up to 2.4 times the optimization time (diag/110: 31 -> 75 s;
-/// session 20, `pdrmesh_bench_refine`, PDRMESH_BENCH_DIVISOR).
+/// `pdrmesh_bench_refine`, PDRMESH_BENCH_DIVISOR).
 constexpr int kAbsorbRingLayers = 3;
 
-AngleRange mesh_range(const TetMesh& m);
+/// The smallest and largest dihedral angle of the live tets, kept exact while
+/// the mesh changes, at a cost proportional to the changes: a min/max tree
+/// over blocks of kRangeBlock slots. A block that an operation touched (a tet
+/// created in it, or one of its tets moved) is measured again before the next
+/// query. A slot freed without reuse is not reported, so a block's stored
+/// extremes may be more extreme than its live tets (never less): a query
+/// measures again the block that holds the root's extreme until that block's
+/// measure confirms it. min/max are exact, so the result does not depend on
+/// the order of the updates.
+class RangeTree {
+ public:
+  static constexpr Index kRangeBlock = 8;
+
+  /// Measures every block (in parallel on a large mesh).
+  void build(const TetMesh& m) {
+    const Index blocks = (m.num_slots() + kRangeBlock - 1) / kRangeBlock;
+    cap_ = 1;
+    while (cap_ < blocks) cap_ *= 2;
+    node_.assign(2 * static_cast<std::size_t>(cap_), kNeutral);
+    is_dirty_.assign(cap_, 0);
+    dirty_.clear();
+    const auto scan = [&](const tbb::blocked_range<Index>& r) {
+      for (Index b = r.begin(); b < r.end(); ++b) node_[cap_ + b] = measure_block(m, b);
+    };
+    const tbb::blocked_range<Index> all(0, blocks, 512);
+    if (m.num_slots() < kParallelTets) {
+      scan(all);
+    } else {
+      tbb::parallel_for(all, scan);
+    }
+    for (Index i = cap_ - 1; i >= 1; --i) pull(i);
+  }
+
+  /// Slot t holds a new tet, or one whose points moved.
+  void touch(Index t) {
+    const Index b = t / kRangeBlock;
+    if (b >= cap_) grow(b + 1);
+    if (is_dirty_[b] == 0) {
+      is_dirty_[b] = 1;
+      dirty_.push_back(b);
+    }
+  }
+
+  AngleRange range(const TetMesh& m) {
+    for (Index b : dirty_) {
+      is_dirty_[b] = 0;
+      set(b, measure_block(m, b));
+    }
+    dirty_.clear();
+    for (;;) {  // the smallest: confirm the block that holds it
+      Index i = 1;
+      while (i < cap_) i = node_[2 * i].min == node_[i].min ? 2 * i : 2 * i + 1;
+      const AngleRange r = measure_block(m, i - cap_);
+      if (r.min == node_[i].min) break;
+      set(i - cap_, r);
+    }
+    for (;;) {  // the largest likewise
+      Index i = 1;
+      while (i < cap_) i = node_[2 * i].max == node_[i].max ? 2 * i : 2 * i + 1;
+      const AngleRange r = measure_block(m, i - cap_);
+      if (r.max == node_[i].max) break;
+      set(i - cap_, r);
+    }
+    return node_[1];
+  }
+
+ private:
+  static constexpr AngleRange kNeutral{180.0, 0.0};
+
+  static AngleRange measure_block(const TetMesh& m, Index b) {
+    AngleRange r = kNeutral;
+    const Index end = std::min(m.num_slots(), (b + 1) * kRangeBlock);
+    for (Index t = b * kRangeBlock; t < end; ++t) {
+      if (!m.alive(t)) continue;
+      const auto p = corners(m, m.tet(t));
+      const AngleRange a = dihedral_range(p[0], p[1], p[2], p[3]);
+      r.min = std::min(r.min, a.min);
+      r.max = std::max(r.max, a.max);
+    }
+    return r;
+  }
+  void pull(Index i) {
+    node_[i] = {std::min(node_[2 * i].min, node_[2 * i + 1].min), std::max(node_[2 * i].max, node_[2 * i + 1].max)};
+  }
+  void set(Index b, AngleRange r) {
+    Index i = cap_ + b;
+    node_[i] = r;
+    for (i /= 2; i >= 1; i /= 2) pull(i);
+  }
+  /// Room for `blocks` blocks: the leaves move to a tree twice as wide (or more).
+  void grow(Index blocks) {
+    Index cap = std::max<Index>(cap_, 1);
+    while (cap < blocks) cap *= 2;
+    std::vector<AngleRange> node(2 * static_cast<std::size_t>(cap), kNeutral);
+    std::copy(node_.begin() + cap_, node_.begin() + 2 * cap_, node.begin() + cap);
+    node_ = std::move(node);
+    is_dirty_.resize(cap, 0);
+    cap_ = cap;
+    for (Index i = cap_ - 1; i >= 1; --i) pull(i);
+  }
+
+  Index cap_ = 0;                 ///< leaves: a power of two, at least the blocks
+  std::vector<AngleRange> node_;  ///< node_[1] the root, node_[cap_ + b] block b
+  std::vector<Index> dirty_;      ///< blocks to measure before the next query
+  std::vector<char> is_dirty_;
+};
 
 /// The point over triangle (a, b, c), on the side of cross(b - a, c - a), at
 /// `fraction` of the height of the regular tet whose edge is the triangle's
@@ -246,14 +351,86 @@ class Optimizer {
     return is_bad;
   }
 
-  /// Bad live tets in slot order (the scan runs in parallel; the list does not
-  /// depend on the thread count).
-  std::vector<Index> bad_tets() const {
-    const std::vector<unsigned char> is_bad = bad_flags();
-    std::vector<Index> out;
-    for (Index t = 0; t < m_.num_slots(); ++t)
-      if (is_bad[t] != 0) out.push_back(t);
-    return out;
+  /// Bad live tets in slot order. The first call scans every slot (in
+  /// parallel; the list does not depend on the thread count); later calls
+  /// take the last list and the slots touched since (touch), as no other tet
+  /// changed: the same list for the cost of the changes.
+  const std::vector<Index>& bad_tets() {
+    if (!bad_known_) {
+      const std::vector<unsigned char> is_bad = bad_flags();
+      bad_.clear();
+      for (Index t = 0; t < m_.num_slots(); ++t)
+        if (is_bad[t] != 0) bad_.push_back(t);
+      bad_known_ = true;
+      touched_.clear();
+      return bad_;
+    }
+    if (touched_.empty()) return bad_;
+    std::sort(touched_.begin(), touched_.end());
+    touched_.erase(std::unique(touched_.begin(), touched_.end()), touched_.end());
+    std::vector<Index> merged;
+    merged.reserve(bad_.size() + touched_.size());
+    std::set_union(bad_.begin(), bad_.end(), touched_.begin(), touched_.end(), std::back_inserter(merged));
+    touched_.clear();
+    bad_.clear();
+    for (Index t : merged)
+      if (m_.alive(t) && badness(t) != Badness::kGood) bad_.push_back(t);
+    return bad_;
+  }
+
+  /// The mesh's extreme dihedral angles now (range_, built on first use).
+  AngleRange angles() {
+    if (!range_built_) {
+      range_.build(m_);
+      range_built_ = true;
+    }
+    return range_.range(m_);
+  }
+
+  /// Any live tet holding point v, or kNoIndex for a point in none: any_tet_,
+  /// one scan of the mesh on first use, then kept by forget_created.
+  Index any_tet(Index v) {
+    if (!any_known_) {
+      any_known_ = true;
+      any_tet_.assign(m_.num_points(), kNoIndex);
+      for (Index t = 0; t < m_.num_slots(); ++t)
+        if (m_.alive(t))
+          for (Index u : m_.tet(t)) any_tet_[u] = t;
+    }
+    if (v >= any_tet_.size()) return kNoIndex;
+    const Index t = any_tet_[v];
+    if (t == kNoIndex || !m_.alive(t)) return kNoIndex;  // a removed point
+    for (Index u : m_.tet(t))
+      if (u == v) return t;
+    return kNoIndex;
+  }
+
+  /// The live tets holding point v, by a walk across the faces through v (for
+  /// a free point, which lies on no kept face, all of them), appended to out.
+  void star_tets(Index v, std::vector<Index>& out) {
+    const Index start = any_tet(v);
+    if (start == kNoIndex) return;
+    const std::size_t first = out.size();
+    out.push_back(start);
+    for (std::size_t i = first; i < out.size(); ++i) {
+      const Index t = out[i];
+      const int lv = topo::local_vertex(m_.tet(t), v);
+      for (int f = 0; f < 4; ++f) {
+        if (f == lv) continue;
+        const Index n = m_.neighbour(t, f);
+        if (n == kNoIndex) continue;
+        const Index u = face_tet(n);
+        if (std::find(out.begin() + static_cast<std::ptrdiff_t>(first), out.end(), u) == out.end()) out.push_back(u);
+      }
+    }
+  }
+
+  /// The first live tet of free point v in slot order (where its star walks
+  /// start: smooth, polish_angles, polish_margins, polish_sizes).
+  Index first_tet(Index v) {
+    walk_.clear();
+    star_tets(v, walk_);
+    return walk_.empty() ? kNoIndex : *std::min_element(walk_.begin(), walk_.end());
   }
 
   /// Runs the reconnection queue from `seeds` (processed in the given order).
@@ -281,8 +458,8 @@ class Optimizer {
   std::size_t insert_into_slivers() {
     if (sizing_ == nullptr || !o_.insert_points) return 0;
     std::vector<Index> slivers;
-    for (Index t = 0; t < m_.num_slots(); ++t)
-      if (m_.alive(t) && badness(t) == Badness::kSliver) slivers.push_back(t);
+    for (Index t : bad_tets())
+      if (badness(t) == Badness::kSliver) slivers.push_back(t);
     std::size_t inserted = 0;
     for (Index t : slivers) {
       if (!m_.alive(t) || badness(t) != Badness::kSliver) continue;  // a flip took the slot
@@ -323,37 +500,21 @@ class Optimizer {
     }
   }
 
-  /// One live tet of each point (the first in slot order; kNoIndex for a
-  /// point in none), for the star walks of smooth() and polish_angles().
-  std::vector<Index> first_tet_per_point() const {
-    std::vector<Index> one_tet(m_.num_points(), kNoIndex);
-    for (Index t = 0; t < m_.num_slots(); ++t) {
-      if (!m_.alive(t)) continue;
-      for (Index v : m_.tet(t))
-        if (one_tet[v] == kNoIndex) one_tet[v] = t;
-    }
-    return one_tet;
-  }
-
   /// One smoothing pass over the free vertices of bad tets, ascending.
   std::size_t smooth() {
-    const Index np = m_.num_points();
-    const std::vector<Index> one_tet = first_tet_per_point();
     find_fixed();
     const std::vector<char>& fixed = fixed_;
-    std::vector<char> wanted(np, 0);
-    std::vector<Index> bad;
-    for (Index t = 0; t < m_.num_slots(); ++t)
-      if (m_.alive(t) && badness(t) != Badness::kGood) bad.push_back(t);
+    std::vector<Index> bad = bad_tets();
     if (interior_only_) bad = interior(bad);
-    for (Index t : bad)
-      for (Index v : m_.tet(t)) wanted[v] = 1;
     std::vector<Index> todo, next;
-    for (Index v = 0; v < np; ++v)
-      if (wanted[v] && !fixed[v] && one_tet[v] != kNoIndex) todo.push_back(v);
+    for (Index t : bad)
+      for (Index v : m_.tet(t))
+        if (!fixed[v]) todo.push_back(v);
+    std::sort(todo.begin(), todo.end());
+    todo.erase(std::unique(todo.begin(), todo.end()), todo.end());
     // Passes over the free vertices of bad tets, ascending; the next pass takes
     // the free vertices of the bad tets left in the stars of the points just
-    // moved (the topology does not change here, so one_tet stays valid).
+    // moved (the topology does not change here).
     // Passes after the first together try at most max(kSmoothRetriesMin,
     // kSmoothRetries * tets) vertices (where most tets are beyond repair, as next to needle
     // triangles, they would otherwise take the time of many sweeps).
@@ -368,7 +529,7 @@ class Optimizer {
           if (retries == 0) break;
           --retries;
         }
-        if (!smooth_vertex(v, one_tet[v])) continue;
+        if (!smooth_vertex(v, first_tet(v))) continue;
         ++moved_now;
         for (const auto& s : star_)
           if (badness(s.first) != Badness::kGood)
@@ -414,9 +575,9 @@ class Optimizer {
   /// repair makes a tet near the mesh's worst. The margin leaves the cap
   /// repair and angle polish after it room too: at the worst measure itself,
   /// couplingdown's smallest angle at diag/100 fell from 0.8 to 0.4 degrees
-  /// (session 14, `pdrmesh_bench_refine`).
+  /// (`pdrmesh_bench_refine`).
   void start_repair() {
-    const double smallest = mesh_range(m_).min * (3.14159265358979323846 / 180.0);
+    const double smallest = angles().min * (3.14159265358979323846 / 180.0);
     repair_floor_ = std::min(kRepairFloor, kRepairFloorMargin * std::sin(smallest) * acute_);
   }
   double repair_floor() const { return repair_floor_; }
@@ -450,7 +611,7 @@ class Optimizer {
   /// collapse (collapse_edge) tried last. Returns the operations.
   std::size_t absorb(std::vector<Index> seeds) {
     find_fixed();
-    mesh_angles_ = mesh_range(m_);
+    mesh_angles_ = angles();
     judge_ = Judge::kAbsorb;
     const std::size_t done = repair_flips(std::move(seeds));
     judge_ = Judge::kRepair;
@@ -468,10 +629,13 @@ class Optimizer {
     if (sizing_ == nullptr || !o_.insert_points) return 0;
     // The surface triangles (TetMesh::boundary() with a non-zero id, or all
     // when there are no ids; not a leaf's interface), as sorted keys.
-    std::vector<Tri> surface;
-    for (std::size_t i = 0; i < m_.boundary().size(); ++i)
-      if (surface_triangle(i)) surface.push_back(topo::sorted_key(m_.boundary()[i]));
-    std::sort(surface.begin(), surface.end());
+    if (!surface_keys_known_) {
+      surface_keys_known_ = true;
+      for (std::size_t i = 0; i < m_.boundary().size(); ++i)
+        if (surface_triangle(i)) surface_keys_.push_back(topo::sorted_key(m_.boundary()[i]));
+      std::sort(surface_keys_.begin(), surface_keys_.end());
+    }
+    const std::vector<Tri>& surface = surface_keys_;
     find_fixed();
     // Worst first (the smaller of the smallest dihedral angle and 180 - the
     // largest; ties in slot order): a cavity may swallow a worse cap next to
@@ -484,7 +648,7 @@ class Optimizer {
              (relaxed && (kind == CapKind::kFreeApex || all_on_surface(t)));
     };
     std::vector<std::pair<double, Index>> caps;
-    for (Index t = 0; t < m_.num_slots(); ++t) {
+    for (Index t : bad_tets()) {
       if (!eligible(t)) continue;
       const auto p = corners(m_, m_.tet(t));
       const AngleRange r = dihedral_range(p[0], p[1], p[2], p[3]);
@@ -492,7 +656,7 @@ class Optimizer {
     }
     if (caps.empty()) return 0;
     std::sort(caps.begin(), caps.end());
-    cap_max_angle_ = mesh_range(m_).max;  // a scan of every tet: only when there are caps
+    cap_max_angle_ = angles().max;
     std::size_t done = 0;
     for (const auto& [worst, t] : caps)
       if (eligible(t) && insert_cap(t)) ++done;
@@ -506,18 +670,17 @@ class Optimizer {
   /// once (polish_point). Returns the points moved.
   std::size_t polish_angles() {
     find_fixed();
-    const Index np = m_.num_points();
-    const std::vector<Index> one_tet = first_tet_per_point();
-    std::vector<char> wanted(np, 0);
-    for (Index t = 0; t < m_.num_slots(); ++t) {
-      if (!m_.alive(t) || badness(t) == Badness::kGood) continue;
+    std::vector<Index> wanted;
+    for (Index t : bad_tets()) {
       const auto p = corners(m_, m_.tet(t));
       if (!(dihedral_range(p[0], p[1], p[2], p[3]).min < o_.target_min_dihedral)) continue;
-      for (Index v : m_.tet(t)) wanted[v] = 1;
+      for (Index v : m_.tet(t)) wanted.push_back(v);
     }
+    std::sort(wanted.begin(), wanted.end());
+    wanted.erase(std::unique(wanted.begin(), wanted.end()), wanted.end());
     std::size_t moved = 0;
-    for (Index v = 0; v < np; ++v)
-      if (wanted[v] && (v >= fixed_.size() || !fixed_[v]) && polish_point(v, one_tet[v])) ++moved;
+    for (Index v : wanted)
+      if ((v >= fixed_.size() || !fixed_[v]) && polish_point(v, first_tet(v))) ++moved;
     st_.points_moved += moved;
     return moved;
   }
@@ -534,43 +697,50 @@ class Optimizer {
   std::size_t polish_margins(double end = kSearchEnd, bool extremes = false, int layers = 1) {
     find_fixed();
     std::size_t moved = 0;
+    // Per point: 1 wanted (a point of such a bad tet), 2 in the ring; reset
+    // after each round, so a round costs what its points and stars do.
+    marks_.resize(m_.num_points(), 0);
     for (int round = 0; round < kMarginRounds; ++round) {
-      const Index np = m_.num_points();
-      std::vector<char> wanted(np, 0);
-      bool any = false;
-      for (Index t = 0; t < m_.num_slots(); ++t) {
-        if (!m_.alive(t) || badness(t) == Badness::kGood || repair_class(m_.tet(t)) == 1) continue;
-        for (Index v : m_.tet(t)) wanted[v] = 1;
-        any = true;
+      std::vector<Index> wanted;
+      for (Index t : bad_tets()) {
+        if (repair_class(m_.tet(t)) == 1) continue;
+        for (Index v : m_.tet(t)) wanted.push_back(v);
       }
-      if (!any) break;  // most meshes: no star walks, no vertex -> tet map
-      mesh_angles_ = mesh_range(m_);
-      const std::vector<Index> one_tet = first_tet_per_point();
-      std::vector<char> ring(np, 0);
-      for (Index v = 0; v < np; ++v) {
-        if (!wanted[v] || fixed_[v]) continue;
-        gather_link(v, one_tet[v]);
+      if (wanted.empty()) break;  // most meshes: no star walks
+      std::sort(wanted.begin(), wanted.end());
+      wanted.erase(std::unique(wanted.begin(), wanted.end()), wanted.end());
+      for (Index v : wanted) marks_[v] = 1;
+      mesh_angles_ = angles();
+      // The ring: the free points of the links of the free wanted points that
+      // are not wanted themselves; each deeper layer, those of the links of the
+      // last layer's points not taken yet. Sets: the walks' order does not matter.
+      std::vector<Index> ring, layer, next;
+      const auto visit = [&](Index v, std::vector<Index>& out) {
+        gather_link(v, any_tet(v));
         for (const Tri& f : link_)
-          for (Index u : f) ring[u] = !wanted[u] && !fixed_[u];
+          for (Index u : f)
+            if (marks_[u] == 0 && !fixed_[u]) {
+              marks_[u] = 2;
+              out.push_back(u);
+            }
+      };
+      for (Index v : wanted)
+        if (!fixed_[v]) visit(v, ring);
+      layer = ring;
+      for (int depth = 1; depth < layers && !layer.empty(); ++depth) {
+        next.clear();
+        for (Index v : layer) visit(v, next);
+        ring.insert(ring.end(), next.begin(), next.end());
+        std::swap(layer, next);
       }
-      // Deeper layers: the points next to the last layer's (each walked once).
-      std::vector<char> last = layers > 1 ? ring : std::vector<char>{};
-      for (int layer = 1; layer < layers; ++layer) {
-        std::vector<char> next(np, 0);
-        for (Index v = 0; v < np; ++v) {
-          if (!last[v]) continue;
-          gather_link(v, one_tet[v]);
-          for (const Tri& f : link_)
-            for (Index u : f)
-              if (!wanted[u] && !fixed_[u] && !ring[u]) ring[u] = next[u] = 1;
-        }
-        last = std::move(next);
-      }
+      std::sort(ring.begin(), ring.end());
       std::size_t now = 0;
-      for (Index v = 0; v < np; ++v)
-        if (ring[v] && margin_point(v, one_tet[v], end, /*ring=*/true, extremes)) ++now;
-      for (Index v = 0; v < np; ++v)
-        if (wanted[v] && !fixed_[v] && margin_point(v, one_tet[v], end, /*ring=*/false, extremes)) ++now;
+      for (Index v : ring)
+        if (margin_point(v, first_tet(v), end, /*ring=*/true, extremes)) ++now;
+      for (Index v : wanted)
+        if (!fixed_[v] && margin_point(v, first_tet(v), end, /*ring=*/false, extremes)) ++now;
+      for (Index v : wanted) marks_[v] = 0;
+      for (Index v : ring) marks_[v] = 0;
       moved += now;
       if (now == 0) break;
     }
@@ -595,16 +765,25 @@ class Optimizer {
       return h[v];
     };
     std::size_t moved = 0;
-    mesh_angles_ = mesh_range(m_);
+    mesh_angles_ = angles();
     size_limits_ = {std::max(kRelaxedCapAngles[0], mesh_angles_.min),
                     std::min(kRelaxedCapAngles[1], mesh_angles_.max)};
     for (int round = 0; round < kSizeRounds; ++round) {
       find_fixed();  // also sized for the points the last round's splits added
       h.resize(m_.num_points(), -1.0);
-      std::vector<char> wanted(m_.num_points(), 0);
+      const Index np = m_.num_points();
+      // The tets with an edge to check: those of the touched points off the
+      // surface (free points, whose stars the walks find whole), in slot order.
+      std::vector<Index> tets;
+      for (Index v : moved_list_)
+        if (surface_[v] == 0) star_tets(v, tets);
+      for (Index v = first_new_point_; v < np; ++v)
+        if (surface_[v] == 0) star_tets(v, tets);
+      std::sort(tets.begin(), tets.end());
+      tets.erase(std::unique(tets.begin(), tets.end()), tets.end());
+      std::vector<Index> wanted;
       long_edges_.clear();
-      for (Index t = 0; t < m_.num_slots(); ++t) {
-        if (!m_.alive(t)) continue;
+      for (Index t : tets) {
         const Tet& k = m_.tet(t);
         for (int e = 0; e < 6; ++e) {
           const Index a = k[topo::kEdgeVertex[e][0]], b = k[topo::kEdgeVertex[e][1]];
@@ -612,8 +791,10 @@ class Optimizer {
           const Vec3 d = m_.point(a) - m_.point(b);
           const double mean = 0.5 * (h_at(a) + h_at(b)), l2 = dot(d, d);
           if (l2 > kLongEdge * kLongEdge * mean * mean) long_edges_.push_back({std::min(a, b), std::max(a, b), t, e});
-          if (l2 < kShortEdge * kShortEdge * mean * mean || l2 > kLongEdge * kLongEdge * mean * mean)
-            wanted[a] = wanted[b] = 1;
+          if (l2 < kShortEdge * kShortEdge * mean * mean || l2 > kLongEdge * kLongEdge * mean * mean) {
+            wanted.push_back(a);
+            wanted.push_back(b);
+          }
         }
       }
       std::sort(long_edges_.begin(), long_edges_.end());  // each edge once, from its first tet
@@ -627,11 +808,12 @@ class Optimizer {
       st_.points_inserted += split;
       st_.size_splits += split;
       find_fixed();
-      wanted.resize(m_.num_points(), 1);  // the new points: their edges may be out of the band
-      const std::vector<Index> one_tet = first_tet_per_point();
+      for (Index v = np; v < m_.num_points(); ++v) wanted.push_back(v);  // new: their edges may be out of the band
+      std::sort(wanted.begin(), wanted.end());
+      wanted.erase(std::unique(wanted.begin(), wanted.end()), wanted.end());
       std::size_t now = 0;
-      for (Index v = 0; v < m_.num_points(); ++v)
-        if (wanted[v] != 0 && fixed_[v] == 0 && size_point(v, one_tet[v])) ++now;
+      for (Index v : wanted)
+        if (fixed_[v] == 0 && size_point(v, first_tet(v))) ++now;
       moved += now;
       if (now + flipped + split == 0) break;
     }
@@ -652,10 +834,25 @@ class Optimizer {
     return true;
   }
 
-  /// Drops the known badness of the tets the last operation created.
+  /// Drops the known badness of the tets the last operation created, and
+  /// notes them (touch); their points now lie in them (any_tet_).
   void forget_created() {
-    for (Index c : m_.last_created())
-      if (c < known_.size()) known_[c] = 0;
+    for (Index c : m_.last_created()) {
+      touch(c);
+      if (!any_known_) continue;
+      for (Index v : m_.tet(c)) {
+        if (v >= any_tet_.size()) any_tet_.resize(v + 1, kNoIndex);
+        any_tet_[v] = c;
+      }
+    }
+  }
+
+  /// Slot t holds a new tet, or one whose points moved: its badness is
+  /// unknown, and bad_tets() and angles() look at it again.
+  void touch(Index t) {
+    if (t < known_.size()) known_[t] = 0;
+    if (bad_known_) touched_.push_back(t);
+    if (range_built_) range_.touch(t);
   }
 
   /// No vertex of tet t is fixed (fixed_ as find_fixed left it; later points are free).
@@ -1264,10 +1461,11 @@ class Optimizer {
   void move_point(Index v, const Vec3& x) {
     m_.set_point(v, x);
     if (v >= moved_.size()) moved_.resize(v + 1, 0);
+    if (moved_[v] == 0) moved_list_.push_back(v);
     moved_[v] = 1;
     for (const auto& s : star_) {
       m_.invalidate_quality(s.first);
-      if (s.first < known_.size()) known_[s.first] = 0;
+      touch(s.first);
     }
   }
 
@@ -1376,8 +1574,8 @@ class Optimizer {
   /// kRelaxedCapAngles (no tet crosses 10 or 165 degrees). Next to needle
   /// triangles the tets on the surface are that bad anyway: letting them move
   /// within that range took hinge at diag/100 from 376 interior tets outside
-  /// [15, 150] to 333 and couplingdown from 25 to 23 (session 17,
-  /// `pdrmesh_bench_refine`), where [min(10, old), max(165, old)] held them to
+  /// [15, 150] to 333 and couplingdown from 25 to 23
+  /// (`pdrmesh_bench_refine`), where [min(10, old), max(165, old)] held them to
   /// their own extremes.
   AngleRange surface_bounds(const AngleRange& old, const AngleRange& limits) const {
     return {old.min < limits.min ? std::min(mesh_angles_.min, old.min) : limits.min,
@@ -1397,7 +1595,7 @@ class Optimizer {
   /// ring took hinge at diag/100 from 333 interior tets outside [15, 150] to
   /// 231 and couplingdown from 23 to 8 (4 rounds; without the edge guard 220
   /// and 6, but hinge's interior edges within [0.6, 1.5] h fell from 90.3% to
-  /// 89.8%; session 17, `pdrmesh_bench_refine`). True when v moved.
+  /// 89.8%; `pdrmesh_bench_refine`). True when v moved.
   bool margin_point(Index v, Index start, double end, bool ring, bool extremes) {
     gather_link(v, start);
     const Vec3 old = m_.point(v);
@@ -2118,27 +2316,21 @@ class Optimizer {
   /// star of a moved point, so a known entry of an alive tet is always current
   /// (the full-mesh scans of each sweep then evaluate only what changed).
   mutable std::vector<unsigned char> known_;
+  /// bad_tets(): the bad live tets in slot order when it last ran, and the
+  /// slots touched since.
+  std::vector<Index> bad_, touched_;
+  bool bad_known_ = false;
+  RangeTree range_;  ///< angles()
+  bool range_built_ = false;
+  /// any_tet(): per point, a live tet that held it when last set.
+  std::vector<Index> any_tet_;
+  bool any_known_ = false;
+  std::vector<Index> walk_;          ///< first_tet's scratch
+  std::vector<char> marks_;          ///< polish_margins: per point, wanted or in the ring
+  std::vector<Index> moved_list_;    ///< the points of moved_, in the order first moved
+  std::vector<Tri> surface_keys_;    ///< repair_caps: the surface triangles, sorted keys
+  bool surface_keys_known_ = false;
 };
-
-/// Smallest and largest dihedral angle of the live tets (a parallel min/max:
-/// exact whatever the order).
-AngleRange mesh_range(const TetMesh& m) {
-  const auto scan = [&](const tbb::blocked_range<Index>& range, AngleRange r) {
-    for (Index t = range.begin(); t < range.end(); ++t) {
-      if (!m.alive(t)) continue;
-      const auto p = corners(m, m.tet(t));
-      const AngleRange a = dihedral_range(p[0], p[1], p[2], p[3]);
-      r.min = std::min(r.min, a.min);
-      r.max = std::max(r.max, a.max);
-    }
-    return r;
-  };
-  const tbb::blocked_range<Index> all(0, m.num_slots(), 4096);
-  if (m.num_slots() < kParallelTets) return scan(all, AngleRange{180.0, 0.0});
-  return tbb::parallel_reduce(all, AngleRange{180.0, 0.0}, scan, [](AngleRange a, AngleRange b) {
-    return AngleRange{std::min(a.min, b.min), std::max(a.max, b.max)};
-  });
-}
 
 }  // namespace
 
@@ -2166,7 +2358,8 @@ Result<OptimizeStats> optimize(TetMesh& mesh, const SizingField* sizing,
   const auto clock_start = std::chrono::steady_clock::now();
   OptimizeStats st;
   Optimizer opt(mesh, sizing, options, st);
-  const AngleRange before = mesh_range(mesh);
+
+  const AngleRange before = opt.angles();
   st.min_dihedral_before = before.min;
   st.max_dihedral_before = before.max;
   std::vector<Index> bad = opt.bad_tets();
@@ -2281,7 +2474,7 @@ Result<OptimizeStats> optimize(TetMesh& mesh, const SizingField* sizing,
   if (options.smooth && options.polish_sizes && sizing != nullptr && opt.polish_sizes() > 0) bad = opt.bad_tets();
   st.bad_after = bad.size();
   if (st.points_removed + st.edges_collapsed > 0 && !options.keep_point_indices) mesh.remove_unused_points();
-  const AngleRange after = mesh_range(mesh);
+  const AngleRange after = opt.angles();
   st.min_dihedral_after = after.min;
   st.max_dihedral_after = after.max;
   st.seconds = seconds_since(clock_start);

@@ -576,8 +576,7 @@ TEST(Optimize, SizePolishBringsEdgesIntoTheBandAndKeepsTheAngleBounds) {
 // points only and holding every tet to the interior's bounds, the size
 // polish took the share of interior edges within [0.6, 1.5] h from 62.8% to
 // 64.0%; with the room above for the tets on the surface to 83.0%, with its
-// edge removals to 85.0% and with its splits to 90.4% (sessions 18 and 19,
-// `pdrmesh_bench_refine`). Without the room (a leaf task's) it
+// edge removals to 85.0% and with its splits to 90.4% (`pdrmesh_bench_refine`). Without the room (a leaf task's) it
 // keeps every tet on the surface as the interior ones are kept.
 TEST(Optimize, SizePolishUsesTheSurfaceTetsRoomOnAThinPart) {
   auto surface = read_surface(PDRMESH_CORPUS_DIR "/hinge.stl");
@@ -921,8 +920,8 @@ TEST(Optimize, RelaxedCapPassSplitsFansAFreeApexCovers) {
 // polish (optimize.hpp, 6.): 8.66 / 165.51. Since smoothing keeps interior
 // edges from getting short (keep_edge_sizes), 9.5 / 171.8: the largest angle is
 // that of four tets of two surface triangles each, over a surface edge whose
-// fold is 171.8 degrees, which the cap repair left until its late pass (5.,
-// session 21: 9.9 / 167.9).
+// fold is 171.8 degrees, which the cap repair left until its late pass (5.:
+// 9.9 / 167.9).
 TEST(Optimize, Sphere966WorstTetsAreRepaired) { expect_serial_angles_within("sphere966", 8.5, 172.0); }
 
 // The relaxed cap pass once more after the absorption (late_caps,
@@ -930,7 +929,7 @@ TEST(Optimize, Sphere966WorstTetsAreRepaired) { expect_serial_angles_within("sph
 // around the caps the first passes left, and some then fit a star within [10,
 // 165] degrees. On sphere966 at the default spacing it repairs more caps, the
 // mesh's extreme angles get no worse and its share of tets under 10 degrees
-// falls (session 21: 9.7 / 171.8 degrees and 0.027% under 10 without it, 9.9
+// falls (9.7 / 171.8 degrees and 0.027% under 10 without it, 9.9
 // / 167.9 and 0.020% with it).
 TEST(Optimize, LateCapPassTakesTheCapsTheLaterStepsLeave) {
   auto surface = read_surface(PDRMESH_CORPUS_DIR "/sphere966.stl");
@@ -975,8 +974,8 @@ TEST(Optimize, HingeInteriorWithinTargets) { expect_interior_within_targets("hin
 // hinge at --size = diagonal / 50 (33,000 tets): next to its triangles 35 h
 // long, the repair cycles leave 4 tets with no surface point outside [15,
 // 150] (14.0 / 150.8 degrees); the absorption (optimize.hpp, 10.) hands them
-// to the tets on the surface and none is left (session 20,
-// `PDRMESH_BENCH_DIVISOR=50 pdrmesh_bench_refine`). Its flips and removals
+// to the tets on the surface and none is left
+// (`PDRMESH_BENCH_DIVISOR=50 pdrmesh_bench_refine`). Its flips and removals
 // keep every tet with a surface point within the mesh's extremes, and its
 // repair rounds hold their floors (4.): the mesh's smallest angle stays, and
 // the share of tets under 10 degrees grows by a few tets at most.
@@ -1014,7 +1013,7 @@ TEST(Optimize, AbsorptionHandsHingesLastInteriorTetsToTheSurface) {
 // points together: 87.8% of couplingdown's interior edges within [0.6, 1.5] h
 // at its midpoint, against the refiner issue's 90%. keep_edge_sizes keeps
 // them off the short side, without losing the interior's angle bounds. (The
-// size polish, since session 19, also brings the unguarded smoothing's edges
+// size polish also brings the unguarded smoothing's edges
 // back into the band: the guard is compared without it.)
 TEST(Optimize, SmoothingKeepsCouplingdownsInteriorEdgesInTheSizeBand) {
   auto surface = read_surface(PDRMESH_CORPUS_DIR "/couplingdown.stl");
