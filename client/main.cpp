@@ -42,13 +42,14 @@ void add_help_command(CLI::App& app, int& exit_code) {
   auto name = std::make_shared<std::string>();
   cmd->add_option("COMMAND", *name, "the command");
   cmd->callback([&app, &exit_code, name] {
+    // The formatter directly: app.help() would show the selected command's (help's own) help.
     if (name->empty()) {
-      fmt::print("{}", app.help());
+      fmt::print("{}", app.get_formatter()->make_help(&app, "pdrmesh", CLI::AppFormatMode::Normal));
       return;
     }
     for (const CLI::App* c : app.get_subcommands([](const CLI::App*) { return true; })) {
       if (c->get_name() == *name) {
-        fmt::print("{}", c->help());
+        fmt::print("{}", c->get_formatter()->make_help(c, "pdrmesh " + *name, CLI::AppFormatMode::Normal));
         return;
       }
     }
@@ -59,7 +60,7 @@ void add_help_command(CLI::App& app, int& exit_code) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"pdrmesh: tetrahedral volume meshes for CFD from closed surface triangulations"};
+  CLI::App app{"pdrmesh: tetrahedral volume meshes for CFD from closed surface triangulations", "pdrmesh"};
   app.set_version_flag("--version", "pdrmesh " PDRMESH_VERSION);
   app.require_subcommand(1);
   app.footer(help_footer({{"pdrmesh mesh part.stl -o part.vtu", "mesh a closed surface on one core"},
@@ -70,7 +71,12 @@ int main(int argc, char** argv) {
   add_help_command(app, exit_code);
   // The first word that is not an option names the command: a mistyped one
   // gets a suggestion rather than CLI11's "A subcommand is required".
-  if (argc >= 2 && argv[1][0] != '-') {
+  if (argc < 2) {
+    fmt::print(stderr, "pdrmesh: error: a command is required\ncommands: {}\nRun 'pdrmesh --help' for more.\n",
+               fmt::join(command_names(app), ", "));
+    return kExitUsage;
+  }
+  if (argv[1][0] != '-') {
     const std::vector<std::string> names = command_names(app);
     if (std::find(names.begin(), names.end(), argv[1]) == names.end()) return unknown_command(app, argv[1]);
   }

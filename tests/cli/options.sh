@@ -85,8 +85,9 @@ expect 0 "Exit codes:" -- "$pdrmesh" help mesh
 expect 0 "pdrmesh mesh part.stl -o part.vtu" -- "$pdrmesh" help mesh
 expect 0 "Examples:" -- "$pdrmesh" fetch --help
 expect 0 "64  usage error" -- "$pdrmesh" submit --help
-expect 0 "check" -- "$pdrmesh" help
-expect 64 "" -- "$pdrmesh"
+expect 0 "Usage: pdrmesh [OPTIONS] SUBCOMMAND" -- "$pdrmesh" help
+expect 0 "Usage: pdrmesh fetch [OPTIONS] JOB" -- "$pdrmesh" help fetch
+expect 64 "a command is required" -- "$pdrmesh"
 
 # Errors name files by the path given; holes are counted as loops of open edges.
 mkdir -p "$tmp/bad" && echo > "$tmp/bad/empty.stl"
