@@ -42,7 +42,7 @@ start=$(date +%s.%N)
 pids=()
 for ((i = 0; i < jobs; ++i)); do
   u=${users[i % ${#users[@]}]}
-  PDRMESH_TOKEN=tok-$u "$pdrmesh" submit "$surface" "${options[@]}" --wait --output json --timeout 600 \
+  PDRMESH_TOKEN=tok-$u "$pdrmesh" submit "$surface" "${options[@]}" --wait --json --timeout 600 \
     > "$tmp/job$i.json" 2> "$tmp/job$i.err" &
   pids+=($!)
 done
@@ -55,7 +55,7 @@ python3 - "$tmp" "$jobs" "$start" "$end" <<'PY'
 import json, sys, collections
 tmp, n, t0, t1 = sys.argv[1], int(sys.argv[2]), float(sys.argv[3]), float(sys.argv[4])
 jobs = [json.load(open(f"{tmp}/job{i}.json")) for i in range(n)]
-assert all(j["state"] == "JOB_STATE_SUCCEEDED" for j in jobs), [j["state"] for j in jobs]
+assert all(j["state"] == "succeeded" for j in jobs), [j["state"] for j in jobs]
 wall = t1 - t0
 tets = sum(int(j["tets"]) for j in jobs)
 print(f"all {n} jobs succeeded in {wall:.1f} s: {60 * n / wall:.1f} jobs/minute, {tets / wall:,.0f} tets/second "

@@ -41,10 +41,10 @@ declare -a first last
 start=$(date +%s)
 "$pdrmesh" run -q "$surface" "${options[@]}" -o "$tmp/run.meshb" > /dev/null 2>&1
 for ((i = 1; i <= jobs; ++i)); do
-  "$pdrmesh" submit "$surface" "${options[@]}" --wait --output json --timeout 600 > "$tmp/job.json" 2> "$tmp/job.err" \
+  "$pdrmesh" submit "$surface" "${options[@]}" --wait --json --timeout 600 > "$tmp/job.json" 2> "$tmp/job.err" \
     || { echo "job $i failed:"; cat "$tmp/job.err"; exit 1; }
   id=$(json_field id < "$tmp/job.json")
-  [[ $(json_field state < "$tmp/job.json") == JOB_STATE_SUCCEEDED ]] || { echo "job $i: $(cat "$tmp/job.json")"; exit 1; }
+  [[ $(json_field state < "$tmp/job.json") == succeeded ]] || { echo "job $i: $(cat "$tmp/job.json")"; exit 1; }
   "$pdrmesh" fetch "$id" -o "$tmp/job.meshb" > /dev/null 2>&1
   cmp -s "$tmp/job.meshb" "$tmp/run.meshb" || { echo "job $i ($id): bytes differ from pdrmesh run"; exit 1; }
   "$pdrmesh" delete "$id" > /dev/null

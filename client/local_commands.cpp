@@ -10,9 +10,12 @@
 #include <cstdio>
 #include <fstream>
 #include <memory>
+#include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 
 #include "exit_codes.hpp"
+#include "options.hpp"
 #include "progress_display.hpp"
 #include "run_options.hpp"
 #include "pdrmesh/leaf_kernels.hpp"
@@ -38,6 +41,15 @@ using Progress = ProgressDisplay;
 int fail(const Status& s) {
   fmt::print(stderr, "pdrmesh: error: {}\n", s.to_string());
   return exit_code_for(s);
+}
+
+/// A failure of a run with --time-limit: a deadline hit anywhere (TetGen, a
+/// step of the pipeline, the engine told to stop) is said as the run's limit.
+int fail_run(const Status& s, double time_limit_s, bool stopped_by_us = false) {
+  if (time_limit_s > 0 && (stopped_by_us || s.code() == StatusCode::kDeadlineExceeded))
+    return fail(deadline_exceeded(
+        fmt::format("the time limit (--time-limit {} s) ran out: {}", time_limit_s, s.message())));
+  return fail(s);
 }
 
 Status write_text(const std::string& path, const std::string& text) {
@@ -73,18 +85,40 @@ int load_checked_surface(const std::string& path, Progress& progress, SurfaceMes
   return kExitOk;
 }
 
+/// What a meshing command reports at its end besides the file.
+struct Outcome {
+  const std::string* output = nullptr;
+  const std::string* surface = nullptr;
+  std::string size_line;  ///< "size: ..." (SizeArgs::resolve)
+  std::optional<double> size;
+  bool json = false;  ///< print the result as one JSON object on stdout
+};
+
+/// The --json result of mesh and run: the files, the size used, the counts and the quality.
+void print_result_json(const Outcome& o, const VolumeMesh& mesh, const QualityReport& q) {
+  nlohmann::json j = {{"surface", *o.surface},
+                      {"output", *o.output},
+                      {"size", o.size ? nlohmann::json(*o.size) : nlohmann::json(nullptr)},
+                      {"size_text", o.size_line},
+                      {"tets", mesh.tets.size()},
+                      {"points", mesh.points.size()},
+                      {"quality", nlohmann::json::parse(quality_to_json(q))}};
+  fmt::print("{}\n", j.dump());
+}
+
 /// The end of every meshing command: validate against the surface (a failure
-/// is our bug, never the user's), write, and print the quality summary. The
-/// validation runs beside the write and the summary (when the thread budget
-/// allows): the file is staged and goes in place only once the mesh validated.
-int finish(const VolumeMesh& mesh, const SurfaceMesh& surface, const std::string& output, bool validate,
+/// is our bug, never the user's), write, and print the quality summary (and
+/// with --json the result on stdout). The validation runs beside the write and
+/// the summary (when the thread budget allows): the file is staged and goes in
+/// place only once the mesh validated.
+int finish(const VolumeMesh& mesh, const SurfaceMesh& surface, const Outcome& o, bool validate,
            Progress& progress, bool quiet, StepTimes* times = nullptr) {
   StepTimes local;
   StepTimes& st = times ? *times : local;
   const auto t0 = Clock::now();
   ValidationReport report;
   Result<StagedVolume> staged = StagedVolume{};
-  std::string summary;
+  QualityReport quality;
   tbb::parallel_invoke(
       [&] {
         if (!validate) return;
@@ -94,11 +128,11 @@ int finish(const VolumeMesh& mesh, const SurfaceMesh& surface, const std::string
       },
       [&] {
         auto t = Clock::now();
-        staged = stage_volume(mesh, output);
+        staged = stage_volume(mesh, *o.output);
         st.write = seconds_since(t);
-        if (quiet || !staged.ok()) return;
+        if ((quiet && !o.json) || !staged.ok()) return;
         t = Clock::now();
-        summary = format_quality(measure_quality(mesh));
+        quality = measure_quality(mesh);
         st.quality = seconds_since(t);
       });
   st.overlapped = std::max(0.0, st.validation + st.write + st.quality - seconds_since(t0));
@@ -111,9 +145,16 @@ int finish(const VolumeMesh& mesh, const SurfaceMesh& surface, const std::string
   }
   if (!staged.ok()) return fail(staged.status());
   if (Status s = staged->commit(); !s.ok()) return fail(s);
-  progress.say("wrote {}", output);
-  fmt::print(stderr, "{}", summary);
+  progress.say("wrote {}", *o.output);
+  if (!quiet) fmt::print(stderr, "{}", format_quality(quality));
+  if (o.json) print_result_json(o, mesh, quality);
   return kExitOk;
+}
+
+/// The deadline of --time-limit (0: none), from now.
+std::optional<Clock::time_point> deadline_after(double seconds) {
+  if (!(seconds > 0)) return std::nullopt;
+  return Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
 }
 
 int run_check(const std::string& path, bool json, bool no_self_intersections) {
@@ -134,8 +175,9 @@ struct MeshArgs {
   std::string surface;
   std::string output;
   double max_volume = 0;
-  double time_limit_s = 600;
+  double time_limit_s = 0;  ///< 0: none
   bool quiet = false;
+  bool json = false;
   bool no_validate = false;
   bool no_refine = false;
   bool no_optimize = false;
@@ -144,36 +186,43 @@ struct MeshArgs {
 
 int run_mesh(const MeshArgs& a) {
   Progress progress(a.quiet);
-  if (auto f = volume_format_from_path(a.output); !f.ok()) return fail(f.status());
+  const auto start = Clock::now();
   SurfaceMesh surface;
   if (int code = load_checked_surface(a.surface, progress, surface); code != kExitOk) return code;
-  if (Status s = a.size.check_tet_limit(surface, !a.no_refine); !s.ok()) return fail(s);
+  // The time limit counts from the start: what reading and checking took is gone.
+  const double left_s = a.time_limit_s > 0 ? a.time_limit_s - seconds_since(start) : 0;
+  if (a.time_limit_s > 0 && !(left_s > 0))
+    return fail_run(deadline_exceeded("it ran out while the surface was read and checked"), a.time_limit_s);
+  Outcome outcome{&a.output, &a.surface, {}, std::nullopt, a.json};
 
   if (a.no_refine) {
     TetgenOptions options;
     if (a.max_volume > 0) options.max_volume = a.max_volume;
-    options.time_limit_s = a.time_limit_s;
+    if (left_s > 0) options.time_limit_s = std::min(options.time_limit_s, left_s);
     auto mesh = tetrahedralize(surface, options);
-    if (!mesh.ok()) return fail(mesh.status());
+    if (!mesh.ok()) return fail_run(mesh.status(), a.time_limit_s);
     progress.say("initial mesh (TetGen -{}): {} tets, {} points", tetgen_switches(options), mesh->tets.size(),
                  mesh->points.size());
-    return finish(*mesh, surface, a.output, !a.no_validate, progress, a.quiet);
+    return finish(*mesh, surface, outcome, !a.no_validate, progress, a.quiet);
   }
 
   SerialOptions options;
-  options.sizing = a.size.options();
-  options.tetgen.time_limit_s = a.time_limit_s;
+  options.sizing = a.size.resolve(surface, outcome.size_line);
+  outcome.size = options.sizing.size;
+  progress.say("{}", outcome.size_line);
+  if (Status s = a.size.check_tet_limit(surface, options.sizing, true); !s.ok()) return fail(s);
+  options.time_limit_s = left_s;
   if (a.no_optimize) options.optimize.reset();
   auto result = mesh_serial(surface, options, [&progress](const RefinePassStats& p) {
     progress.say("pass {}: {} candidates, {} inserted, {} flips, {} tets", p.pass, p.candidates, p.inserted,
                  p.flips, p.tets);
   });
-  if (!result.ok()) return fail(result.status());
+  if (!result.ok()) return fail_run(result.status(), a.time_limit_s);
   progress.say("refined: {} tets, {} points (initial mesh {:.2f} s, sizing {:.2f} s, refinement {:.2f} s, "
                "optimization {:.2f} s)",
                result->mesh.tets.size(), result->mesh.points.size(), result->seconds_initial,
                result->seconds_sizing, result->seconds_refine, result->seconds_optimize);
-  return finish(result->mesh, surface, a.output, !a.no_validate, progress, a.quiet);
+  return finish(result->mesh, surface, outcome, !a.no_validate, progress, a.quiet);
 }
 
 struct RunArgs {
@@ -182,7 +231,9 @@ struct RunArgs {
   std::size_t workers = 1;
   bool profile = false;
   std::string profile_json;
+  double time_limit_s = 0;  ///< 0: none
   bool quiet = false;
+  bool json = false;
   RunOptionArgs mesh;
 };
 
@@ -225,28 +276,41 @@ void print_profile(const PdrProfile& p) {
 
 int run_run(const RunArgs& a) {
   const auto t_wall = Clock::now();
+  const std::optional<Clock::time_point> deadline = deadline_after(a.time_limit_s);
   // --workers N is the whole run's thread budget: the leaf schedules and every
   // parallel step around them (surface check, sizing, sorts, validation).
   const tbb::global_control threads(tbb::global_control::max_allowed_parallelism, std::max<std::size_t>(a.workers, 1));
   Progress progress(a.quiet);
-  if (auto f = volume_format_from_path(a.output); !f.ok()) return fail(f.status());
   SurfaceMesh surface;
   StepTimes times;
   if (int code = load_checked_surface(a.surface, progress, surface, &times); code != kExitOk) return code;
-  if (Status s = a.mesh.size.check_tet_limit(surface, true); !s.ok()) return fail(s);
 
   auto kernel = make_leaf_kernel(a.mesh.kernel);
   if (!kernel.ok()) return fail(kernel.status());
-  ParallelOptions options = a.mesh.parallel_options();
+  Outcome outcome{&a.output, &a.surface, {}, std::nullopt, a.json};
+  ParallelOptions options = a.mesh.parallel_options(a.mesh.size.resolve(surface, outcome.size_line));
+  outcome.size = options.sizing.size;
+  progress.say("{}", outcome.size_line);
+  if (Status s = a.mesh.size.check_tet_limit(surface, options.sizing, true); !s.ok()) return fail(s);
   options.pdr.workers = a.workers;
+  if (a.time_limit_s > 0) options.pdr.tetgen_time_limit_s = std::min(options.pdr.tetgen_time_limit_s, a.time_limit_s);
   progress.update({"sizing"});
-  options.pdr.progress = [&progress](const PdrProgress& p) {
+  // The progress hook is where the engine asks whether to go on: past the
+  // deadline it says no, and the run stops at its next phase or merged leaf.
+  bool timed_out = false;
+  options.pdr.progress = [&progress, &deadline, &timed_out](const PdrProgress& p) {
+    if (deadline && Clock::now() >= *deadline) {
+      timed_out = true;
+      return false;
+    }
     progress.update({std::string(p.phase), p.leaves_done, p.leaves_total, p.tets});
     return true;
   };
   auto result = mesh_parallel(surface, options, kernel->get());
   progress.finish();
-  if (!result.ok()) return fail(result.status());
+  if (!result.ok()) return fail_run(result.status(), a.time_limit_s, timed_out);
+  if (deadline && Clock::now() >= *deadline)
+    return fail_run(deadline_exceeded("it ran out before the mesh was done"), a.time_limit_s);
   const VolumeMesh& mesh = result->mesh;
   PdrProfile& profile = result->profile;
   progress.say("point distribution function built from {} boundary points", result->boundary_points);
@@ -257,7 +321,7 @@ int run_run(const RunArgs& a) {
     progress.say("warning: {} leaf task(s) failed and were kept unrefined (first: {})", profile.failed_leaves,
                  profile.first_failure);
   }
-  if (int code = finish(mesh, surface, a.output, true, progress, a.quiet, &times); code != kExitOk) return code;
+  if (int code = finish(mesh, surface, outcome, true, progress, a.quiet, &times); code != kExitOk) return code;
   profile.read = times.read;
   profile.surface_check = times.check;
   profile.validation = times.validation;
@@ -287,7 +351,7 @@ int run_quality(const std::string& path, bool json, const std::string& svg) {
   return kExitOk;
 }
 
-int run_validate(const std::string& path, const std::string& surface_path) {
+int run_validate(const std::string& path, const std::string& surface_path, bool json) {
   auto mesh = read_volume(path);
   if (!mesh.ok()) return fail(mesh.status());
   SurfaceMesh surface;
@@ -297,12 +361,25 @@ int run_validate(const std::string& path, const std::string& surface_path) {
     surface = std::move(s).value();
   }
   const ValidationReport report = validate_mesh(*mesh, surface_path.empty() ? nullptr : &surface);
-  fmt::print("{}", format_validation(report));
+  if (json) {
+    const nlohmann::json j = {{"mesh", path},
+                              {"surface", surface_path.empty() ? nlohmann::json(nullptr) : nlohmann::json(surface_path)},
+                              {"valid", report.ok()},
+                              {"tets", report.tets},
+                              {"points", report.points},
+                              {"boundary_faces", report.boundary_faces},
+                              {"volume", report.volume},
+                              {"enclosed_volume", report.enclosed_volume},
+                              {"error_count", report.error_count},
+                              {"errors", report.errors}};
+    fmt::print("{}\n", j.dump());
+  } else {
+    fmt::print("{}", format_validation(report));
+  }
   return report.ok() ? kExitOk : kExitBadInput;
 }
 
 int run_convert(const std::string& in, const std::string& out) {
-  if (auto f = volume_format_from_path(out); !f.ok()) return fail(f.status());
   auto mesh = read_volume(in);
   if (!mesh.ok()) return fail(mesh.status());
   if (Status s = write_volume(*mesh, out); !s.ok()) return fail(s);
@@ -313,6 +390,8 @@ int run_convert(const std::string& in, const std::string& out) {
 
 void add_local_commands(CLI::App& app, int& exit_code) {
   const std::string volume_formats = fmt::format("({})", volume_format_suffixes());
+  const std::string surface_formats = "surface file (.stl .obj .off .ply .mesh .surf)";
+  const std::string json_help = "print the result as one JSON object on stdout";
 
   {
     auto* cmd = app.add_subcommand("check", "Check a surface triangulation: topology, orientation, "
@@ -320,9 +399,11 @@ void add_local_commands(CLI::App& app, int& exit_code) {
     auto path = std::make_shared<std::string>();
     auto json = std::make_shared<bool>(false);
     auto fast = std::make_shared<bool>(false);
-    cmd->add_option("SURFACE", *path, "surface file (.stl .obj .off .ply .mesh .surf)")->required();
+    cmd->add_option("SURFACE", *path, surface_formats)->required()->check(surface_input_check());
     cmd->add_flag("--json", *json, "print the report as JSON");
     cmd->add_flag("--no-self-intersections", *fast, "skip the self-intersection test");
+    cmd->footer(help_footer({{"pdrmesh check part.stl", "is part.stl closed, manifold, oriented, without self-intersections?"},
+                             {"pdrmesh check part.stl --json", "the same report as JSON (holes, defects, components)"}}));
     cmd->callback([&exit_code, path, json, fast] { exit_code = run_check(*path, *json, *fast); });
   }
   {
@@ -330,34 +411,55 @@ void add_local_commands(CLI::App& app, int& exit_code) {
                                            "boundary-conforming initial mesh, advancing-front refinement, "
                                            "final optimization, validation, quality summary.");
     auto a = std::make_shared<MeshArgs>();
-    cmd->add_option("SURFACE", a->surface, "surface file (.stl .obj .off .ply .mesh .surf)")->required();
-    cmd->add_option("-o,--output", a->output, "output volume mesh " + volume_formats)->required();
-    cmd->add_option("--max-volume", a->max_volume, "with --no-refine: maximum tetrahedron volume (TetGen -a)")
-        ->check(CLI::PositiveNumber);
+    cmd->add_option("SURFACE", a->surface, surface_formats)->required()->check(surface_input_check());
+    cmd->add_option("-o,--output", a->output, "output volume mesh " + volume_formats)
+        ->required()
+        ->check(output_check(OutputKind::kVolumeMesh));
+    add_number(cmd, "--max-volume", a->max_volume, "with --no-refine: maximum tetrahedron volume (TetGen -a)", kVolume);
     cmd->add_flag("--no-refine", a->no_refine, "write the boundary-conforming initial mesh (TetGen) unrefined");
     cmd->add_flag("--no-optimize", a->no_optimize, "skip the final optimization");
     a->size.add_to(cmd);
-    cmd->add_option("--time-limit", a->time_limit_s, "seconds TetGen may run before it is stopped")
-        ->check(CLI::PositiveNumber)
-        ->capture_default_str();
+    add_time_limit(cmd, a->time_limit_s, "none");
     cmd->add_flag("-q,--quiet", a->quiet, "no progress or summary on stderr");
+    cmd->add_flag("--json", a->json, json_help);
     cmd->add_flag("--no-validate", a->no_validate, "skip validating the result before writing it");
-    cmd->callback([&exit_code, a] { exit_code = run_mesh(*a); });
+    cmd->footer(help_footer({{"pdrmesh mesh part.stl -o part.vtu", "mesh with the spacing the surface's triangles give"},
+                             {"pdrmesh mesh part.stl -o part.msh --size 1% --time-limit 600",
+                              "edges about 1% of the bounding-box diagonal; stop after 10 minutes"}}));
+    cmd->callback([&exit_code, a, cmd] {
+      a->size.check();
+      refuse_together(*cmd, "--no-refine", {"--size", "--hmin", "--hmax", "--growth", "--no-optimize"},
+                      "the initial mesh is not refined");
+      if (cmd->count("--max-volume") > 0 && !a->no_refine)
+        usage_error("--max-volume: only with --no-refine (the refined mesh follows --size)");
+      exit_code = run_mesh(*a);
+    });
   }
   {
     auto* cmd = app.add_subcommand("run", "Mesh a surface with the parallel method (PDR) in this process: "
                                           "octree decomposition, leaf refinement under the lock table, merge, "
                                           "interface round, final optimization.");
     auto a = std::make_shared<RunArgs>();
-    cmd->add_option("SURFACE", a->surface, "surface file (.stl .obj .off .ply .mesh .surf)")->required();
-    cmd->add_option("-o,--output", a->output, "output volume mesh " + volume_formats)->required();
-    cmd->add_option("--workers", a->workers, "leaf tasks run at once")->check(CLI::PositiveNumber)->capture_default_str();
+    cmd->add_option("SURFACE", a->surface, surface_formats)->required()->check(surface_input_check());
+    cmd->add_option("-o,--output", a->output, "output volume mesh " + volume_formats)
+        ->required()
+        ->check(output_check(OutputKind::kVolumeMesh));
+    add_number(cmd, "--workers", a->workers, "leaf tasks run at once", kWorkers)->capture_default_str();
     cmd->add_flag("--profile", a->profile, "print the time of each phase and its share");
     cmd->add_option("--profile-json", a->profile_json,
-                    "write the phase times and every round's leaf task times as JSON (for pdrmesh_bench_replay)");
+                    "write the phase times and every round's leaf task times as JSON (for pdrmesh_bench_replay)")
+        ->check(output_check(OutputKind::kFile));
+    add_time_limit(cmd, a->time_limit_s, "none");
     cmd->add_flag("-q,--quiet", a->quiet, "no progress or summary on stderr");
+    cmd->add_flag("--json", a->json, json_help);
     a->mesh.add_to(cmd);
-    cmd->callback([&exit_code, a] { exit_code = run_run(*a); });
+    cmd->footer(help_footer({{"pdrmesh run part.stl -o part.meshb --workers 8", "the parallel method on 8 threads"},
+                             {"pdrmesh run part.stl -o part.vtu --size 0.5% --depth 2 --profile",
+                              "a finer mesh over a 4x4x4 octree, with the time of each phase"}}));
+    cmd->callback([&exit_code, a] {
+      a->mesh.size.check();
+      exit_code = run_run(*a);
+    });
   }
   {
     auto* cmd = app.add_subcommand("quality", "Quality statistics of a volume mesh.");
@@ -366,7 +468,10 @@ void add_local_commands(CLI::App& app, int& exit_code) {
     auto svg = std::make_shared<std::string>();
     cmd->add_option("MESH", *path, "volume mesh " + volume_formats)->required();
     cmd->add_flag("--json", *json, "print the statistics as JSON");
-    cmd->add_option("--svg", *svg, "also draw the dihedral-angle histogram into this SVG file");
+    cmd->add_option("--svg", *svg, "also draw the dihedral-angle histogram into this SVG file")
+        ->check(output_check(OutputKind::kFile));
+    cmd->footer(help_footer({{"pdrmesh quality part.vtu", "dihedral angles, radius ratios, edge lengths"},
+                             {"pdrmesh quality part.vtu --json --svg angles.svg", "as JSON, and the angle histogram"}}));
     cmd->callback([&exit_code, path, json, svg] { exit_code = run_quality(*path, *json, *svg); });
   }
   {
@@ -374,16 +479,26 @@ void add_local_commands(CLI::App& app, int& exit_code) {
                                                "Exit 0 when valid, 65 otherwise.");
     auto path = std::make_shared<std::string>();
     auto surface = std::make_shared<std::string>();
+    auto json = std::make_shared<bool>(false);
     cmd->add_option("MESH", *path, "volume mesh " + volume_formats)->required();
-    cmd->add_option("--surface", *surface, "the input surface the mesh's boundary must equal");
-    cmd->callback([&exit_code, path, surface] { exit_code = run_validate(*path, *surface); });
+    cmd->add_option("--surface", *surface, "the input surface the mesh's boundary must equal")
+        ->check(surface_input_check());
+    cmd->add_flag("--json", *json, "print the report as JSON");
+    cmd->footer(help_footer({{"pdrmesh validate part.vtu", "conforming, positive volumes, a closed boundary"},
+                             {"pdrmesh validate part.vtu --surface part.stl",
+                              "also: the boundary is the surface's triangles, the volume the enclosed one"}}));
+    cmd->callback([&exit_code, path, surface, json] { exit_code = run_validate(*path, *surface, *json); });
   }
   {
     auto* cmd = app.add_subcommand("convert", "Convert a volume mesh between formats (by suffix).");
     auto in = std::make_shared<std::string>();
     auto out = std::make_shared<std::string>();
     cmd->add_option("IN", *in, "input volume mesh " + volume_formats)->required();
-    cmd->add_option("OUT", *out, "output volume mesh " + volume_formats)->required();
+    cmd->add_option("OUT", *out, "output volume mesh " + volume_formats)
+        ->required()
+        ->check(output_check(OutputKind::kVolumeMesh));
+    cmd->footer(help_footer({{"pdrmesh convert part.meshb part.vtu", "for ParaView"},
+                             {"pdrmesh convert part.meshb part.su2", "for SU2"}}));
     cmd->callback([&exit_code, in, out] { exit_code = run_convert(*in, *out); });
   }
 }

@@ -1,62 +1,107 @@
 // SPDX-License-Identifier: AGPL-3.0-or-later
-// The run/submit mesh options: flags, and their two translations.
+// The mesh options: flags, their checks, and their translations.
 #include "run_options.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
 
 #include "pdrmesh/estimate.hpp"
 
 namespace pdrmesh::cli {
 
 void SizeArgs::add_to(CLI::App* cmd) {
-  cmd->add_option("--size", size, "uniform target edge length (default: the surface's own spacing)")
-      ->check(CLI::PositiveNumber);
-  cmd->add_option("--hmin", hmin, "smallest target edge length")->check(CLI::PositiveNumber);
-  cmd->add_option("--hmax", hmax, "largest target edge length")->check(CLI::PositiveNumber);
-  cmd->add_option("--growth", growth, "how fast the spacing may grow away from the boundary (> 1)")
+  cmd->add_option("--size", size,
+                  "uniform target edge length, or a percentage of the surface's bounding-box diagonal such as 1% "
+                  "(default: the surface's own spacing)")
+      ->check(size_check())
+      ->type_name("LENGTH|PCT%");
+  add_number(cmd, "--hmin", hmin, "smallest target edge length", kLength);
+  add_number(cmd, "--hmax", hmax, "largest target edge length", kLength);
+  add_number(cmd, "--growth", growth, "how fast the spacing may grow away from the boundary (> 1)", kGrowth)
       ->capture_default_str();
-  cmd->add_option("--max-tets", max_tets,
-                  "refuse before meshing when the estimated tet count is over this "
-                  "(default: what this machine's available memory holds)")
-      ->check(CLI::PositiveNumber);
+  add_number(cmd, "--max-tets", max_tets,
+             "refuse before meshing when the estimated tet count is over this (default: what this machine's "
+             "available memory holds)",
+             kTets);
 }
 
-Status SizeArgs::check_tet_limit(const SurfaceMesh& surface, bool machine_default) const {
+Status SizeArgs::check_tet_limit(const SurfaceMesh& surface, const SizingOptions& options,
+                                 bool machine_default) const {
   if (max_tets <= 0 && !machine_default) return {};
-  const SizingOptions o = options();
-  PDR_ASSIGN_OR_RETURN(const MeshEstimate e, estimate_mesh(surface, o));
-  if (max_tets > 0) return pdrmesh::check_tet_limit(e, o, max_tets, "--max-tets");
-  return pdrmesh::check_tet_limit(e, o, default_max_tets(), "--max-tets, from this machine's memory");
+  PDR_ASSIGN_OR_RETURN(const MeshEstimate e, estimate_mesh(surface, options));
+  if (max_tets > 0) return pdrmesh::check_tet_limit(e, options, max_tets, "--max-tets");
+  return pdrmesh::check_tet_limit(e, options, default_max_tets(), "--max-tets, from this machine's memory");
 }
 
-SizingOptions SizeArgs::options() const {
+void SizeArgs::check() const {
+  if (hmin > 0 && hmax > 0 && hmin > hmax)
+    usage_error(fmt::format("--hmin {} is larger than --hmax {}: the smallest length must not exceed the largest",
+                            hmin, hmax));
+}
+
+SizingOptions SizeArgs::options(double diagonal) const {
   SizingOptions o;
-  if (size > 0) o.size = size;
+  if (auto s = size_value()) o.size = s->length(diagonal);
   if (hmin > 0) o.hmin = hmin;
   if (hmax > 0) o.hmax = hmax;
   o.growth = growth;
   return o;
 }
 
+SizingOptions SizeArgs::resolve(const SurfaceMesh& surface, std::string& line, bool surface_h) const {
+  const double diagonal = surface.bounds().diagonal();
+  const SizingOptions o = options(diagonal);
+  const std::optional<SizeValue> s = size_value();
+  if (s && s->percent) {
+    line = fmt::format("size: {:.6g} ({:g}% of the bounding-box diagonal {:.6g})", *o.size, s->value, diagonal);
+  } else if (s) {
+    line = fmt::format("size: {:.6g} (--size)", *o.size);
+  } else {
+    line = "size: from the surface";
+    if (surface_h) {
+      // h at the surface points: one pass over the surface, no background mesh.
+      if (auto h = SizingField::surface_values(surface, o); h.ok()) {
+        double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+        for (double v : *h)
+          if (std::isfinite(v)) lo = std::min(lo, v), hi = std::max(hi, v);
+        if (lo <= hi) line += fmt::format(" (h from {:.6g} to {:.6g})", lo, hi);
+      }
+    }
+  }
+  return o;
+}
+
+CLI::Option* add_time_limit(CLI::App* cmd, double& seconds, const std::string& default_text) {
+  return add_number(cmd, "--time-limit", seconds,
+                    "seconds the whole run may take; past it the run stops, exit 75 (default: " + default_text + ")",
+                    kSeconds);
+}
+
 void RunOptionArgs::add_to(CLI::App* cmd) {
-  cmd->add_option("--depth", depth, "octree depth (2^d leaves a side); default: chosen from the target size and the leaves the body occupies")
-      ->check(CLI::Range(0, 10));
+  add_number(cmd, "--depth", depth,
+             "octree depth (2^d leaves a side); default: chosen from the target size and the leaves the body "
+             "occupies",
+             kDepth);
   cmd->add_option("--kernel", kernel, "leaf kernel")->check(CLI::IsMember({"native", "tetgen"}))->capture_default_str();
   cmd->add_flag("--no-interface-round", no_interface_round, "skip the interface rounds (decompositions shifted by half and a quarter leaf, over the first round's interfaces)");
   cmd->add_flag("--no-optimize", no_optimize, "skip the final optimization");
   size.add_to(cmd);
 }
 
-ParallelOptions RunOptionArgs::parallel_options() const {
+ParallelOptions RunOptionArgs::parallel_options(const SizingOptions& sizing) const {
   ParallelOptions o;
-  o.sizing = size.options();
+  o.sizing = sizing;
   o.pdr.depth = depth;
   o.pdr.interface_round = !no_interface_round;
   if (no_optimize) o.optimize.reset();
   return o;
 }
 
-v1::MeshOptions RunOptionArgs::mesh_options() const {
+v1::MeshOptions RunOptionArgs::mesh_options(const SizingOptions& s) const {
   v1::MeshOptions o;
-  const SizingOptions s = size.options();
   if (s.size) o.set_size(*s.size);
   if (s.hmin) o.set_hmin(*s.hmin);
   if (s.hmax) o.set_hmax(*s.hmax);

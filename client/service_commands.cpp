@@ -9,8 +9,9 @@
 #include "service_commands.hpp"
 
 #include <fmt/format.h>
-#include <google/protobuf/util/json_util.h>
 
+#include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -20,12 +21,15 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "exit_codes.hpp"
+#include "options.hpp"
+#include "pdrmesh/surface_io.hpp"
+#include "pdrmesh/volume_io.hpp"
 #include "progress_display.hpp"
 #include "run_options.hpp"
 #include "service_client.hpp"
-#include "pdrmesh/surface_io.hpp"
 
 namespace pdrmesh::cli {
 namespace {
@@ -36,7 +40,7 @@ struct Common {
   double timeout_s = 120;
   CLI::Option* timeout_flag = nullptr;
   ClientConfig config;
-  std::string output = "text";  ///< text | json
+  bool json = false;  ///< --json: machine-readable output on stdout
 };
 
 int exit_code_for(const grpc::Status& s) {
@@ -76,11 +80,11 @@ std::string code_name(grpc::StatusCode c) {
   }
 }
 
-/// Prints the error on stderr (and, with --output json, as {"error": ...} on stdout).
+/// Prints the error on stderr (and, with --json, as {"error": ...} on stdout).
 int fail(const Common& c, const grpc::Status& s, std::string_view what) {
   fmt::print(stderr, "pdrmesh: {}: {} ({})\n", what, s.error_message(), code_name(s.error_code()));
   const int code = exit_code_for(s);
-  if (c.output == "json") {
+  if (c.json) {
     const nlohmann::json j = {{"error",
                                {{"command", what}, {"code", code_name(s.error_code())},
                                 {"message", s.error_message()}, {"exit_code", code}}}};
@@ -97,26 +101,82 @@ std::string state_name(v1::JobState s) {
   return name;
 }
 
-std::string to_json(const google::protobuf::Message& m) {
-  std::string out;
-  google::protobuf::util::JsonPrintOptions o;
-  o.preserve_proto_field_names = true;
-  o.always_print_primitive_fields = true;
-  if (!google::protobuf::util::MessageToJsonString(m, &out, o).ok()) return "{}";
-  return out;
+/// The options a job was submitted with: the ones set.
+nlohmann::json options_json(const v1::MeshOptions& o) {
+  nlohmann::json j = nlohmann::json::object();
+  if (o.has_max_volume()) j["max_volume"] = o.max_volume();
+  if (o.has_time_limit_s()) j["time_limit_s"] = o.time_limit_s();
+  if (o.has_size()) j["size"] = o.size();
+  if (o.has_hmin()) j["hmin"] = o.hmin();
+  if (o.has_hmax()) j["hmax"] = o.hmax();
+  if (o.has_growth()) j["growth"] = o.growth();
+  if (o.has_depth()) j["depth"] = o.depth();
+  if (o.has_kernel()) j["kernel"] = o.kernel();
+  if (o.has_interface_round()) j["interface_round"] = o.interface_round();
+  if (o.has_optimize()) j["optimize"] = o.optimize();
+  return j;
 }
 
-std::string job_line(const v1::Job& j) {
-  std::string line = fmt::format("{}  {:<9}  {:<16} {:3.0f}%  {}", j.id(), state_name(j.state()), j.phase(),
-                                 100 * j.progress(), j.input_name());
-  if (j.leaves_total() > 0) line += fmt::format("  {}/{} leaves", j.leaves_done(), j.leaves_total());
-  if (j.tets() > 0) line += fmt::format("  {} tets", j.tets());
-  if (!j.error().empty()) line += "  error: " + j.error();
-  return line;
+/// A job as JSON: the proto's field names, numbers as numbers (not the strings
+/// of protobuf's JSON mapping of 64-bit integers), the state as the text output
+/// names it ("succeeded").
+nlohmann::json job_json(const v1::Job& j) {
+  return {{"id", j.id()},
+          {"user", j.user()},
+          {"state", state_name(j.state())},
+          {"phase", j.phase()},
+          {"progress", j.progress()},
+          {"options", options_json(j.options())},
+          {"input_name", j.input_name()},
+          {"input_bytes", j.input_bytes()},
+          {"created_unix_ms", j.created_unix_ms()},
+          {"started_unix_ms", j.started_unix_ms()},
+          {"finished_unix_ms", j.finished_unix_ms()},
+          {"error", j.error()},
+          {"tets", j.tets()},
+          {"points", j.points()},
+          {"leaves_done", j.leaves_done()},
+          {"leaves_total", j.leaves_total()}};
+}
+
+/// How long ago, as kubectl says it: 5s, 3m, 2h, 4d.
+std::string age(std::int64_t unix_ms) {
+  const auto now_ms = std::chrono::duration_cast<std::chrono::milliseconds>(
+                          std::chrono::system_clock::now().time_since_epoch()).count();
+  const std::int64_t s = std::max<std::int64_t>(0, (now_ms - unix_ms) / 1000);
+  if (s < 120) return fmt::format("{}s", s);
+  if (s < 120 * 60) return fmt::format("{}m", s / 60);
+  if (s < 48 * 3600) return fmt::format("{}h", s / 3600);
+  return fmt::format("{}d", s / 86400);
+}
+
+/// Jobs as a table with a header row; columns as wide as their widest cell.
+void print_job_table(const std::vector<v1::Job>& jobs) {
+  std::vector<std::vector<std::string>> rows = {{"JOB", "STATE", "PHASE", "PROGRESS", "AGE", "TETS", "INPUT"}};
+  for (const v1::Job& j : jobs) {
+    std::string input = j.input_name();
+    if (j.leaves_total() > 0) input += fmt::format("  {}/{} leaves", j.leaves_done(), j.leaves_total());
+    if (!j.error().empty()) input += "  error: " + j.error();
+    rows.push_back({j.id(), state_name(j.state()), j.phase(), fmt::format("{:.0f}%", 100 * j.progress()),
+                    age(j.created_unix_ms()), j.tets() > 0 ? fmt::format("{}", j.tets()) : "-", input});
+  }
+  std::vector<std::size_t> width(rows[0].size(), 0);
+  for (const auto& r : rows)
+    for (std::size_t k = 0; k < r.size(); ++k) width[k] = std::max(width[k], r[k].size());
+  for (const auto& r : rows) {
+    std::string line;
+    for (std::size_t k = 0; k + 1 < r.size(); ++k) line += fmt::format("{:<{}}  ", r[k], width[k]);
+    line += r.back();
+    fmt::print("{}\n", line);
+  }
 }
 
 void print_job(const Common& c, const v1::Job& j) {
-  fmt::print("{}\n", c.output == "json" ? to_json(j) : job_line(j));
+  if (c.json) {
+    fmt::print("{}\n", job_json(j).dump());
+  } else {
+    print_job_table({j});
+  }
 }
 
 /// Exit code of a job that reached a final state.
@@ -236,13 +296,13 @@ ProgressState state_of(const v1::JobEvent& e) {
   return {j.phase(), j.leaves_done(), j.leaves_total(), j.tets(), e.elapsed_s()};
 }
 
-/// Watches `id` to its end: events as JSON lines on stdout (watch --output
-/// json), else the progress display on stderr.
+/// Watches `id` to its end: events as JSON lines on stdout (watch --json),
+/// else the progress display on stderr.
 int watch_to_end(const Common& c, ServiceClient& client, std::string_view id, bool events_on_stdout, v1::Job& last) {
   ProgressDisplay display(false);
   auto on_event = [&](const v1::JobEvent& e) {
-    if (c.output == "json" && events_on_stdout) {
-      fmt::print("{}\n", to_json(e));
+    if (c.json && events_on_stdout) {
+      fmt::print("{}\n", nlohmann::json{{"job", job_json(e.job())}, {"elapsed_s", e.elapsed_s()}}.dump());
       std::fflush(stdout);
     } else {
       display.update(state_of(e));
@@ -261,10 +321,9 @@ void add_common(CLI::App* cmd, const std::shared_ptr<Common>& c) {
   cmd->add_option("--tls-ca", c->tls_ca, "PEM CA certificates: connect with TLS (env PDRMESH_TLS_CA)");
   cmd->add_option("--config", c->config_file,
                   "client config (JSON; env PDRMESH_CONFIG; default ~/.config/pdrmesh/client.json)");
-  c->timeout_flag = cmd->add_option("--timeout", c->timeout_s, "seconds each call may take")
-                        ->check(CLI::PositiveNumber)
+  c->timeout_flag = add_number(cmd, "--timeout", c->timeout_s, "seconds each call may take", kSeconds)
                         ->capture_default_str();
-  cmd->add_option("--output", c->output, "text or json")->check(CLI::IsMember({"text", "json"}))->capture_default_str();
+  cmd->add_flag("--json", c->json, "print machine-readable JSON on stdout");
 }
 
 int print_or_fail(const Common& c, const grpc::Status& s, const v1::Job& job, std::string_view what) {
@@ -276,8 +335,10 @@ int print_or_fail(const Common& c, const grpc::Status& s, const v1::Job& job, st
 using JobAction = std::function<int(const Common&, ServiceClient&, const std::string& id)>;
 
 /// A subcommand taking one job id: connects, then runs `action`.
-CLI::App* add_job_command(CLI::App& app, const char* name, const char* help, int& exit_code, JobAction action) {
+CLI::App* add_job_command(CLI::App& app, const char* name, const char* help, int& exit_code, JobAction action,
+                          const std::vector<std::pair<std::string, std::string>>& examples) {
   auto* cmd = app.add_subcommand(name, help);
+  cmd->footer(help_footer(examples));
   auto c = std::make_shared<Common>();
   auto id = std::make_shared<std::string>();
   add_common(cmd, c);
@@ -292,7 +353,7 @@ CLI::App* add_job_command(CLI::App& app, const char* name, const char* help, int
 
 /// Prints a fetched file: its path (text) or {"job_id", "file", "bytes"} (json).
 void print_fetched(const Common& c, std::string_view id, const std::string& file, std::uint64_t bytes) {
-  if (c.output == "json") {
+  if (c.json) {
     fmt::print("{}\n", nlohmann::json{{"job_id", id}, {"file", file}, {"bytes", bytes}}.dump());
   } else {
     fmt::print(stderr, "wrote {} ({} bytes)\n", file, bytes);
@@ -309,81 +370,107 @@ struct SubmitArgs {
 };
 
 int run_submit(Common& c, const SubmitArgs& a) {
+  // A percentage size is resolved here, from the surface's bounding box: the
+  // coordinator takes lengths.
+  SizingOptions sizing = a.mesh.size.options(0);
+  if (a.max_volume == 0) {
+    std::string line = "size: from the surface (the coordinator derives it)";
+    const auto s = a.mesh.size.size_value();
+    if ((s && s->percent) || a.mesh.size.max_tets > 0) {
+      auto surface = read_surface(a.surface);
+      if (!surface.ok()) {
+        fmt::print(stderr, "pdrmesh: error: {}\n", surface.status().to_string());
+        return cli::exit_code_for(surface.status());
+      }
+      if (s && s->percent) sizing = a.mesh.size.resolve(*surface, line, /*surface_h=*/false);
+      // The coordinator checks its own limits in any case; --max-tets is the user's own, checked here.
+      if (Status st = a.mesh.size.check_tet_limit(*surface, sizing, false); !st.ok()) {
+        fmt::print(stderr, "pdrmesh: error: {}\n", st.to_string());
+        return cli::exit_code_for(st);
+      }
+    }
+    if (s && !s->percent) line = fmt::format("size: {:.6g} (--size)", *sizing.size);
+    fmt::print(stderr, "{}\n", line);
+  }
   std::unique_ptr<ServiceClient> client;
   if (int code = connect(c, client); code != kExitOk) return code;
-  if (!a.out.empty() && volume_format_of(a.out).empty()) {
-    fmt::print(stderr, "pdrmesh: {}: unknown volume mesh suffix (.vtu .mesh .meshb .ugrid .lb8.ugrid .b8.ugrid .msh "
-                       ".su2)\n", a.out);
-    return kExitUsage;
-  }
-  if (a.mesh.size.max_tets > 0 && a.max_volume <= 0) {  // the coordinator checks its own limits in any case
-    auto surface = read_surface(a.surface);
-    Status s = surface.ok() ? a.mesh.size.check_tet_limit(*surface, false) : surface.status();
-    if (!s.ok()) {
-      fmt::print(stderr, "pdrmesh: error: {}\n", s.to_string());
-      return cli::exit_code_for(s);
-    }
-  }
-  v1::MeshOptions options = a.mesh.mesh_options();
+  v1::MeshOptions options = a.mesh.mesh_options(sizing);
   if (a.max_volume > 0) options.set_max_volume(a.max_volume);
   if (a.time_limit_s > 0) options.set_time_limit_s(a.time_limit_s);
   v1::Job job;
   if (auto s = client->submit(a.surface, options, job); !s.ok()) return fail(c, s, "submit");
   const bool wait = a.wait || !a.out.empty();
   if (!wait) {
-    if (c.output == "json") {
+    if (c.json) {
       print_job(c, job);
     } else {
       fmt::print("{}\n", job.id());
     }
     return kExitOk;
   }
-  if (c.output != "json") fmt::print("{}\n", job.id());
+  if (!c.json) fmt::print("{}\n", job.id());
   std::fflush(stdout);
   v1::Job last = job;
   if (int code = watch_to_end(c, *client, job.id(), false, last); code != kExitOk) return code;
-  if (c.output == "json") print_job(c, last);  // the final job, one object
+  if (c.json) print_job(c, last);  // the final job, one object
   if (int code = final_code(last); code != kExitOk || a.out.empty()) return code;
   std::uint64_t bytes = 0;
   if (auto s = client->fetch(job.id(), a.out, &bytes); !s.ok()) return fail(c, s, "fetch");
-  if (c.output != "json") print_fetched(c, job.id(), a.out, bytes);
+  if (!c.json) print_fetched(c, job.id(), a.out, bytes);
   return kExitOk;
 }
 
 }  // namespace
 
 void add_service_commands(CLI::App& app, int& exit_code) {
+  const std::string volume_formats = fmt::format("({})", volume_format_suffixes());
   {
     auto* cmd = app.add_subcommand("submit", "Submit a surface to a coordinator with the mesh options of run; "
                                              "prints the job id.");
     auto c = std::make_shared<Common>();
     auto a = std::make_shared<SubmitArgs>();
     add_common(cmd, c);
-    cmd->add_option("SURFACE", a->surface, "surface file (.stl .obj .off .ply .mesh .surf)")->required();
+    cmd->add_option("SURFACE", a->surface, "surface file (.stl .obj .off .ply .mesh .surf)")
+        ->required()
+        ->check(surface_input_check());
+    cmd->add_option("-o,--output", a->out, "download the result here when done (implies --wait) " + volume_formats)
+        ->check(output_check(OutputKind::kVolumeMesh));
     a->mesh.add_to(cmd);
-    cmd->add_option("--max-volume", a->max_volume,
-                    "write the initial mesh alone, with this maximum tet volume (the mesh options are ignored)")
-        ->check(CLI::PositiveNumber);
-    cmd->add_option("--time-limit", a->time_limit_s, "seconds the job may mesh (default: the coordinator's)")
-        ->check(CLI::PositiveNumber);
+    add_number(cmd, "--max-volume", a->max_volume,
+               "write the initial mesh alone, with this maximum tet volume (instead of the mesh options)", kVolume);
+    add_time_limit(cmd, a->time_limit_s, "the coordinator's");
     cmd->add_flag("--wait", a->wait,
-                  "follow the job until it ends (progress on stderr); with --output json print the final job");
-    cmd->add_option("-o,--output-file", a->out, "download the result here when done (implies --wait)");
-    cmd->callback([&exit_code, c, a] { exit_code = run_submit(*c, *a); });
+                  "follow the job until it ends (progress on stderr); with --json print the final job");
+    cmd->footer(help_footer({{"pdrmesh submit part.stl --server mesh.example:7443 -o part.meshb",
+                              "mesh on the coordinator, wait, download the result"},
+                             {"pdrmesh submit part.stl --size 1% --time-limit 3600 --json",
+                              "queue a job, print it as JSON and return at once"}}));
+    cmd->callback([&exit_code, c, a, cmd] {
+      a->mesh.size.check();
+      refuse_together(*cmd, "--max-volume",
+                      {"--size", "--hmin", "--hmax", "--growth", "--depth", "--kernel", "--no-interface-round",
+                       "--no-optimize"},
+                      "--max-volume writes the initial mesh alone, unrefined");
+      exit_code = run_submit(*c, *a);
+    });
   }
   add_job_command(app, "status", "Show one job.", exit_code,
                   [](const Common& c, ServiceClient& client, const std::string& id) {
                     v1::Job job;
                     return print_or_fail(c, client.get(id, job), job, "status");
-                  });
+                  },
+                  {{"pdrmesh status 3f2a9c", "state, phase, progress, age of the job"},
+                   {"pdrmesh status 3f2a9c --json", "the job as JSON"}});
   add_job_command(app, "watch",
-                  "Follow a job until it ends (--output json: one event per line); exit 0 when it succeeded, "
+                  "Follow a job until it ends (--json: one event per line); exit 0 when it succeeded, "
                   "1 otherwise.",
                   exit_code, [](const Common& c, ServiceClient& client, const std::string& id) {
                     v1::Job last;
                     const int code = watch_to_end(c, client, id, true, last);
                     return code != kExitOk ? code : final_code(last);
-                  });
+                  },
+                  {{"pdrmesh watch 3f2a9c", "a progress line on stderr until the job ends"},
+                   {"pdrmesh watch 3f2a9c --json", "one JSON event per line on stdout"}});
   {
     auto out = std::make_shared<std::string>();
     auto* cmd = add_job_command(app, "fetch", "Download a succeeded job's mesh, in the format named by the suffix.",
@@ -393,15 +480,19 @@ void add_service_commands(CLI::App& app, int& exit_code) {
                                   if (!s.ok()) return fail(c, s, "fetch");
                                   print_fetched(c, id, *out, bytes);
                                   return static_cast<int>(kExitOk);
-                                });
-    cmd->add_option("-o,--output-file", *out,
-                    "volume mesh (.vtu .mesh .meshb .ugrid .lb8.ugrid .b8.ugrid .msh .su2)")
-        ->required();
+                                },
+                                {{"pdrmesh fetch 3f2a9c -o part.vtu", "the mesh as VTK XML"},
+                                 {"pdrmesh fetch 3f2a9c -o part.su2 --json", "as SU2; prints {job_id, file, bytes}"}});
+    cmd->add_option("-o,--output", *out, "volume mesh " + volume_formats)
+        ->required()
+        ->check(output_check(OutputKind::kVolumeMesh));
   }
   {
     auto* cmd = app.add_subcommand("list", "List your jobs, newest first.");
     auto c = std::make_shared<Common>();
     add_common(cmd, c);
+    cmd->footer(help_footer({{"pdrmesh list", "a table: job, state, phase, progress, age, tets, input"},
+                             {"pdrmesh list --json", "{\"jobs\": [...]}"}}));
     cmd->callback([&exit_code, c] {
       std::unique_ptr<ServiceClient> client;
       if ((exit_code = connect(*c, client)) != kExitOk) return;
@@ -410,10 +501,12 @@ void add_service_commands(CLI::App& app, int& exit_code) {
         exit_code = fail(*c, s, "list");
         return;
       }
-      if (c->output == "json") {
-        fmt::print("{}\n", to_json(jobs));
+      if (c->json) {
+        nlohmann::json list = nlohmann::json::array();
+        for (const auto& j : jobs.jobs()) list.push_back(job_json(j));
+        fmt::print("{}\n", nlohmann::json{{"jobs", list}}.dump());
       } else {
-        for (const auto& j : jobs.jobs()) fmt::print("{}\n", job_line(j));
+        print_job_table({jobs.jobs().begin(), jobs.jobs().end()});
       }
     });
   }
@@ -421,19 +514,23 @@ void add_service_commands(CLI::App& app, int& exit_code) {
                   exit_code, [](const Common& c, ServiceClient& client, const std::string& id) {
                     v1::Job job;
                     return print_or_fail(c, client.cancel(id, job), job, "cancel");
-                  });
+                  },
+                  {{"pdrmesh cancel 3f2a9c", "stop the job; its state becomes cancelled"},
+                   {"pdrmesh cancel 3f2a9c --json", "and print the job as JSON"}});
   add_job_command(app, "delete", "Delete a job and its files (a running job is cancelled first).", exit_code,
                   [](const Common& c, ServiceClient& client, const std::string& id) {
                     v1::Job job;
                     const grpc::Status s = client.remove(id, job);
                     if (!s.ok()) return fail(c, s, "delete");
-                    if (c.output == "json") {
+                    if (c.json) {
                       print_job(c, job);
                     } else {
                       fmt::print("deleted {}\n", job.id());
                     }
                     return static_cast<int>(kExitOk);
-                  });
+                  },
+                  {{"pdrmesh delete 3f2a9c", "the job, its input and its result"},
+                   {"pdrmesh delete 3f2a9c --json", "and print the job as JSON"}});
 }
 
 }  // namespace pdrmesh::cli

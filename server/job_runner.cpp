@@ -395,6 +395,11 @@ void JobRunner::run_job(const Entry& entry) {
     job.phase = "failed";
     job.error = status.to_string();
   }
+  if (job.state != JobState::kSucceeded) {
+    // No mesh came of it: the tets merged so far (progress reports carry no
+    // point count) would stand beside points 0, and neither describes a result.
+    job.tets = job.points = 0;
+  }
   if (is_final(job.state)) {
     job.finished_ms = now_unix_ms();
     std::error_code ec;  // a restart resumes from the checkpoint; nothing else does

@@ -344,6 +344,7 @@ class Checker {
     check_values();
     check_duplicates();
     check_topology();
+    find_holes();
     build_tree();
     check_nesting();
     if (opt_.self_intersections) check_intersections();
@@ -538,6 +539,7 @@ class Checker {
       };
       if (g.count == 1) {
         f.open = true;
+        open_edges_.push_back({u, w, e.tri});
         report(DefectKind::kOpenEdge, [&](const std::vector<Index>&, const std::string& where) {
           return fmt::format("{} has only one triangle: {}", where, tri_str(s_, e.tri));
         });
@@ -789,6 +791,43 @@ class Checker {
   DefectSink sink_;
   SurfaceReport report_;
   std::vector<Use> use_;
+  /// Groups the open edges into holes: edges that share a point belong to the
+  /// same hole, so three missing triangles far apart are three holes, not nine
+  /// defects to the reader. The open edges come in ascending (u, w) order.
+  void find_holes() {
+    if (open_edges_.empty()) return;
+    UnionFind points(s_.points.size());
+    for (const OpenEdge& e : open_edges_) points.unite(e.u, e.w);
+    std::vector<std::size_t> hole_of(s_.points.size(), kNone);
+    std::vector<std::size_t> edges_of;  // per hole, in order of first edge
+    std::vector<std::size_t> first_of;  // per hole: index into open_edges_
+    for (std::size_t i = 0; i < open_edges_.size(); ++i) {
+      const Index root = points.find(open_edges_[i].u);
+      if (hole_of[root] == kNone) {
+        hole_of[root] = edges_of.size();
+        edges_of.push_back(0);
+        first_of.push_back(i);
+      }
+      ++edges_of[hole_of[root]];
+    }
+    report_.hole_count = edges_of.size();
+    for (std::size_t h = 0; h < edges_of.size() && h < opt_.max_defects_per_kind; ++h) {
+      const OpenEdge& e = open_edges_[first_of[h]];
+      const Vec3 mid = 0.5 * (s_.points[e.u] + s_.points[e.w]);
+      report_.holes.push_back(
+          {edges_of[h],
+           Defect{DefectKind::kOpenEdge, {e.tri}, {e.u, e.w}, mid,
+                  fmt::format("edge {}-{} at {} has only one triangle: {}", e.u, e.w, point_str(mid),
+                              tri_str(s_, e.tri))}});
+    }
+    open_edges_ = {};
+  }
+
+  static constexpr std::size_t kNone = static_cast<std::size_t>(-1);
+  struct OpenEdge {
+    Index u, w, tri;
+  };
+  std::vector<OpenEdge> open_edges_;  ///< every open edge, for find_holes
   std::vector<Index> comp_;  ///< component of every analysed triangle
   std::vector<ComponentFlags> flags_;
   BoxTree tree_;
@@ -830,13 +869,48 @@ SurfaceReport check_surface(const SurfaceMesh& surface, const CheckOptions& opti
 
 namespace {
 
+/// "1 hole", "3 holes": a count and its noun.
+std::string counted(std::size_t n, std::string_view noun) {
+  return fmt::format("{} {}{}", n, noun, n == 1 ? "" : "s");
+}
+
+/// "3 holes (9 open edges), 1 non-manifold vertex": open edges are counted as the holes they form.
 std::string counts_summary(const SurfaceReport& r) {
   std::vector<std::string> parts;
-  for (std::size_t k = 0; k < kDefectKinds; ++k)
-    if (r.defect_counts[k] > 0)
-      parts.push_back(
-          fmt::format("{} {}", r.defect_counts[k], to_string(static_cast<DefectKind>(k))));
+  for (std::size_t k = 0; k < kDefectKinds; ++k) {
+    const auto kind = static_cast<DefectKind>(k);
+    if (r.defect_counts[k] == 0) continue;
+    if (kind == DefectKind::kOpenEdge && r.hole_count > 0) {
+      parts.push_back(fmt::format("{} ({})", counted(r.hole_count, "hole"), counted(r.defect_counts[k], "open edge")));
+    } else {
+      parts.push_back(counted(r.defect_counts[k], to_string(kind)));
+    }
+  }
   return fmt::format("{}", fmt::join(parts, ", "));
+}
+
+/// One line per defect kept ("  open edge: ..."), the open edges as holes with the first edge of each.
+void format_defects(const SurfaceReport& r, fmt::memory_buffer& out) {
+  auto it = std::back_inserter(out);
+  for (std::size_t k = 0; k < kDefectKinds; ++k) {
+    const auto kind = static_cast<DefectKind>(k);
+    if (kind == DefectKind::kOpenEdge && r.hole_count > 0) {
+      for (std::size_t h = 0; h < r.holes.size(); ++h)
+        fmt::format_to(it, "  hole {} ({}): {}\n", h + 1, counted(r.holes[h].open_edges, "open edge"),
+                       r.holes[h].first.message);
+      if (r.hole_count > r.holes.size()) fmt::format_to(it, "  ... and {} more holes\n", r.hole_count - r.holes.size());
+      continue;
+    }
+    std::size_t shown = 0;
+    for (const Defect& d : r.defects)
+      if (d.kind == kind) {
+        fmt::format_to(it, "  {}: {}\n", to_string(kind), d.message);
+        ++shown;
+      }
+    if (r.defect_counts[k] > shown)
+      fmt::format_to(it, "  ... and {} more {}{}\n", r.defect_counts[k] - shown, to_string(kind),
+                     r.defect_counts[k] - shown == 1 ? "" : "s");
+  }
 }
 
 }  // namespace
@@ -846,9 +920,7 @@ std::string format_report(const SurfaceReport& r, std::string_view name) {
   auto it = std::back_inserter(out);
   fmt::format_to(it, "{}: {} points, {} triangles, {} component{}: {}\n", name, r.points,
                  r.triangles, r.components.size(), r.components.size() == 1 ? "" : "s",
-                 r.meshable() ? std::string("meshable")
-                              : fmt::format("NOT meshable ({} defects: {})", r.total_defects(),
-                                            counts_summary(r)));
+                 r.meshable() ? std::string("meshable") : fmt::format("NOT meshable: {}", counts_summary(r)));
   constexpr std::size_t kMaxComponents = 20;
   for (std::size_t c = 0; c < r.components.size() && c < kMaxComponents; ++c) {
     const ComponentReport& k = r.components[c];
@@ -866,18 +938,7 @@ std::string format_report(const SurfaceReport& r, std::string_view name) {
   }
   if (r.components.size() > kMaxComponents)
     fmt::format_to(it, "  ... and {} more components\n", r.components.size() - kMaxComponents);
-  for (std::size_t k = 0; k < kDefectKinds; ++k) {
-    const auto kind = static_cast<DefectKind>(k);
-    std::size_t shown = 0;
-    for (const Defect& d : r.defects)
-      if (d.kind == kind) {
-        fmt::format_to(it, "  {}: {}\n", to_string(kind), d.message);
-        ++shown;
-      }
-    if (r.defect_counts[k] > shown)
-      fmt::format_to(it, "  ... and {} more {} defects\n", r.defect_counts[k] - shown,
-                     to_string(kind));
-  }
+  format_defects(r, out);
   return fmt::to_string(out);
 }
 
@@ -916,6 +977,13 @@ std::string report_to_json(const SurfaceReport& r, std::string_view name) {
                        {"message", d.message}});
   }
   j["defects"] = defects;
+  j["hole_count"] = r.hole_count;
+  nlohmann::json holes = nlohmann::json::array();
+  for (const HoleReport& h : r.holes)
+    holes.push_back({{"open_edges", h.open_edges},
+                     {"first_edge", {{"points", h.first.points}, {"triangles", h.first.triangles},
+                                     {"where", h.first.where}, {"message", h.first.message}}}});
+  j["holes"] = holes;
   return j.dump();
 }
 
@@ -923,11 +991,17 @@ Status require_meshable(const SurfaceReport& r, std::string_view name) {
   if (r.meshable()) return Status::ok_status();
   constexpr std::size_t kShown = 3;
   std::vector<std::string> first;
-  for (std::size_t i = 0; i < r.defects.size() && i < kShown; ++i)
-    first.push_back(fmt::format("{}: {}", to_string(r.defects[i].kind), r.defects[i].message));
-  return invalid_input(fmt::format("{}: the surface cannot be meshed: {} defects ({}); {}{}", name,
-                                   r.total_defects(), counts_summary(r), fmt::join(first, "; "),
-                                   r.total_defects() > first.size() ? "; ..." : ""));
+  for (std::size_t i = 0; i < r.defects.size() && first.size() < kShown; ++i) {
+    const Defect& d = r.defects[i];
+    if (d.kind == DefectKind::kOpenEdge && r.hole_count > 0) continue;
+    first.push_back(fmt::format("{}: {}", to_string(d.kind), d.message));
+  }
+  for (std::size_t h = 0; h < r.holes.size() && first.size() < kShown; ++h)
+    first.push_back(fmt::format("hole ({}): {}", counted(r.holes[h].open_edges, "open edge"), r.holes[h].first.message));
+  // Defects to list, each hole standing for its open edges.
+  const std::size_t listed = r.total_defects() - r.count(DefectKind::kOpenEdge) + r.hole_count;
+  return invalid_input(fmt::format("{}: the surface cannot be meshed: {}; {}{}", name, counts_summary(r),
+                                   fmt::join(first, "; "), listed > first.size() ? "; ..." : ""));
 }
 
 }  // namespace pdrmesh

@@ -198,7 +198,7 @@ Result<SurfaceFormat> surface_format_from_path(const std::filesystem::path& path
   return unsupported(
       fmt::format("{}: unknown surface format {} (expected .stl, .obj, .off, .ply, "
                   ".mesh or .surf)",
-                  path.filename().string(), quote_token(path.extension().string())));
+                  path.string(), quote_token(path.extension().string())));
 }
 
 Result<SurfaceMesh> parse_surface(std::string_view bytes, SurfaceFormat format,
@@ -221,7 +221,7 @@ Result<SurfaceMesh> parse_surface(std::string_view bytes, SurfaceFormat format,
 Result<SurfaceMesh> read_surface(const std::filesystem::path& path) {
   PDR_ASSIGN_OR_RETURN(const SurfaceFormat format, surface_format_from_path(path));
   PDR_ASSIGN_OR_RETURN(const std::string bytes, read_file(path));
-  return parse_surface(bytes, format, path.filename().string());
+  return parse_surface(bytes, format, path.string());  // errors name the path as given
 }
 
 Result<std::string> format_surface(const SurfaceMesh& surface, SurfaceFormat format) {

@@ -430,7 +430,7 @@ Status write_volume(const VolumeMesh& mesh, const std::filesystem::path& path) {
 Result<VolumeMesh> read_volume(const std::filesystem::path& path) {
   PDR_ASSIGN_OR_RETURN(const VolumeFormat format, volume_format_from_path(path));
   PDR_ASSIGN_OR_RETURN(const std::string data, volio::read_file(path));
-  const std::string name = path.filename().string();
+  const std::string name = path.string();  // errors name the path as given
   switch (format) {
     case VolumeFormat::kMedit: return volio::read_medit(data, name);
     case VolumeFormat::kMeditBinary: return volio::read_meshb(data, name);

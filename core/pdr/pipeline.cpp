@@ -2,6 +2,8 @@
 // The serial meshing pipeline (see pipeline.hpp).
 #include "pdrmesh/pipeline.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -44,21 +46,40 @@ Result<SerialResult> mesh_serial(const SurfaceMesh& surface, const SerialOptions
   PDR_TRY(validate(options.sizing));
   PDR_TRY(validate(options.refine));
   if (options.optimize) PDR_TRY(validate(*options.optimize));
+  if (options.time_limit_s < 0 || !std::isfinite(options.time_limit_s))
+    return invalid_input(fmt::format("time_limit_s must be >= 0 (0: none), got {}", options.time_limit_s));
   SerialResult out;
   auto t = Clock::now();
-  PDR_ASSIGN_OR_RETURN(VolumeMesh initial, tetrahedralize(surface, options.tetgen));
+  // The whole run's deadline: TetGen gets the time left, the refinement stops
+  // between passes, and no step starts past it.
+  std::optional<Clock::time_point> deadline;
+  if (options.time_limit_s > 0)
+    deadline = t + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(options.time_limit_s));
+  const auto past_deadline = [&](std::string_view step) -> Status {
+    if (!deadline || Clock::now() < *deadline) return {};
+    return deadline_exceeded(fmt::format("the time limit ran out before the {} was done", step));
+  };
+  TetgenOptions tetgen = options.tetgen;
+  if (deadline) tetgen.time_limit_s = std::min(tetgen.time_limit_s, options.time_limit_s);
+  PDR_ASSIGN_OR_RETURN(VolumeMesh initial, tetrahedralize(surface, tetgen));
   out.seconds_initial = seconds_since(t);
+  PDR_TRY(past_deadline("initial mesh"));
   // The optimizer takes boundary id 0 for "not the surface" (surface_ids.hpp).
   PDR_ASSIGN_OR_RETURN(const SurfaceIdMap ids, SurfaceIdMap::to_engine(initial.boundary_ids));
   t = Clock::now();
   PDR_ASSIGN_OR_RETURN(SizingField sizing, SizingField::build(surface, initial, options.sizing));
   out.seconds_sizing = seconds_since(t);
+  PDR_TRY(past_deadline("sizing"));
   t = Clock::now();
   PDR_ASSIGN_OR_RETURN(TetMesh mesh, TetMesh::from_volume_mesh(initial));
   initial = VolumeMesh{};
-  PDR_ASSIGN_OR_RETURN(out.refine, refine(mesh, sizing, options.refine, progress));
+  RefineOptions refine_options = options.refine;
+  if (deadline) refine_options.deadline = deadline;
+  PDR_ASSIGN_OR_RETURN(out.refine, refine(mesh, sizing, refine_options, progress));
   out.seconds_refine = seconds_since(t);
+  if (out.refine.stopped_at_deadline) PDR_TRY(past_deadline("refinement"));
   if (options.optimize) {
+    PDR_TRY(past_deadline("refinement"));
     t = Clock::now();
     PDR_ASSIGN_OR_RETURN(out.optimize, pdrmesh::optimize(mesh, &sizing, *options.optimize));
     out.seconds_optimize = seconds_since(t);

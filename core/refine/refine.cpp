@@ -156,7 +156,14 @@ class Refiner {
       // A tet none of whose candidates went in, and that no insertion or flip
       // has replaced meanwhile, is retired (inactive) until an operation
       // touches it again: its candidates would fail the same way next pass.
+      std::size_t groups = 0;
       for (std::size_t i = 0; i < candidates_.size();) {
+        // Past the deadline the pass stops too (checked every 1024 tets' candidates):
+        // the mesh stays valid, and a caller that set one fails the run anyway.
+        if (o_.deadline && (++groups & 1023) == 0 && Clock::now() >= *o_.deadline) {
+          stats.stopped_at_deadline = true;
+          break;
+        }
         const Candidate& first = candidates_[i];
         bool any = false;
         std::size_t j = i;
@@ -176,6 +183,10 @@ class Refiner {
       stats.points_added += ps.inserted;
       stats.passes.push_back(ps);
       if (progress) progress(ps);
+      if (stats.stopped_at_deadline || (o_.deadline && Clock::now() >= *o_.deadline)) {
+        stats.stopped_at_deadline = true;
+        break;
+      }
       if (ps.inserted == 0) {
         if (midpoints) break;
         midpoints = true;

@@ -688,10 +688,30 @@ TEST(SurfaceCheck, JsonAndTextNameDefects) {
   EXPECT_EQ(j["components"][0]["closed"], false);
   const std::string text = format_report(r, "open.mesh");
   EXPECT_NE(text.find("NOT meshable"), std::string::npos);
-  EXPECT_NE(text.find("open edge: edge"), std::string::npos) << text;
+  EXPECT_NE(text.find("NOT meshable: 1 hole (3 open edges)"), std::string::npos) << text;
+  EXPECT_NE(text.find("hole 1 (3 open edges): edge"), std::string::npos) << text;
+  EXPECT_EQ(j["hole_count"], 1);
+  EXPECT_EQ(j["holes"][0]["open_edges"], 3);
   const Status st = require_meshable(r, "open.mesh");
-  EXPECT_NE(st.message().find("3 defects"), std::string::npos) << st.message();
+  EXPECT_NE(st.message().find("1 hole (3 open edges)"), std::string::npos) << st.message();
   EXPECT_NE(st.message().find("triangle"), std::string::npos) << st.message();
+}
+
+TEST(SurfaceCheck, OpenEdgesAreGroupedIntoHoles) {
+  // Three boxes apart, each with one triangle missing: three holes of three open edges.
+  SurfaceMesh s;
+  for (int k = 0; k < 3; ++k) {
+    add_box(s, {3.0 * k, 0, 0}, {3.0 * k + 1, 1, 1});
+    s.triangles.pop_back();
+  }
+  const SurfaceReport r = check_surface(s);
+  EXPECT_EQ(r.count(DefectKind::kOpenEdge), 9u);
+  EXPECT_EQ(r.hole_count, 3u);
+  ASSERT_EQ(r.holes.size(), 3u);
+  for (const HoleReport& h : r.holes) EXPECT_EQ(h.open_edges, 3u);
+  const std::string text = format_report(r, "three.off");
+  EXPECT_NE(text.find("NOT meshable: 3 holes (9 open edges)"), std::string::npos) << text;
+  EXPECT_NE(text.find("hole 3 (3 open edges): edge"), std::string::npos) << text;
 }
 
 TEST(SurfaceCheck, EmptySurfaceDoesNotCrash) {

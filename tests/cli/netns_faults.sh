@@ -94,18 +94,18 @@ wait_for registered w1 w2 w3
 "$pdrmesh" run -q "$surface" "${options[@]}" -o "$tmp/run.meshb"
 
 jobs=()
-submit() { client submit "$surface" "${options[@]}" --output json | json_field id; }
+submit() { client submit "$surface" "${options[@]}" --json | json_field id; }
 json_field() {
   python3 -c 'import json,sys
 v=json.load(sys.stdin)
 for k in sys.argv[1].split("."): v=v[k]
 print(v)' "$1"
 }
-leaves_done() { [[ $(client status "$1" --output json | json_field leaves_done) -ge $2 ]]; }
+leaves_done() { [[ $(client status "$1" --json | json_field leaves_done) -ge $2 ]]; }
 finish() {  # finish ID: waits for the job; it must succeed with the bytes of pdrmesh run
   client watch "$1" > /dev/null 2>&1 || true
-  client status "$1" --output json > "$tmp/status.json"
-  [[ $(json_field state < "$tmp/status.json") == JOB_STATE_SUCCEEDED ]] || { cat "$tmp/status.json"; tail -40 "$tmp/coordinator.err"; exit 1; }
+  client status "$1" --json > "$tmp/status.json"
+  [[ $(json_field state < "$tmp/status.json") == succeeded ]] || { cat "$tmp/status.json"; tail -40 "$tmp/coordinator.err"; exit 1; }
   client fetch "$1" -o "$tmp/$1.meshb" > /dev/null
   cmp "$tmp/$1.meshb" "$tmp/run.meshb"
   jobs+=("$1")

@@ -2,7 +2,7 @@
 # The service end to end with real processes on loopback (a coordinator, no
 # workers: leaves run in its process): `pdrmesh submit --wait -o` gives the same
 # bytes as `pdrmesh run` with the same options; every format fetched validates
-# against the surface; --output json parses; the client config file, the
+# against the surface; --json parses; the client config file, the
 # environment and flags in their order of precedence; delete; exit codes.
 # Usage: service.sh PDRMESH COORDINATOR SURFACE [MESH OPTIONS...]
 set -euo pipefail
@@ -22,22 +22,22 @@ echo tok-alice > "$tmp/alice.token"
 printf '{"token_file": "%s", "timeout_s": 60}\n' "$tmp/alice.token" > "$tmp/client.json"
 export PDRMESH_CONFIG=$tmp/client.json
 
-"$pdrmesh" submit "$surface" "${options[@]}" --wait -o "$tmp/job.meshb" --output json > "$tmp/submit.json"
-[[ $(json_field state < "$tmp/submit.json") == JOB_STATE_SUCCEEDED ]]
+"$pdrmesh" submit "$surface" "${options[@]}" --wait -o "$tmp/job.meshb" --json > "$tmp/submit.json"
+[[ $(json_field state < "$tmp/submit.json") == succeeded ]]
 id=$(json_field id < "$tmp/submit.json")
 "$pdrmesh" run -q "$surface" "${options[@]}" -o "$tmp/run.meshb"
 cmp "$tmp/job.meshb" "$tmp/run.meshb"
 echo "ok: job $id is byte-identical to pdrmesh run ${options[*]}"
 
 for suffix in vtu mesh ugrid lb8.ugrid b8.ugrid msh su2; do
-  "$pdrmesh" fetch "$id" -o "$tmp/job.$suffix" --output json > "$tmp/fetch.json"
+  "$pdrmesh" fetch "$id" -o "$tmp/job.$suffix" --json > "$tmp/fetch.json"
   [[ $(json_field bytes < "$tmp/fetch.json") == $(stat -c %s "$tmp/job.$suffix") ]]
   "$pdrmesh" validate "$tmp/job.$suffix" --surface "$surface" > /dev/null
 done
 echo "ok: every format fetched validates against the surface"
 
-"$pdrmesh" status "$id" --output json | json_field leaves_total > /dev/null
-"$pdrmesh" list --output json | python3 -c 'import json,sys; j=json.load(sys.stdin); assert len(j["jobs"])==1, j'
+"$pdrmesh" status "$id" --json | json_field leaves_total > /dev/null
+"$pdrmesh" list --json | python3 -c 'import json,sys; j=json.load(sys.stdin); assert len(j["jobs"])==1, j'
 
 # Precedence: a flag beats the environment, which beats the config file.
 expect_exit 77 "$pdrmesh" list --token tok-wrong
@@ -48,7 +48,7 @@ expect_exit 0 "$pdrmesh" list --config "$tmp/other.json"        # PDRMESH_SERVER
 (unset PDRMESH_SERVER; expect_exit 69 "$pdrmesh" list --config "$tmp/other.json")  # nothing listens there
 (unset PDRMESH_SERVER PDRMESH_CONFIG; expect_exit 64 "$pdrmesh" list)             # no server anywhere
 expect_exit 64 "$pdrmesh" list --config "$tmp/missing.json"
-expect_exit 77 "$pdrmesh" list --output json --token tok-wrong
+expect_exit 77 "$pdrmesh" list --json --token tok-wrong
 [[ $(json_field error.code < "$tmp/out") == UNAUTHENTICATED ]]
 
 # Another user's job is not found; a broken surface is bad input.
@@ -56,7 +56,7 @@ expect_exit 66 "$pdrmesh" status "$id" --token tok-bob
 printf 'solid x\nendsolid x\n' > "$tmp/empty.stl"
 expect_exit 65 "$pdrmesh" submit "$tmp/empty.stl"
 
-"$pdrmesh" delete "$id" --output json | json_field id > /dev/null
+"$pdrmesh" delete "$id" --json | json_field id > /dev/null
 expect_exit 66 "$pdrmesh" status "$id"
 [[ ! -e $tmp/data/jobs/$id ]]
 echo "ok: json output, config precedence, exit codes, delete"

@@ -12,7 +12,7 @@ printf 'alice tok-alice\n' > "$tmp/tokens"
 start_coordinator "$tmp/data" --leaf-threads 1
 
 # A finished job first (initial mesh alone: quick).
-done_id=$("$pdrmesh" submit "$surface" --max-volume 1e9 -o "$tmp/before.meshb" --output json 2> /dev/null | json_field id)
+done_id=$("$pdrmesh" submit "$surface" --max-volume 1e9 -o "$tmp/before.meshb" --json 2> /dev/null | json_field id)
 
 id=$("$pdrmesh" submit "$surface" "${options[@]}")
 # Kill it once the job has stored the checkpoint of its first round.

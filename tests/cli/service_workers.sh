@@ -48,8 +48,8 @@ registered() {  # registered NAME...: each has registered with the coordinator
 start_worker w1
 start_worker w2
 wait_for registered w1 w2
-"$pdrmesh" submit "$surface" "${options[@]}" --wait -o "$tmp/job.meshb" --output json > "$tmp/submit.json"
-[[ $(json_field state < "$tmp/submit.json") == JOB_STATE_SUCCEEDED ]]
+"$pdrmesh" submit "$surface" "${options[@]}" --wait -o "$tmp/job.meshb" --json > "$tmp/submit.json"
+[[ $(json_field state < "$tmp/submit.json") == succeeded ]]
 id=$(json_field id < "$tmp/submit.json")
 cmp "$tmp/job.meshb" "$tmp/run.meshb"
 echo "ok: job $id, refined by 2 workers, is byte-identical to pdrmesh run ${options[*]}"
@@ -76,15 +76,15 @@ start_worker w4 PDRMESH_WORKER_TEST_LEAF_DELAY_MS=150
 start_worker w5 PDRMESH_WORKER_TEST_LEAF_DELAY_MS=150
 w3=${worker_pids[0]} w4=${worker_pids[1]}
 wait_for registered w3 w4 w5
-"$pdrmesh" submit "$surface" "${options[@]}" --output json > "$tmp/submit2.json"
+"$pdrmesh" submit "$surface" "${options[@]}" --json > "$tmp/submit2.json"
 id2=$(json_field id < "$tmp/submit2.json")
-leaves_done() { [[ $("$pdrmesh" status "$1" --output json | json_field leaves_done) -ge 2 ]]; }  # JOB_ID
+leaves_done() { [[ $("$pdrmesh" status "$1" --json | json_field leaves_done) -ge 2 ]]; }  # JOB_ID
 wait_for leaves_done "$id2"
 kill -9 "$w3"
 kill -STOP "$w4"
 "$pdrmesh" watch "$id2" > /dev/null 2>&1 || true
-"$pdrmesh" status "$id2" --output json > "$tmp/status2.json"
-[[ $(json_field state < "$tmp/status2.json") == JOB_STATE_SUCCEEDED ]] || { cat "$tmp/status2.json"; exit 1; }
+"$pdrmesh" status "$id2" --json > "$tmp/status2.json"
+[[ $(json_field state < "$tmp/status2.json") == succeeded ]] || { cat "$tmp/status2.json"; exit 1; }
 "$pdrmesh" fetch "$id2" -o "$tmp/job2.meshb" > /dev/null
 cmp "$tmp/job2.meshb" "$tmp/run.meshb"
 kill -CONT "$w4"
@@ -106,7 +106,7 @@ coord_log_level=info start_coordinator "$tmp/data3" --worker-listen 127.0.0.1:0 
 registry=$(sed -n 's/^workers on //p' "$tmp/coordinator.out")
 start_worker w6 PDRMESH_WORKER_TEST_LEAF_DELAY_MS=150
 wait_for registered w6
-"$pdrmesh" submit "$surface" "${options[@]}" --output json > "$tmp/submit3.json"
+"$pdrmesh" submit "$surface" "${options[@]}" --json > "$tmp/submit3.json"
 id3=$(json_field id < "$tmp/submit3.json")
 wait_for leaves_done "$id3"
 start_worker w7 PDRMESH_WORKER_TEST_LEAF_DELAY_MS=150

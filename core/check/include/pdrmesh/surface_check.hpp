@@ -69,6 +69,13 @@ struct ComponentReport {
   Index first_triangle = kNoIndex;  ///< lowest triangle index in the component
 };
 
+/// A hole: open edges connected through their shared points (one boundary
+/// loop, or several loops that touch at a point).
+struct HoleReport {
+  std::size_t open_edges = 0;
+  Defect first;  ///< its first open edge (lowest point pair), described as an open-edge defect
+};
+
 struct SurfaceReport {
   Index points = 0;
   Index triangles = 0;
@@ -77,6 +84,10 @@ struct SurfaceReport {
   std::vector<Defect> defects;
   /// Uncapped number of defects per kind, indexed by DefectKind.
   std::array<std::size_t, kDefectKinds> defect_counts{};
+  /// The open edges grouped into holes (all of them counted, the first
+  /// max_defects_per_kind kept), ordered by their first edge.
+  std::vector<HoleReport> holes;
+  std::size_t hole_count = 0;
 
   std::size_t total_defects() const;
   std::size_t count(DefectKind kind) const { return defect_counts[static_cast<std::size_t>(kind)]; }

@@ -27,6 +27,10 @@ struct SerialOptions {
   TetgenOptions tetgen;
   /// The final optimization after refinement; unset: none.
   std::optional<OptimizeOptions> optimize = OptimizeOptions{};
+  /// Seconds the whole of mesh_serial may take; 0: no limit. TetGen gets what
+  /// is left (at most tetgen.time_limit_s), refinement stops soon after it
+  /// (RefineOptions::deadline), and no step starts past it: deadline_exceeded.
+  double time_limit_s = 0;
 };
 
 struct SerialResult {

@@ -63,6 +63,9 @@
 // unordered container is iterated and no timing enters a decision.
 #pragma once
 
+#include <chrono>
+#include <optional>
+
 #include <cstddef>
 #include <functional>
 #include <limits>
@@ -137,6 +140,10 @@ struct RefineOptions {
   /// mesh's arrays stay in cache, so renumbering it saves nothing and only
   /// changes it.
   Index spatial_order_min_tets = 65536;
+  /// Set: refinement stops soon after this time, within the pass (every 1024
+  /// tets' candidates) or between passes; RefineStats::stopped_at_deadline is then
+  /// true and the mesh valid, only not refined to the end.
+  std::optional<std::chrono::steady_clock::time_point> deadline;
 };
 
 /// Checks the options (positive, finite distances and limits).
@@ -156,6 +163,7 @@ struct RefineStats {
   std::vector<RefinePassStats> passes;
   std::size_t points_added = 0;
   double seconds = 0;
+  bool stopped_at_deadline = false;  ///< RefineOptions::deadline passed before the last pass
 };
 
 using RefineProgress = std::function<void(const RefinePassStats&)>;  // may be empty
