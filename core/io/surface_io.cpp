@@ -221,7 +221,10 @@ Result<SurfaceMesh> parse_surface(std::string_view bytes, SurfaceFormat format,
 Result<SurfaceMesh> read_surface(const std::filesystem::path& path) {
   PDR_ASSIGN_OR_RETURN(const SurfaceFormat format, surface_format_from_path(path));
   PDR_ASSIGN_OR_RETURN(const std::string bytes, read_file(path));
-  return parse_surface(bytes, format, path.string());  // errors name the path as given
+  // Errors name the path as given; the surface is named by its file name.
+  PDR_ASSIGN_OR_RETURN(SurfaceMesh surface, parse_surface(bytes, format, path.string()));
+  surface.name = path.filename().string();
+  return surface;
 }
 
 Result<std::string> format_surface(const SurfaceMesh& surface, SurfaceFormat format) {
