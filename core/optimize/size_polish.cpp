@@ -1,0 +1,254 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// Size polish: edges off the surface brought back within [kShortEdge, kLongEdge] h by
+// flips, splits and point moves, each taken only where no new tet leaves its angle
+// bounds and no edge is pushed out of the band.
+#include "optimizer.hpp"
+
+namespace pdrmesh::optimize_detail {
+
+/// Size polish (optimize.hpp, 9.): up to kSizeRounds rounds, while one
+/// changes something; in each, of the edges between two points off the
+/// surface, one of them moved or inserted by the optimization (touched),
+/// that are out of [kShortEdge, kLongEdge] times the mean h of their ends
+/// (h at the points, measured once each), the long ones are removed
+/// (size_flips) or split (size_splits) where that holds, then the free
+/// points of all of them and the new points, ascending, are moved by
+/// size_point. Returns the moves.
+std::size_t Optimizer::polish_sizes() {
+  const auto touched = [this](Index v) { return v >= first_new_point_ || (v < moved_.size() && moved_[v] != 0); };
+  std::vector<double> h(m_.num_points(), -1.0);
+  const auto h_at = [&](Index v) {
+    if (h[v] < 0.0) h[v] = sizing_->at(m_.point(v));
+    return h[v];
+  };
+  std::size_t moved = 0;
+  mesh_angles_ = angles();
+  size_limits_ = {std::max(kRelaxedCapAngles[0], mesh_angles_.min),
+                  std::min(kRelaxedCapAngles[1], mesh_angles_.max)};
+  for (int round = 0; round < kSizeRounds; ++round) {
+    find_fixed();  // also sized for the points the last round's splits added
+    h.resize(m_.num_points(), -1.0);
+    const Index np = m_.num_points();
+    // The tets with an edge to check: those of the touched points off the
+    // surface (free points, whose stars the walks find whole), in slot order.
+    std::vector<Index> tets;
+    for (Index v : moved_list_)
+      if (surface_[v] == 0) star_tets(v, tets);
+    for (Index v = first_new_point_; v < np; ++v)
+      if (surface_[v] == 0) star_tets(v, tets);
+    std::sort(tets.begin(), tets.end());
+    tets.erase(std::unique(tets.begin(), tets.end()), tets.end());
+    std::vector<Index> wanted;
+    long_edges_.clear();
+    for (Index t : tets) {
+      const Tet& k = m_.tet(t);
+      for (int e = 0; e < 6; ++e) {
+        const Index a = k[topo::kEdgeVertex[e][0]], b = k[topo::kEdgeVertex[e][1]];
+        if (surface_[a] != 0 || surface_[b] != 0 || !(touched(a) || touched(b))) continue;
+        const Vec3 d = m_.point(a) - m_.point(b);
+        const double mean = 0.5 * (h_at(a) + h_at(b)), l2 = dot(d, d);
+        if (l2 > kLongEdge * kLongEdge * mean * mean) long_edges_.push_back({std::min(a, b), std::max(a, b), t, e});
+        if (l2 < kShortEdge * kShortEdge * mean * mean || l2 > kLongEdge * kLongEdge * mean * mean) {
+          wanted.push_back(a);
+          wanted.push_back(b);
+        }
+      }
+    }
+    std::sort(long_edges_.begin(), long_edges_.end());  // each edge once, from its first tet
+    long_edges_.erase(std::unique(long_edges_.begin(), long_edges_.end(),
+                                  [](const LongEdge& x, const LongEdge& y) { return x.a == y.a && x.b == y.b; }),
+                      long_edges_.end());
+    const std::size_t flipped = o_.reconnect ? size_flips() : 0;
+    st_.flips += flipped;
+    st_.size_flips += flipped;
+    const std::size_t split = o_.insert_points ? size_splits() : 0;
+    st_.points_inserted += split;
+    st_.size_splits += split;
+    find_fixed();
+    for (Index v = np; v < m_.num_points(); ++v) wanted.push_back(v);  // new: their edges may be out of the band
+    std::sort(wanted.begin(), wanted.end());
+    wanted.erase(std::unique(wanted.begin(), wanted.end()), wanted.end());
+    std::size_t now = 0;
+    for (Index v : wanted)
+      if (fixed_[v] == 0 && size_point(v, first_tet(v))) ++now;
+    moved += now;
+    if (now + flipped + split == 0) break;
+  }
+  st_.points_moved += moved;
+  st_.size_moves += moved;
+  return moved;
+}
+
+/// How far the edges from a point at x to the link points off the surface
+/// (size_edges_) lie out of [kShortEdge, kLongEdge] h, h at their midpoints
+/// when the search began: how many are out, then the sum of the distances
+/// (in units of h) to the band.
+std::pair<std::size_t, double> Optimizer::size_excess(const Vec3& x) const {
+  std::pair<std::size_t, double> out{0, 0.0};
+  for (const SizeEdge& e : size_edges_) {
+    const double r = norm(x - m_.point(e.u)) / e.h;
+    const double excess = std::max(r - kLongEdge, 0.0) + std::max(kShortEdge - r, 0.0);
+    if (excess > 0.0) ++out.first;
+    out.second += excess;
+  }
+  return out;
+}
+
+/// Whether the long edge le is still where polish_sizes found it (its tet
+/// alive and holding it: the slot may hold another tet now) and has a
+/// removable ring (flips.hpp), then in r.
+bool Optimizer::ring_of(const LongEdge& le, EdgeRing& r) const {
+  if (!m_.alive(le.t)) return false;
+  const Tet& k = m_.tet(le.t);
+  const Index u = k[topo::kEdgeVertex[le.e][0]], w = k[topo::kEdgeVertex[le.e][1]];
+  if (std::min(u, w) != le.a || std::max(u, w) != le.b) return false;
+  return removable_edge_ring(m_, le.t, le.e, 0, r) == FlipOutcome::kDone;
+}
+
+/// The angles a new tet of the size flips and splits must lie within: the
+/// targets, or size_limits_ for a tet with a surface point with the room.
+AngleRange Optimizer::size_bounds(const Tet& t) const {
+  if (o_.surface_room && repair_class(t) == 1) return size_limits_;
+  return {o_.target_min_dihedral, o_.target_max_dihedral};
+}
+
+/// Size flips (before each round's moves): each long edge of long_edges_
+/// (in the order of its ends, from the first tet in slot order that held it
+/// when the round began, if that tet still does) is removed where a triangulation of its
+/// ring exists whose new tets are positive (exact), those with no surface
+/// point within the targets and those with one within size_limits_, and
+/// whose new edges are all shorter than the removed one and, between two
+/// points off the surface, within [kShortEdge, kLongEdge] h at their
+/// midpoint: one edge fewer out of the band, none added. The triangulation
+/// with the best smallest measure wins. Returns the flips.
+std::size_t Optimizer::size_flips() {
+  std::size_t flips = 0;
+  for (const LongEdge& le : long_edges_) {
+    EdgeRing r;
+    if (!ring_of(le, r)) continue;
+    const Vec3 d = m_.point(r.a) - m_.point(r.b);
+    const double removed2 = dot(d, d);
+    const int n = r.size;
+    // A diagonal (ring[i], ring[j]) that is not a side of the ring polygon is a new edge.
+    const auto refused = [&](int i, int j) {
+      if (j - i < 2 || (i == 0 && j == n - 1)) return false;
+      const Vec3 &x = m_.point(r.ring[i]), &y = m_.point(r.ring[j]);
+      const double l2 = dot(x - y, x - y);
+      if (l2 >= removed2) return true;
+      if (!off_surface(r.ring[i]) || !off_surface(r.ring[j])) return false;
+      const double h = sizing_->at(0.5 * (x + y));
+      return l2 < kShortEdge * kShortEdge * h * h || l2 > kLongEdge * kLongEdge * h * h;
+    };
+    const auto quality = [&](const Tet& t) {
+      const double q = measured(t);
+      if (q == -kInfinity) return q;
+      const auto p = corners(m_, t);
+      return within(dihedral_range(p[0], p[1], p[2], p[3]), size_bounds(t)) ? q : -kInfinity;
+    };
+    RingTriangulation best;
+    const auto excluded = [&](int i, int m, int j) { return refused(i, m) || refused(m, j) || refused(i, j); };
+    if (!best_ring_triangulation(r, -kInfinity, quality, excluded, best)) continue;
+    fresh_.assign(best.tets.begin(), best.tets.begin() + best.count);
+    parent_.assign(fresh_.size(), 0);
+    m_.replace_cavity(std::span<const Index>(r.tets.data(), static_cast<std::size_t>(n)), fresh_, parent_);
+    forget_created();
+    ++flips;
+  }
+  return flips;
+}
+
+/// Size splits (after the size flips): each long edge of long_edges_ still
+/// in the mesh gets a new point x on it, its ring's tets each split in two
+/// (a and b in turn replaced by x), where every new tet is positive (exact)
+/// and within the bounds of size_flips, and at most one new edge to a point
+/// off the surface lies out of [kShortEdge, kLongEdge] h (x moves next, with
+/// the polish's moves). x is tried at kSplitAt along the edge, the first
+/// that holds taken. Returns the points added.
+std::size_t Optimizer::size_splits() {
+  std::size_t splits = 0;
+  for (const LongEdge& le : long_edges_) {
+    EdgeRing r;
+    if (!ring_of(le, r)) continue;
+    // Whether the new tets of a split at x hold (fresh_ gets them, with
+    // kNoIndex for the new point).
+    const auto holds = [&](const Vec3& x) {
+      const auto out_of_band = [&](Index v) {
+        if (!off_surface(v)) return 0;
+        const Vec3& y = m_.point(v);
+        const double l = norm(x - y), hm = sizing_->at(0.5 * (x + y));
+        return l < kShortEdge * hm || l > kLongEdge * hm ? 1 : 0;
+      };
+      int out = out_of_band(r.a) + out_of_band(r.b);
+      for (int i = 0; i < r.size; ++i) out += out_of_band(r.ring[i]);
+      if (out > 1) return false;
+      fresh_.clear();
+      for (int i = 0; i < r.size; ++i) {
+        const Tet& t = m_.tet(r.tets[i]);
+        const AngleRange bounds = size_bounds(t);  // the two halves hold t's points
+        for (const Index replaced : {r.a, r.b}) {
+          Tet n = t;
+          std::array<Vec3, 4> p = corners(m_, t);
+          for (int j = 0; j < 4; ++j)
+            if (n[j] == replaced) {
+              p[j] = x;
+              n[j] = kNoIndex;
+            }
+          if (exact::orient3d(p[0], p[1], p[2], p[3]) <= 0 || !within(dihedral_range(p[0], p[1], p[2], p[3]), bounds))
+            return false;
+          fresh_.push_back(n);
+        }
+      }
+      return true;
+    };
+    const Vec3 &pa = m_.point(r.a), &pb = m_.point(r.b);
+    bool found = false;
+    Vec3 x{};
+    for (std::size_t c = 0; c < kSplitAt.size() && !found; ++c) {
+      x = pa + kSplitAt[c] * (pb - pa);
+      found = holds(x);
+    }
+    if (!found) continue;
+    replace_with_point(std::span<const Index>(r.tets.data(), static_cast<std::size_t>(r.size)), x);
+    ++splits;
+  }
+  return splits;
+}
+
+/// Size polish of v (polish_sizes): a compass search for the position
+/// that lowers size_excess (fewer edges out of the band, then less far out),
+/// every tet of the star positive (exact); one with no surface point within
+/// the targets or, where it was outside, no worse on either side than it
+/// was; one with a surface point within surface_bounds(its old angles,
+/// size_limits_). True when v moved.
+bool Optimizer::size_point(Index v, Index start) {
+  gather_link(v, start);
+  gather_link_points();
+  const Vec3 old = m_.point(v);
+  size_edges_.clear();
+  for (Index u : link_points_)
+    if (u >= surface_.size() || surface_[u] == 0)
+      size_edges_.push_back({u, sizing_->at(0.5 * (old + m_.point(u)))});
+  std::pair<std::size_t, double> best = size_excess(old);
+  if (best.first == 0) return false;
+  polish_bounds_.clear();
+  for (const Tri& f : link_) {
+    const AngleRange r = dihedral_range(m_.point(f[0]), m_.point(f[1]), m_.point(f[2]), old);
+    const bool room = o_.surface_room && on_surface(f);
+    polish_bounds_.push_back(room ? surface_bounds(r, size_limits_) : target_bounds(r));
+  }
+  const Vec3 to = compass_search(old, [&](const Vec3& y) {
+    const std::pair<std::size_t, double> excess = size_excess(y);
+    if (!(excess < best)) return false;
+    for (std::size_t i = 0; i < link_.size(); ++i) {
+      const Vec3 &a = m_.point(link_[i][0]), &b = m_.point(link_[i][1]), &c = m_.point(link_[i][2]);
+      if (exact::orient3d(a, b, c, y) <= 0 || !within(dihedral_range(a, b, c, y), polish_bounds_[i])) return false;
+    }
+    best = excess;
+    return true;
+  });
+  if (to == old) return false;
+  move_point(v, to);
+  return true;
+}
+
+}  // namespace pdrmesh::optimize_detail

@@ -1,0 +1,312 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// The optimizer's bookkeeping: the bad-tet list and the angle range kept current at
+// the cost of the changes, star walks, the created/touched tets of each operation, and
+// the fixed and surface points. Nothing here changes the mesh but move_point.
+#include "optimizer.hpp"
+
+namespace pdrmesh::optimize_detail {
+
+/// The badness of the alive tet t, through known_ (see there).
+Badness Optimizer::badness(Index t) const {
+  if (t >= known_.size()) known_.resize(m_.num_slots(), 0);  // never inside bad_flags' parallel scan
+  unsigned char& k = known_[t];
+  if (k == 0) k = static_cast<unsigned char>(1 + static_cast<int>(compute_badness(t)));
+  return static_cast<Badness>(k - 1);
+}
+
+Badness Optimizer::compute_badness(Index t) const {
+  const auto p = corners(m_, m_.tet(t));
+  const AngleRange r = dihedral_range(p[0], p[1], p[2], p[3]);
+  const bool small = r.min < o_.target_min_dihedral, large = r.max > o_.target_max_dihedral;
+  if (small && large) return Badness::kSliver;
+  return small || large ? Badness::kBad : Badness::kGood;
+}
+
+/// Per slot: 1 for a live bad tet (computed in parallel).
+std::vector<unsigned char> Optimizer::bad_flags() const {
+  if (known_.size() < m_.num_slots()) known_.resize(m_.num_slots(), 0);
+  std::vector<unsigned char> is_bad(m_.num_slots(), 0);
+  const auto scan = [&](const tbb::blocked_range<Index>& r) {
+    for (Index t = r.begin(); t < r.end(); ++t) is_bad[t] = m_.alive(t) && badness(t) != Badness::kGood ? 1 : 0;
+  };
+  const tbb::blocked_range<Index> all(0, m_.num_slots(), 4096);
+  if (m_.num_slots() < kParallelTets) {
+    scan(all);  // a leaf task's mesh: its worker thread is already one of the run's threads
+  } else {
+    tbb::parallel_for(all, scan);
+  }
+  return is_bad;
+}
+
+/// Bad live tets in slot order. The first call scans every slot (in
+/// parallel; the list does not depend on the thread count); later calls
+/// take the last list and the slots touched since (touch), as no other tet
+/// changed: the same list for the cost of the changes.
+const std::vector<Index>& Optimizer::bad_tets() {
+  if (!bad_known_) {
+    const std::vector<unsigned char> is_bad = bad_flags();
+    bad_.clear();
+    for (Index t = 0; t < m_.num_slots(); ++t)
+      if (is_bad[t] != 0) bad_.push_back(t);
+    bad_known_ = true;
+    touched_.clear();
+    return bad_;
+  }
+  if (touched_.empty()) return bad_;
+  std::sort(touched_.begin(), touched_.end());
+  touched_.erase(std::unique(touched_.begin(), touched_.end()), touched_.end());
+  std::vector<Index> merged;
+  merged.reserve(bad_.size() + touched_.size());
+  std::set_union(bad_.begin(), bad_.end(), touched_.begin(), touched_.end(), std::back_inserter(merged));
+  touched_.clear();
+  bad_.clear();
+  for (Index t : merged)
+    if (m_.alive(t) && badness(t) != Badness::kGood) bad_.push_back(t);
+  return bad_;
+}
+
+/// The mesh's extreme dihedral angles now (range_, built on first use).
+AngleRange Optimizer::angles() {
+  if (!range_built_) {
+    range_.build(m_);
+    range_built_ = true;
+  }
+  return range_.range(m_);
+}
+
+/// Any live tet holding point v, or kNoIndex for a point in none: any_tet_,
+/// one scan of the mesh on first use, then kept by forget_created.
+Index Optimizer::any_tet(Index v) {
+  if (!any_known_) {
+    any_known_ = true;
+    any_tet_.assign(m_.num_points(), kNoIndex);
+    for (Index t = 0; t < m_.num_slots(); ++t)
+      if (m_.alive(t))
+        for (Index u : m_.tet(t)) any_tet_[u] = t;
+  }
+  if (v >= any_tet_.size()) return kNoIndex;
+  const Index t = any_tet_[v];
+  if (t == kNoIndex || !m_.alive(t)) return kNoIndex;  // a removed point
+  for (Index u : m_.tet(t))
+    if (u == v) return t;
+  return kNoIndex;
+}
+
+/// The live tets holding point v, by a walk across the faces through v (for
+/// a free point, which lies on no kept face, all of them), appended to out.
+void Optimizer::star_tets(Index v, std::vector<Index>& out) {
+  const Index start = any_tet(v);
+  if (start == kNoIndex) return;
+  const std::size_t first = out.size();
+  out.push_back(start);
+  for (std::size_t i = first; i < out.size(); ++i) {
+    const Index t = out[i];
+    const int lv = topo::local_vertex(m_.tet(t), v);
+    for (int f = 0; f < 4; ++f) {
+      if (f == lv) continue;
+      const Index n = m_.neighbour(t, f);
+      if (n == kNoIndex) continue;
+      const Index u = face_tet(n);
+      if (std::find(out.begin() + static_cast<std::ptrdiff_t>(first), out.end(), u) == out.end()) out.push_back(u);
+    }
+  }
+}
+
+/// The first live tet of free point v in slot order (where its star walks
+/// start: smooth, polish_angles, polish_margins, polish_sizes).
+Index Optimizer::first_tet(Index v) {
+  walk_.clear();
+  star_tets(v, walk_);
+  return walk_.empty() ? kNoIndex : *std::min_element(walk_.begin(), walk_.end());
+}
+
+/// Marks in fixed_ the points on a frozen, hull or region face, and in
+/// surface_ those on a boundary triangle that is not a leaf's interface
+/// (TetMesh::boundary() with a non-zero id, or any when there are no ids).
+void Optimizer::find_fixed() {
+  // No operation of the optimizer changes which points are fixed (flips and
+  // insertions refuse frozen, hull and region faces; a new point is free),
+  // so the marks are found once and only grow with the points after that.
+  if (fixed_known_) {
+    fixed_.resize(m_.num_points(), 0);
+    surface_.resize(m_.num_points(), 0);
+    return;
+  }
+  fixed_known_ = true;
+  surface_.assign(m_.num_points(), 0);
+  for (std::size_t i = 0; i < m_.boundary().size(); ++i)
+    if (surface_triangle(i))
+      for (Index v : m_.boundary()[i]) surface_[v] = 1;
+  fixed_.assign(m_.num_points(), 0);
+  for (Index t = 0; t < m_.num_slots(); ++t) {
+    if (!m_.alive(t)) continue;
+    const Tet& k = m_.tet(t);
+    for (int f = 0; f < 4; ++f)
+      if (kept_face(t, f))
+        for (int j = 0; j < 3; ++j) fixed_[k[topo::kFaceVertex[f][j]]] = 1;
+  }
+}
+
+/// The tets of `tets` with no fixed point (as the last smooth() found them;
+/// points added since are free).
+std::vector<Index> Optimizer::interior(const std::vector<Index>& tets) const {
+  std::vector<Index> out;
+  for (Index t : tets) {
+    bool free = true;
+    for (Index v : m_.tet(t)) free = free && (v >= fixed_.size() || fixed_[v] == 0);
+    if (free) out.push_back(t);
+  }
+  return out;
+}
+
+/// Restricts smooth() to the vertices of bad tets with no fixed point.
+/// With `pin` (the polishing rounds' polish_pins_fixed), smoothing also pins
+/// the tets with a fixed point (see optimize.hpp).
+void Optimizer::set_interior_only(bool on, bool pin, double pin_floor) {
+  interior_only_ = on;
+  pin_fixed_ = on && pin;
+  pin_floor_ = pin_floor;
+}
+
+void Optimizer::start_sweep() {
+  flips_this_sweep_ = 0;
+  flip_budget_ = static_cast<std::size_t>(o_.max_flips_per_tet * m_.num_tets()) + 1;
+}
+
+bool Optimizer::push_created() {
+  forget_created();
+  for (Index c : m_.last_created()) queue_.push_back(c);
+  return true;
+}
+
+/// Drops the known badness of the tets the last operation created, and
+/// notes them (touch); their points now lie in them (any_tet_).
+void Optimizer::forget_created() {
+  for (Index c : m_.last_created()) {
+    touch(c);
+    if (!any_known_) continue;
+    for (Index v : m_.tet(c)) {
+      if (v >= any_tet_.size()) any_tet_.resize(v + 1, kNoIndex);
+      any_tet_[v] = c;
+    }
+  }
+}
+
+/// Slot t holds a new tet, or one whose points moved: its badness is
+/// unknown, and bad_tets() and angles() look at it again.
+void Optimizer::touch(Index t) {
+  if (t < known_.size()) known_[t] = 0;
+  if (bad_known_) touched_.push_back(t);
+  if (range_built_) range_.touch(t);
+}
+
+/// No vertex of tet t is fixed (fixed_ as find_fixed left it; later points are free).
+bool Optimizer::free_tet(Index t) const {
+  for (Index v : m_.tet(t))
+    if (v < fixed_.size() && fixed_[v] != 0) return false;
+  return true;
+}
+
+/// Whether a point of face f is on the surface (surface_).
+bool Optimizer::on_surface(const Tri& f) const {
+  for (Index v : f)
+    if (v < surface_.size() && surface_[v] != 0) return true;
+  return false;
+}
+
+/// The points of link_, each once and ascending, into link_points_.
+void Optimizer::gather_link_points() {
+  link_points_.clear();
+  for (const Tri& f : link_) link_points_.insert(link_points_.end(), f.begin(), f.end());
+  std::sort(link_points_.begin(), link_points_.end());
+  link_points_.erase(std::unique(link_points_.begin(), link_points_.end()), link_points_.end());
+}
+
+/// The star of v (gather_star from `start`) and its link faces, turned
+/// towards v, into link_ (in star_ order).
+void Optimizer::gather_link(Index v, Index start) {
+  gather_star(v, start);
+  last_failed_ = 0;
+  edge_bounds_.clear();
+  link_.clear();
+  for (const auto& [t, lv] : star_) {
+    const Tri f = topo::face_of(m_.tet(t), lv);  // outward: away from v
+    link_.push_back({f[0], f[2], f[1]});
+  }
+}
+
+/// Moves v to x and forgets what was known of its star's tets.
+void Optimizer::move_point(Index v, const Vec3& x) {
+  m_.set_point(v, x);
+  if (v >= moved_.size()) moved_.resize(v + 1, 0);
+  if (moved_[v] == 0) moved_list_.push_back(v);
+  moved_[v] = 1;
+  for (const auto& s : star_) {
+    m_.invalidate_quality(s.first);
+    touch(s.first);
+  }
+}
+
+/// Whether the angles of r lie within `bounds`.
+bool Optimizer::within(const AngleRange& r, const AngleRange& bounds) {
+  return r.min >= bounds.min && r.max <= bounds.max;
+}
+
+/// Whether boundary triangle i is on the surface, not a leaf's interface: a
+/// non-zero id, or any triangle when there are no ids.
+bool Optimizer::surface_triangle(std::size_t i) const {
+  return m_.boundary_ids().size() != m_.boundary().size() || m_.boundary_ids()[i] != 0;
+}
+
+/// Face f of t stays as it is (its points are fixed; a cap repair keeps it):
+/// a hull face, a frozen face or a face between two regions.
+bool Optimizer::kept_face(Index t, int f) const {
+  const Index n = m_.neighbour(t, f);
+  return n == kNoIndex || m_.frozen(t, f) || m_.region(face_tet(n)) != m_.region(t);
+}
+
+/// The unit normal of t's kept face f, pointing into t, into `n`; false when
+/// the face has no area.
+bool Optimizer::kept_face_normal(Index t, int f, Vec3& n) const {
+  const Tri k = topo::face_of(m_.tet(t), f);
+  const Vec3& a = m_.point(k[0]);
+  const Vec3 c = cross(m_.point(k[2]) - a, m_.point(k[1]) - a);
+  const double ln = norm(c);
+  if (!(ln > 0.0)) return false;
+  n = (1.0 / ln) * c;
+  return true;
+}
+
+/// Smallest and largest dihedral angle of the tets (link_ face, x), or of the
+/// tets `tets` when x is null.
+AngleRange Optimizer::angle_range(const Vec3* x, std::span<const Index> tets) const {
+  AngleRange r{180.0, 0.0};
+  const auto add = [&r](const std::array<Vec3, 4>& p) {
+    const AngleRange a = dihedral_range(p[0], p[1], p[2], p[3]);
+    r.min = std::min(r.min, a.min);
+    r.max = std::max(r.max, a.max);
+  };
+  if (x == nullptr) {
+    for (Index u : tets) add(corners(m_, m_.tet(u)));
+  } else {
+    for (const Tri& f : link_) add({m_.point(f[0]), m_.point(f[1]), m_.point(f[2]), *x});
+  }
+  return r;
+}
+
+/// Whether every point of tet t lies on a surface triangle.
+bool Optimizer::all_on_surface(Index t) const {
+  for (Index v : m_.tet(t))
+    if (v >= surface_.size() || surface_[v] == 0) return false;
+  return true;
+}
+
+/// Whether a point of tet t is free (not in fixed_ as find_fixed left it;
+/// later points are free).
+bool Optimizer::free_point(Index t) const {
+  for (Index v : m_.tet(t))
+    if (v >= fixed_.size() || fixed_[v] == 0) return true;
+  return false;
+}
+
+}  // namespace pdrmesh::optimize_detail
