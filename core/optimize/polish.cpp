@@ -96,7 +96,7 @@ std::size_t Optimizer::polish_margins(double end, bool extremes, int layers) {
 /// link face on_surface) keeps its largest angle within the larger of
 /// kRelaxedCapAngles[1] and the star's old largest; one with none stays
 /// within the targets or no worse than it was on either side (the interior
-/// bound of the refiner issue). True when v moved.
+/// bound). True when v moved.
 bool Optimizer::polish_point(Index v, Index start) {
   gather_link(v, start);
   const Vec3 old = m_.point(v);

@@ -45,7 +45,7 @@ struct QualityReport {
   double share_above_165 = 0;  ///< share of tets with a dihedral angle over 165 degrees
   /// With measure_quality(mesh, true): the tets with no vertex on the hull (a
   /// face that only one tet has) and their dihedral extremes (0 when there
-  /// are none): the refiner issue's interior bound.
+  /// are none): what the interior bound of [15, 150] degrees is measured on.
   bool interior_measured = false;
   std::size_t interior_tets = 0;
   double interior_min_dihedral = 0;

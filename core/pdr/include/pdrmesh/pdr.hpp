@@ -24,8 +24,8 @@
 // (3) a second interface round over the grid shifted by a quarter leaf (where
 // round-1 and round-2 interface planes cross), then, with an optimization
 // kernel, (4) optimization over the first grid and (5) over the half-shifted
-// grid (issue item 6iii: each region is optimized at least once away from a
-// frozen leaf hull), then the optional global `optimize` hook.
+// grid (each region is optimized at least once away from a frozen leaf
+// hull), then the optional global `optimize` hook.
 #pragma once
 
 #include <cstddef>
