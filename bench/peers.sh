@@ -8,7 +8,7 @@
 #                 on a .geo that merges the STL and declares the volume
 # Columns: tets, wall seconds, tets per second, peak memory, min/max dihedral over all tets and over
 # the tets with no boundary vertex (imin/imax), share of tets with an angle under 10 degrees, and
-# pdrmesh's ratios to each peer (tets per second, minimum angle).
+# pdrmesh's ratios to each peer (tets per second, minimum angle); then the same rows as a Markdown table.
 #   bench/peers.sh [SURFACE...]     (default: the small corpus surfaces; needs install-deps.sh --bench)
 #   PEERS_SIZE=diag100 bench/peers.sh ...   pdrmesh at --size = bounding-box diagonal / 100 (the
 #                                           refiner issue's second size; the peers follow its count)
@@ -38,13 +38,16 @@ row() {  # row SURFACE TOOL MESHFILE
   local q="$tmp/$2.q"
   if [[ ! -s $3 ]] || ! "$pdrmesh" quality --json "$3" >"$q" 2>/dev/null || [[ $(field tets "$q") == 0 ]]; then
     printf '%-13s %-8s %10s\n' "$1" "$2" "failed: no tets ($(tail -1 "$tmp/$2.log" | cut -c1-60))"
+    echo "| $1 | $2 | no mesh | | | | | |" >>"$tmp/table.md"
     return 1
   fi
   read -r secs kib <"$tmp/$2.time"
   awk -v s="$1" -v t="$2" -v n="$(field tets "$q")" -v sec="$secs" -v kib="$kib" -v lo="$(field min_dihedral "$q")" \
       -v hi="$(field max_dihedral "$q")" -v ilo="$(field interior_min_dihedral "$q")" \
-      -v ihi="$(field interior_max_dihedral "$q")" -v u="$(field share_below_10 "$q")" \
-      'BEGIN { printf "%-13s %-8s %10d %8.2f %9.0f %8.1f %7.2f %7.2f %7.2f %7.2f %8.3f%%\n", s, t, n, sec, n / sec, kib / 1024, lo, hi, ilo, ihi, 100 * u }'
+      -v ihi="$(field interior_max_dihedral "$q")" -v u="$(field share_below_10 "$q")" -v md="$tmp/table.md" \
+      'BEGIN { printf "%-13s %-8s %10d %8.2f %9.0f %8.1f %7.2f %7.2f %7.2f %7.2f %8.3f%%\n", s, t, n, sec, n / sec, kib / 1024, lo, hi, ilo, ihi, 100 * u
+               inner = (ilo == 0 && ihi == 0) ? "none" : sprintf("%.2f / %.2f", ilo, ihi)
+               printf "| %s | %s | %d | %.2f | %.0f | %.2f / %.2f | %s | %.3f%% |\n", s, t, n, sec, kib / 1024, lo, hi, inner, 100 * u >> md }'
   echo "$(field tets "$q") $secs $(field min_dihedral "$q")" >"$tmp/$2.sum"
 }
 
@@ -91,3 +94,7 @@ for n in "${names[@]}"; do
   done
 done
 echo "pdrmesh: check + TetGen initial mesh + refinement + optimization + validation + write .meshb (one core)"
+echo
+echo "| surface | tool | tets | seconds | peak MB | min / max dihedral | interior min / max | tets under 10 degrees |"
+echo "|---|---|---|---|---|---|---|---|"
+cat "$tmp/table.md" 2>/dev/null
