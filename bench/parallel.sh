@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
-# Serial `pdrmesh mesh` beside the parallel `pdrmesh run` on corpus surfaces (issue 4, item 8):
+# Serial `pdrmesh mesh` beside the parallel `pdrmesh run` on corpus surfaces:
 #  * native kernel with the interface rounds, 1 and 2 workers: tets, parallel/serial tet ratio,
-#    dihedral extremes, share under 10 degrees, wall time, speedup of 2 workers over 1, tets/s,
+#    dihedral extremes, share under 10 degrees, wall time, the speedup of 2 workers over the serial
+#    mesher (serial wall / 2-worker wall), the work ratio (CPU seconds of 1 worker / of the serial
+#    mesher), tets/s,
 #    and the profile shares of the 2-worker run in percent of its whole wall time (initial mesh,
 #    decomposition, fix-ups, leaf refinement, interface rounds, optimization, serial share);
 #  * the same figures (2 workers) for the native kernel without the interface rounds and for the
@@ -9,6 +11,7 @@
 #   bench/parallel.sh [DEPTH] [SURFACE...]     (default: DEPTH "auto", pdrmesh's own default depth per
 #                                               surface; the small corpus surfaces)
 #   VARIANTS="native" bench/parallel.sh ...    (a subset of: native no-iface tetgen)
+# Needs GNU time (scripts/install-deps.sh --bench).
 # Each run also writes its profile JSON; pdrmesh_bench_replay projects it to P workers.
 # Surfaces from $PDRMESH_CORPUS (default bench/corpus: bench/fetch-corpus.sh).
 set -euo pipefail
@@ -23,11 +26,11 @@ names=("$@"); ((${#names[@]})) || names=(sphere966 bunny_npm hinge elephant coup
 tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
 
 field() { sed -n "s/.*\"$1\":\([-0-9.e+]*\).*/\1/p" "$2"; }
-measure() {  # measure OUT_PREFIX command...: wall seconds into $1.s, quality json into $1.q
+measure() {  # measure OUT_PREFIX command...: wall and CPU seconds into $1.s and $1.cpu, quality json into $1.q
   local prefix=$1; shift
-  local t0=$(date +%s.%N)
-  "$@" >/dev/null 2>"$prefix.err" || { echo "failed: $* ($(tail -1 "$prefix.err"))" >&2; return 1; }
-  awk -v a="$t0" -v b="$(date +%s.%N)" 'BEGIN { printf "%.2f", b - a }' >"$prefix.s"
+  /usr/bin/time -f '%e %U %S' -o "$prefix.t" "$@" >/dev/null 2>"$prefix.err" ||
+    { echo "failed: $* ($(tail -1 "$prefix.err"))" >&2; return 1; }
+  awk '{ printf "%.2f", $1 > p ".s"; printf "%.2f", $2 + $3 > p ".cpu" }' p="$prefix" "$prefix.t"
   "$pdrmesh" quality --json "$prefix.meshb" >"$prefix.q"
 }
 share() {  # share JSON PHASE: percentage of the run's whole wall time (read to write)
@@ -43,8 +46,8 @@ quality() {  # quality PREFIX SERIAL_TETS: tets ratio min max under10
 
 echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'); $(date -u +%F); load $(cut -d' ' -f1-3 /proc/loadavg)"
 echo "serial: pdrmesh mesh; parallel: pdrmesh run ${depth_args[*]:-(default depth)} (optimization on); timings are wall seconds on a shared machine"
-printf '%-13s %9s %6s %6s %6s | %-8s %9s %5s %6s %6s %7s %6s %6s %6s %7s | %s\n' surface ser_tets ser_s min max \
-  run tets ratio min max under10 w1_s w2_s spdup tets/s "shares: init decomp fixup leaves iface opt serial"
+printf '%-13s %9s %6s %6s %6s | %-8s %9s %5s %6s %6s %7s %6s %6s %6s %5s %7s | %s\n' surface ser_tets ser_s min max \
+  run tets ratio min max under10 w1_s w2_s vs_ser work tets/s "shares: init decomp fixup leaves iface opt serial"
 for n in "${names[@]}"; do
   s=$corpus/$n.stl
   measure "$tmp/ser" "$pdrmesh" mesh -q "$s" -o "$tmp/ser.meshb" || continue
@@ -56,16 +59,18 @@ for n in "${names[@]}"; do
     [[ $variant == tetgen ]] && args=("${depth_args[@]}" --kernel tetgen)
     measure "$tmp/w2" "$pdrmesh" run -q "$s" -o "$tmp/w2.meshb" "${args[@]}" --workers 2 --profile-json "$tmp/w2.json" ||
       { printf '%s | %-8s failed\n' "$ser" "$variant"; continue; }
-    w1=-; spd=-
+    w1=-; work=-
+    spd=$(awk -v a="$(cat "$tmp/ser.s")" -v b="$(cat "$tmp/w2.s")" 'BEGIN { printf "%.2f", a / b }')
     if [[ $variant == native ]]; then
       measure "$tmp/w1" "$pdrmesh" run -q "$s" -o "$tmp/w1.meshb" "${args[@]}" --workers 1 || continue
       cmp -s "$tmp/w1.meshb" "$tmp/w2.meshb" || echo "WARNING: $n: 1 and 2 workers differ" >&2
-      w1=$(cat "$tmp/w1.s"); spd=$(awk -v a="$w1" -v b="$(cat "$tmp/w2.s")" 'BEGIN { printf "%.2f", a / b }')
+      w1=$(cat "$tmp/w1.s")
+      work=$(awk -v a="$(cat "$tmp/w1.cpu")" -v b="$(cat "$tmp/ser.cpu")" 'BEGIN { printf "%.2f", a / b }')
       cp "$tmp/w2.json" "${PROFILE_DIR:-$tmp}/$n.d$depth.json" 2>/dev/null || true
     fi
     j=$tmp/w2.json
-    printf '%s | %-8s %s %6s %6.2f %6s %7.0f | %s %s %s %s %s %s %s\n' "$ser" "$variant" "$(quality "$tmp/w2" "$st")" \
-      "$w1" "$(cat "$tmp/w2.s")" "$spd" "$(awk -v t="$(field tets "$tmp/w2.q")" -v s="$(cat "$tmp/w2.s")" 'BEGIN { print t / s }')" \
+    printf '%s | %-8s %s %6s %6.2f %6s %5s %7.0f | %s %s %s %s %s %s %s\n' "$ser" "$variant" "$(quality "$tmp/w2" "$st")" \
+      "$w1" "$(cat "$tmp/w2.s")" "$spd" "$work" "$(awk -v t="$(field tets "$tmp/w2.q")" -v s="$(cat "$tmp/w2.s")" 'BEGIN { print t / s }')" \
       "$(share "$j" initial)" "$(share "$j" decomposition)" "$(share "$j" fixups)" "$(share "$j" leaves)" \
       "$(share "$j" interface_round)" "$(share "$j" optimization)" "$(serial_share "$j")"
   done
