@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# How the refinement and the final optimization scale with the mesh (issue 28, item 7): each
+# How the refinement and the final optimization scale with the mesh: each
 # surface at size = bounding-box diagonal / 100, / 200, / 300 through the serial steps of
 # `pdrmesh_bench_refine` (one run at a time: the finest meshes take several GB). Per run: tets,
 # refinement and optimization CPU seconds and microseconds per tet, the bad tets (outside the

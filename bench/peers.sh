@@ -11,7 +11,7 @@
 # pdrmesh's ratios to each peer (tets per second, minimum angle); then the same rows as a Markdown table.
 #   bench/peers.sh [SURFACE...]     (default: the small corpus surfaces; needs install-deps.sh --bench)
 #   PEERS_SIZE=diag100 bench/peers.sh ...   pdrmesh at --size = bounding-box diagonal / 100 (the
-#                                           refiner issue's second size; the peers follow its count)
+#                                           second size of the quality goals; the peers follow its count)
 #   PEERS_TIMEOUT=S                         seconds each run may take (default 1800)
 #   PDRMESH_CORPUS=DIR                      the surfaces (default bench/corpus: bench/fetch-corpus.sh)
 set -uo pipefail

@@ -606,7 +606,7 @@ TEST(Optimize, SizePolishUsesTheSurfaceTetsRoomOnAThinPart) {
     out[run] = std::move(r->mesh);
   }
   EXPECT_GT(share[1], share[0] + 0.1) << share[0] << " -> " << share[1];
-  EXPECT_GE(share[1], 0.9);  // the refiner issue's goal
+  EXPECT_GE(share[1], 0.9);  // the size goal: 90% of interior edges in band
   EXPECT_GT(share[1], share[2]) << share[2] << " without the room";
   EXPECT_GT(expect_size_polish_bounds(out[0], out[1]), 0u);
   EXPECT_EQ(expect_size_polish_bounds(out[0], out[2], false), 0u);
@@ -1011,7 +1011,7 @@ TEST(Optimize, AbsorptionHandsHingesLastInteriorTetsToTheSurface) {
 
 // Next to needle triangles, smoothing judged by angles alone pulled interior
 // points together: 87.8% of couplingdown's interior edges within [0.6, 1.5] h
-// at its midpoint, against the refiner issue's 90%. keep_edge_sizes keeps
+// at its midpoint, against the goal of 90%. keep_edge_sizes keeps
 // them off the short side, without losing the interior's angle bounds. (The
 // size polish also brings the unguarded smoothing's edges
 // back into the band: the guard is compared without it.)
