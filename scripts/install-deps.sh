@@ -18,7 +18,7 @@ packages=(
   curl dpkg-dev xz-utils                      # scripts/tsan-tbb.sh: oneTBB's Debian source, built with TSan
 )
 if [[ "${1:-}" == "--bench" ]]; then
-  packages+=(tetgen gmsh time)
+  packages+=(tetgen gmsh time bc)
 fi
 
 missing=()

@@ -138,39 +138,43 @@ grpc::Status JobServiceImpl::SubmitJob(grpc::ServerContext* context, grpc::Serve
   StreamCounter::Slot slot;
   if (auto s = open_stream(user, slot); !s.ok()) return s;
   const double max_upload_s = manager_.config().limits.max_upload_s;
-  const CallWatchdog::Guard guard = watchdog_.watch(context, max_upload_s);
-  v1::SubmitRequest msg;
-  const auto too_slow = [&](std::uint64_t got, std::uint64_t announced) {
-    return grpc::Status(grpc::StatusCode::DEADLINE_EXCEEDED,
-                        fmt::format("the upload took longer than {} s (--max-upload-seconds); {} of {} bytes arrived",
-                                    max_upload_s, got, announced));
-  };
-  if (!reader->Read(&msg) || !msg.has_header()) {
-    if (guard.fired()) return too_slow(0, 0);
-    return {grpc::StatusCode::INVALID_ARGUMENT, "the first message must be the header (file name, size, options)"};
-  }
-  const v1::SubmitHeader header = msg.header();
-  if (auto s = manager_.admit(user, header.total_bytes()); !s.ok()) return to_grpc_status(s);
-  JobOptions defaults;
-  defaults.time_limit_s = manager_.config().default_time_limit_s;
-  auto parsed = from_proto(header.options(), defaults);
-  if (!parsed.ok()) return to_grpc_status(parsed.status());
-  const JobOptions options = std::move(parsed).value();
+  v1::SubmitHeader header;
+  JobOptions options;
   std::string bytes;
-  bytes.reserve(static_cast<std::size_t>(header.total_bytes()));  // admitted: within the upload limit
-  while (reader->Read(&msg)) {
-    if (!msg.has_chunk() && msg.has_header()) return {grpc::StatusCode::INVALID_ARGUMENT, "a second header"};
-    if (bytes.size() + msg.chunk().size() > header.total_bytes()) {
-      return {grpc::StatusCode::INVALID_ARGUMENT,
-              fmt::format("more bytes than the {} announced in the header", header.total_bytes())};
+  {  // The upload limit covers the bytes' arrival; checking and estimating them is the coordinator's time.
+    const CallWatchdog::Guard guard = watchdog_.watch(context, max_upload_s);
+    v1::SubmitRequest msg;
+    const auto too_slow = [&](std::uint64_t got, std::uint64_t announced) {
+      return grpc::Status(grpc::StatusCode::DEADLINE_EXCEEDED,
+                          fmt::format("the upload took longer than {} s (--max-upload-seconds); {} of {} bytes arrived",
+                                      max_upload_s, got, announced));
+    };
+    if (!reader->Read(&msg) || !msg.has_header()) {
+      if (guard.fired()) return too_slow(0, 0);
+      return {grpc::StatusCode::INVALID_ARGUMENT, "the first message must be the header (file name, size, options)"};
     }
-    bytes += msg.chunk();
-  }
-  if (guard.fired()) return too_slow(bytes.size(), header.total_bytes());
-  if (context->IsCancelled()) return {grpc::StatusCode::CANCELLED, "the client cancelled the upload"};
-  if (bytes.size() != header.total_bytes()) {
-    return {grpc::StatusCode::INVALID_ARGUMENT,
-            fmt::format("received {} bytes, the header announced {}", bytes.size(), header.total_bytes())};
+    header = msg.header();
+    if (auto s = manager_.admit(user, header.total_bytes()); !s.ok()) return to_grpc_status(s);
+    JobOptions defaults;
+    defaults.time_limit_s = manager_.config().default_time_limit_s;
+    auto parsed = from_proto(header.options(), defaults);
+    if (!parsed.ok()) return to_grpc_status(parsed.status());
+    options = std::move(parsed).value();
+    bytes.reserve(static_cast<std::size_t>(header.total_bytes()));  // admitted: within the upload limit
+    while (reader->Read(&msg)) {
+      if (!msg.has_chunk() && msg.has_header()) return {grpc::StatusCode::INVALID_ARGUMENT, "a second header"};
+      if (bytes.size() + msg.chunk().size() > header.total_bytes()) {
+        return {grpc::StatusCode::INVALID_ARGUMENT,
+                fmt::format("more bytes than the {} announced in the header", header.total_bytes())};
+      }
+      bytes += msg.chunk();
+    }
+    if (guard.fired()) return too_slow(bytes.size(), header.total_bytes());
+    if (context->IsCancelled()) return {grpc::StatusCode::CANCELLED, "the client cancelled the upload"};
+    if (bytes.size() != header.total_bytes()) {
+      return {grpc::StatusCode::INVALID_ARGUMENT,
+              fmt::format("received {} bytes, the header announced {}", bytes.size(), header.total_bytes())};
+    }
   }
   auto job = manager_.submit(user, header.file_name(), bytes, options);
   if (!job.ok()) return to_grpc_status(job.status());

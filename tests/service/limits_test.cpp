@@ -36,7 +36,8 @@ class Limits : public Service {
   void expect_bob_served() const {
     auto bob = client("tok-bob");
     v1::Job job;
-    ASSERT_TRUE(bob->submit(kSphere, v1::MeshOptions{}, job).ok());
+    const grpc::Status submitted = bob->submit(kSphere, v1::MeshOptions{}, job);
+    ASSERT_TRUE(submitted.ok()) << submitted.error_message();
     v1::Job got;
     ASSERT_TRUE(bob->get(job.id(), got).ok());
     EXPECT_EQ(got.state(), v1::JOB_STATE_QUEUED);
