@@ -437,8 +437,8 @@ void add_local_commands(CLI::App& app, int& exit_code) {
   }
   {
     auto* cmd = app.add_subcommand("run", "Mesh a surface with the parallel method (PDR) in this process: "
-                                          "octree decomposition, leaf refinement under the lock table, merge, "
-                                          "interface round, final optimization.");
+                                          "octree decomposition, leaf tasks in eight buffered rounds (each leaf refined with its "
+                                          "neighbours' tets around it), merge, final optimization.");
     auto a = std::make_shared<RunArgs>();
     cmd->add_option("SURFACE", a->surface, surface_formats)->required()->check(surface_input_check());
     cmd->add_option("-o,--output", a->output, "output volume mesh " + volume_formats)

@@ -86,7 +86,7 @@ void RunOptionArgs::add_to(CLI::App* cmd) {
              "occupies",
              kDepth);
   cmd->add_option("--kernel", kernel, "leaf kernel")->check(CLI::IsMember({"native", "tetgen"}))->capture_default_str();
-  cmd->add_flag("--no-interface-round", no_interface_round, "skip the interface rounds (decompositions shifted by half and a quarter leaf, over the first round's interfaces)");
+  cmd->add_flag("--no-interface-round", no_interface_round, "with --kernel tetgen (leaf hulls frozen): skip the interface rounds over the grids shifted by half and a quarter leaf");
   cmd->add_flag("--no-optimize", no_optimize, "skip the final optimization");
   size.add_to(cmd);
 }

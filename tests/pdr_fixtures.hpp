@@ -24,7 +24,7 @@ inline SizingField uniform_sizing(double h) {
 /// A simple but real refinement: splits, at their barycenter, the tets whose
 /// volume exceeds twice the regular volume at h, up to `cap` insertions.
 inline RefineHook barycenter_hook(std::size_t cap) {
-  return [cap](TetMesh& m, const SizingField& sizing) -> Status {
+  return [cap](TetMesh& m, const SizingField& sizing, const std::optional<Box>& = {}) -> Status {
     std::size_t done = 0;
     for (Index t = 0; t < m.num_slots() && done < cap; ++t) {
       if (!m.alive(t)) continue;

@@ -12,6 +12,7 @@
 #include <string>
 #include <tuple>
 
+#include "pdrmesh/fixed_chunks.hpp"
 #include "pdrmesh/predicates.hpp"
 #include "pdrmesh/topology.hpp"
 
@@ -19,14 +20,6 @@ namespace pdrmesh {
 namespace {
 
 constexpr double kUnknown = std::numeric_limits<double>::quiet_NaN();
-
-struct FaceRecord {
-  Tri key;
-  Index packed;
-  bool operator<(const FaceRecord& o) const {
-    return std::tie(key, packed) < std::tie(o.key, o.packed);
-  }
-};
 
 /// Puts v[order[i]] at v[i] and drops the rest, through one scratch copy of
 /// the moved entries: the array keeps its capacity for the growth that
@@ -100,44 +93,43 @@ Result<TetMesh> TetMesh::from_volume_mesh(const VolumeMesh& mesh, std::vector<Gl
                                        describe_tet(k, t), p[k[0]][0], p[k[0]][1], p[k[0]][2]));
   }
 
-  std::vector<FaceRecord> faces;
-  faces.reserve(4 * static_cast<std::size_t>(nt));
-  for (Index t = 0; t < nt; ++t)
-    for (int f = 0; f < 4; ++f)
-      faces.push_back({topo::sorted_key(topo::face_of(m.cells_[t].v, f)), pack_face(t, f)});
-  // A total order, so both give std::sort's result; a leaf task's mesh (small)
-  // sorts on its own worker thread.
-  if (faces.size() < (std::size_t{1} << 19)) {
-    std::sort(faces.begin(), faces.end());
-  } else {
-    tbb::parallel_sort(faces.begin(), faces.end());
-  }
-  for (std::size_t i = 0; i < faces.size();) {
-    std::size_t j = i + 1;
-    while (j < faces.size() && faces[j].key == faces[i].key) ++j;
-    const Tri& key = faces[i].key;
-    if (j - i > 2)
-      return invalid_input(fmt::format("face (points {}, {}, {}) is shared by {} tets, first {}",
-                                       key[0], key[1], key[2], j - i, face_tet(faces[i].packed)));
-    if (j - i == 2) {
-      const Index a = faces[i].packed, b = faces[i + 1].packed;
-      if (face_tet(a) == face_tet(b))
-        return invalid_input(fmt::format("tet {} has a repeated point", face_tet(a)));
-      m.cells_[face_tet(a)].adj[face_local(a)] = b;
-      m.cells_[face_tet(b)].adj[face_local(b)] = a;
+  // Every face by its sorted points (bucketed by the smallest: linear time),
+  // so that equal faces are adjacent.
+  const auto faces = detail::faces_by_smallest_point(std::span<const Tet>(mesh.tets), m.points_.size());
+  const auto bucket = [&](Index a) {
+    return std::span<const detail::FaceRef>(faces.items.data() + faces.first[a], faces.first[a + 1] - faces.first[a]);
+  };
+  for (Index a = 0; a < m.points_.size(); ++a) {
+    const auto group = bucket(a);
+    for (std::size_t i = 0; i < group.size();) {
+      std::size_t j = i + 1;
+      while (j < group.size() && group[j].b == group[i].b && group[j].c == group[i].c) ++j;
+      if (j - i > 2)
+        return invalid_input(fmt::format("face (points {}, {}, {}) is shared by {} tets, first {}", a, group[i].b,
+                                         group[i].c, j - i, group[i].tet));
+      if (j - i == 2) {
+        const Index x = pack_face(group[i].tet, static_cast<int>(group[i].slot));
+        const Index y = pack_face(group[i + 1].tet, static_cast<int>(group[i + 1].slot));
+        if (face_tet(x) == face_tet(y)) return invalid_input(fmt::format("tet {} has a repeated point", face_tet(x)));
+        m.cells_[face_tet(x)].adj[face_local(x)] = y;
+        m.cells_[face_tet(y)].adj[face_local(y)] = x;
+      }
+      i = j;
     }
-    i = j;
   }
 
   for (std::size_t i = 0; i < mesh.boundary.size(); ++i) {
     const Tri key = topo::sorted_key(mesh.boundary[i]);
-    const auto it = std::lower_bound(faces.begin(), faces.end(), FaceRecord{key, 0});
-    if (it == faces.end() || it->key != key)
+    const auto group = key[0] < m.points_.size() ? bucket(key[0]) : std::span<const detail::FaceRef>();
+    const auto it = std::lower_bound(group.begin(), group.end(), key, [](const detail::FaceRef& f, const Tri& k) {
+      return std::tie(f.b, f.c) < std::tie(k[1], k[2]);
+    });
+    if (it == group.end() || it->b != key[1] || it->c != key[2])
       return invalid_input(
           fmt::format("boundary triangle {} (points {}, {}, {}) is not a face of "
                       "any tet",
                       i, mesh.boundary[i][0], mesh.boundary[i][1], mesh.boundary[i][2]));
-    m.set_frozen(face_tet(it->packed), face_local(it->packed), true);
+    m.set_frozen(it->tet, static_cast<int>(it->slot), true);
   }
   return m;
 }

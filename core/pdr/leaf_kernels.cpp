@@ -25,12 +25,18 @@ OptimizeOptions leaf_optimize_options(OptimizeOptions options) {
 Result<std::unique_ptr<LeafKernel>> make_leaf_kernel(std::string_view name) {
   if (name == "native") {
     return std::unique_ptr<LeafKernel>(std::make_unique<NativeLeafKernel>(
-        [](TetMesh& leaf, const SizingField& h) { return refine(leaf, h).status(); }));
+        [](TetMesh& leaf, const SizingField& h, const std::optional<Box>& core) {
+          RefineOptions options;
+          options.insert_within = core;
+          return refine(leaf, h, options).status();
+        }));
   }
   if (name == "tetgen") return std::unique_ptr<LeafKernel>(std::make_unique<TetgenLeafKernel>());
   if (name == "optimize") {
     return std::unique_ptr<LeafKernel>(std::make_unique<NativeLeafKernel>(
-        [](TetMesh& leaf, const SizingField& h) { return optimize(leaf, &h, leaf_optimize_options()).status(); },
+        [](TetMesh& leaf, const SizingField& h, const std::optional<Box>&) {
+          return optimize(leaf, &h, leaf_optimize_options()).status();
+        },
         "optimize"));
   }
   return invalid_input(fmt::format("unknown leaf kernel '{}' (native, tetgen or optimize)", name));
@@ -42,7 +48,7 @@ Result<LeafTaskOutput> NativeLeafKernel::run(const LeafTaskInput& in, const Sizi
     return Status(mesh.status().code(), fmt::format("leaf {}: {}", in.leaf, mesh.status().message()));
   }
   if (refine_) {
-    const Status s = refine_(*mesh, sizing);
+    const Status s = refine_(*mesh, sizing, in.core);
     if (!s.ok()) return Status(s.code(), fmt::format("leaf {}: refinement: {}", in.leaf, s.message()));
   }
   // The output names the input points by their index (leaf_output_from): a

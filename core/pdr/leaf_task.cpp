@@ -14,6 +14,7 @@
 #include <utility>
 
 #include "pdrmesh/byte_codec.hpp"
+#include "pdrmesh/fixed_chunks.hpp"
 #include "pdrmesh/predicates.hpp"
 #include "pdrmesh/topology.hpp"
 
@@ -23,7 +24,7 @@ namespace {
 
 constexpr char kInputMagic[8] = {'P', 'D', 'R', 'L', 'E', 'A', 'F', 'I'};
 constexpr char kOutputMagic[8] = {'P', 'D', 'R', 'L', 'E', 'A', 'F', 'O'};
-constexpr std::uint32_t kVersion = 2;
+constexpr std::uint32_t kVersion = 3;
 
 Status decode_error(std::string_view what, std::string_view detail) {
   return invalid_input(fmt::format("leaf task {}: {}", what, detail));
@@ -89,6 +90,11 @@ std::string LeafTaskInput::encode() const {
     put_indices(w, frozen_faces[i]);
     w.u32(static_cast<std::uint32_t>(i < frozen_ids.size() ? frozen_ids[i] : 0));
   }
+  w.u32(core ? 1 : 0);
+  if (core) {
+    put_point(w, core->lo);
+    put_point(w, core->hi);
+  }
   return w.take();
 }
 
@@ -126,6 +132,14 @@ Result<LeafTaskInput> LeafTaskInput::decode(std::string_view bytes) {
       return decode_error("input", fmt::format("frozen face {} has an index out of range (of {}) or repeated", f, n));
     in.frozen_ids[f] = static_cast<int>(id);
   }
+  std::uint32_t has_core = 0;
+  if (!r.u32(has_core) || has_core > 1) return decode_error("input", "bad core flag");
+  if (has_core == 1) {
+    Box b;
+    if (!get_point(r, b.lo) || !get_point(r, b.hi) || !(b.lo[0] <= b.hi[0] && b.lo[1] <= b.hi[1] && b.lo[2] <= b.hi[2]))
+      return decode_error("input", "the core box is truncated, not finite or empty");
+    in.core = b;
+  }
   if (r.left() != 0) return decode_error("input", fmt::format("{} trailing bytes", r.left()));
   return in;
 }
@@ -146,6 +160,11 @@ std::string LeafTaskOutput::encode() const {
     put_point(w, i < moved_to.size() ? moved_to[i] : Vec3{});
   }
   return w.take();
+}
+
+std::uint64_t LeafTaskOutput::encoded_size() const {
+  return 20 + 8 + 24 * std::uint64_t{new_points.size()} + 8 + 16 * std::uint64_t{tets.size()} + 8 +
+         28 * std::uint64_t{moved.size()};
 }
 
 Result<LeafTaskOutput> LeafTaskOutput::decode(std::string_view bytes) {
@@ -209,13 +228,6 @@ Status validate_leaf_output(const LeafTaskInput& in, const LeafTaskOutput& out) 
   const std::vector<Vec3>& inputs = out.moved.empty() ? in.points : moved_points;
   auto point = [&](Index r) -> const Vec3& { return r < ni ? inputs[r] : out.new_points[r - ni]; };
   std::vector<unsigned char> used(out.new_points.size(), 0);
-  struct Face {
-    Tri key;  // sorted
-    Tri tri;  // canonical rotation, oriented
-    bool operator<(const Face& o) const { return std::tie(key, tri) < std::tie(o.key, o.tri); }
-  };
-  std::vector<Face> faces;
-  faces.reserve(4 * out.tets.size());
   for (std::size_t t = 0; t < out.tets.size(); ++t) {
     const Tet& v = out.tets[t];
     for (int i = 0; i < 4; ++i) {
@@ -226,31 +238,34 @@ Status validate_leaf_output(const LeafTaskInput& in, const LeafTaskOutput& out) 
     }
     if (exact::orient3d(point(v[0]), point(v[1]), point(v[2]), point(v[3])) <= 0)
       return fail(fmt::format("tet {} ({}, {}, {}, {}) is not positively oriented", t, v[0], v[1], v[2], v[3]));
-    for (int f = 0; f < 4; ++f) {
-      const Tri tri = topo::face_of(v, f);
-      faces.push_back({topo::sorted_key(tri), canonical(tri)});
-    }
   }
   for (std::size_t k = 0; k < used.size(); ++k)
     if (used[k] == 0) return fail(fmt::format("new point {} is used by no tet", k));
   for (const Vec3& p : out.new_points)
     if (!is_finite(p))
       return fail(fmt::format("a new point is not finite ({}, {}, {})", p[0], p[1], p[2]));
-  std::sort(faces.begin(), faces.end());
+  // Faces grouped by their sorted points: a face of two tets must be used with
+  // opposite orientations, one of a single tet is a hull face.
+  const auto faces = detail::faces_by_smallest_point(out.tets, limit);
   std::vector<Tri> hull;
-  for (std::size_t i = 0; i < faces.size();) {
-    std::size_t j = i + 1;
-    while (j < faces.size() && faces[j].key == faces[i].key) ++j;
-    if (j - i > 2) return fail(fmt::format("face {} is shared by {} tets", tri_str(faces[i].key), j - i));
-    if (j - i == 2) {
-      const Tri& a = faces[i].tri;
-      const Tri& b = faces[i + 1].tri;
-      if (!(a[1] == b[2] && a[2] == b[1]))
-        return fail(fmt::format("face {} is used twice with the same orientation", tri_str(faces[i].key)));
-    } else {
-      hull.push_back(faces[i].tri);
+  for (std::size_t a = 0; a < limit; ++a) {
+    const auto* first = faces.items.data() + faces.first[a];
+    const auto* last = faces.items.data() + faces.first[a + 1];
+    for (const auto* i = first; i != last;) {
+      const auto* j = i + 1;
+      while (j != last && j->b == i->b && j->c == i->c) ++j;
+      const Tri key = {static_cast<Index>(a), i->b, i->c};
+      const Tri tri = canonical(topo::face_of(out.tets[i->tet], static_cast<int>(i->slot)));
+      if (j - i > 2) return fail(fmt::format("face {} is shared by {} tets", tri_str(key), j - i));
+      if (j - i == 2) {
+        const Tri other = canonical(topo::face_of(out.tets[(i + 1)->tet], static_cast<int>((i + 1)->slot)));
+        if (!(tri[1] == other[2] && tri[2] == other[1]))
+          return fail(fmt::format("face {} is used twice with the same orientation", tri_str(key)));
+      } else {
+        hull.push_back(tri);
+      }
+      i = j;
     }
-    i = j;
   }
   std::vector<Tri> frozen;
   frozen.reserve(in.frozen_faces.size());

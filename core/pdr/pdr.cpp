@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: AGPL-3.0-or-later
-// The PDR engine: initial mesh, decomposition, fix-ups, leaf tasks, merge,
-// interface round. See pdr.hpp for the numbering and determinism argument.
+// The PDR engine: initial mesh, buffered rounds (or frozen leaves with fix-ups
+// and interface rounds), merge, optimization rounds. See pdr.hpp for the
+// numbering and determinism argument.
 #include "pdrmesh/pdr.hpp"
 
 #include <fmt/format.h>
@@ -11,6 +12,7 @@
 #include <cmath>
 #include <cstring>
 #include <functional>
+#include <iterator>
 #include <limits>
 #include <mutex>
 #include <numeric>
@@ -23,231 +25,18 @@
 #include <oneapi/tbb/parallel_sort.h>
 
 #include "pdrmesh/atomic_extremum.hpp"
-#include "pdrmesh/byte_codec.hpp"
-#include "pdrmesh/digest.hpp"
+#include "pdrmesh/fixed_chunks.hpp"
 #include "pdrmesh/leaf_kernels.hpp"
 #include "pdrmesh/surface_ids.hpp"
 #include "pdrmesh/tetgen_adapter.hpp"
 #include "pdrmesh/topology.hpp"
 #include "pdrmesh/validate.hpp"
 #include "pdrmesh/stopwatch.hpp"
-#include "pdrmesh/union_find.hpp"
 
 namespace pdrmesh {
 
 namespace {
-
 using Clock = std::chrono::steady_clock;
-
-/// Packed face neighbours (4 * u + g, or kNoIndex) of every tet face.
-std::vector<Index> face_neighbours(const VolumeMesh& m) {
-  struct Rec {
-    Tri key;
-    Index packed;
-    bool operator<(const Rec& o) const { return std::tie(key, packed) < std::tie(o.key, o.packed); }
-  };
-  std::vector<Rec> faces;
-  faces.reserve(4 * m.tets.size());
-  for (Index t = 0; t < m.tets.size(); ++t)
-    for (int f = 0; f < 4; ++f) faces.push_back({topo::sorted_key(topo::face_of(m.tets[t], f)), 4 * t + Index(f)});
-  tbb::parallel_sort(faces.begin(), faces.end());  // a total order: std::sort's result
-  std::vector<Index> nbr(faces.size(), kNoIndex);
-  for (std::size_t i = 0; i + 1 < faces.size(); ++i) {
-    if (faces[i].key == faces[i + 1].key) {
-      nbr[faces[i].packed] = faces[i + 1].packed;
-      nbr[faces[i + 1].packed] = faces[i].packed;
-    }
-  }
-  return nbr;
-}
-
-/// The working state of the fix-ups: adjacency, vertex stars, leaf membership.
-class Fixer {
- public:
-  Fixer(const VolumeMesh& m, Decomposition& d) : m_(m), d_(d), nbr_(face_neighbours(m)) {
-    start_.assign(m.points.size() + 1, 0);
-    for (const Tet& t : m.tets)
-      for (Index v : t) ++start_[v + 1];
-    std::partial_sum(start_.begin(), start_.end(), start_.begin());
-    star_.resize(start_.back());
-    pinned_.assign(m.tets.size(), 0);
-    std::vector<Index> fill(start_.begin(), start_.end() - 1);
-    for (Index t = 0; t < m.tets.size(); ++t)
-      for (Index v : m.tets[t]) star_[fill[v]++] = t;
-  }
-
-  /// Tets of leaf l that partition swap moves out: every face component of the
-  /// leaf that shares a vertex with a larger one (ties: the lower-numbered
-  /// component stays), ascending.
-  std::vector<Index> loose_tets(Index l) const {
-    const std::vector<Index>& tets = d_.leaf_tets[l];
-    std::vector<Index> comp(tets.size(), kNoIndex);
-    auto pos = [&](Index t) { return static_cast<Index>(std::lower_bound(tets.begin(), tets.end(), t) - tets.begin()); };
-    std::vector<Index> size;
-    std::vector<Index> queue;
-    for (Index i = 0; i < tets.size(); ++i) {
-      if (comp[i] != kNoIndex) continue;
-      const auto c = static_cast<Index>(size.size());
-      size.push_back(0);
-      comp[i] = c;
-      queue.assign(1, i);
-      while (!queue.empty()) {
-        const Index j = queue.back();
-        queue.pop_back();
-        ++size[c];
-        for (int f = 0; f < 4; ++f) {
-          const Index u = nbr_[4 * tets[j] + Index(f)];
-          if (u == kNoIndex || d_.tet_leaf[u / 4] != l) continue;
-          const Index k = pos(u / 4);
-          if (comp[k] == kNoIndex) {
-            comp[k] = c;
-            queue.push_back(k);
-          }
-        }
-      }
-    }
-    if (size.size() < 2) return {};
-    // Components sharing a vertex form a group (vertex -> component pairs, sorted).
-    std::vector<std::pair<Index, Index>> vc;
-    for (Index i = 0; i < tets.size(); ++i)
-      for (Index v : m_.tets[tets[i]]) vc.emplace_back(v, comp[i]);
-    std::sort(vc.begin(), vc.end());
-    UnionFind groups(size.size());
-    for (std::size_t i = 1; i < vc.size(); ++i)
-      if (vc[i].first == vc[i - 1].first) groups.unite(vc[i].second, vc[i - 1].second);
-    std::vector<Index> keep(size.size(), kNoIndex);  // per group root: the kept component
-    for (Index c = 0; c < size.size(); ++c) {
-      Index& k = keep[groups.find(c)];
-      if (k == kNoIndex || size[c] > size[k]) k = c;
-    }
-    std::vector<Index> out;
-    for (Index i = 0; i < tets.size(); ++i)
-      if (keep[groups.find(comp[i])] != comp[i]) out.push_back(tets[i]);
-    return out;
-  }
-
-  /// Boundary extraction's move for leaf l: at the first hull edge, then hull
-  /// vertex, where the leaf's tets form several sectors, the smallest sector of
-  /// other leaves' tets that holds no pinned tet goes into l; failing that, the
-  /// smallest sector of l goes to the lowest leaf holding a face neighbour of it
-  /// there. Empty when the hull is manifold; `stuck` counts bad elements with
-  /// no move.
-  struct Move {
-    std::vector<Index> tets;
-    Index to = kNoIndex;
-    bool stuck = false;
-  };
-  Move extraction(Index l) const {
-    Move move;
-    std::vector<std::array<Index, 2>> elements;  // edges (a < b), then vertices (v, kNoIndex)
-    std::vector<std::array<Index, 2>> vertices;
-    for (Index t : d_.leaf_tets[l]) {
-      for (int f = 0; f < 4; ++f) {
-        const Index u = nbr_[4 * t + Index(f)];
-        if (u != kNoIndex && d_.tet_leaf[u / 4] == l) continue;
-        const Tri tri = topo::face_of(m_.tets[t], f);
-        for (int k = 0; k < 3; ++k) {
-          elements.push_back({std::min(tri[k], tri[(k + 1) % 3]), std::max(tri[k], tri[(k + 1) % 3])});
-          vertices.push_back({tri[k], kNoIndex});
-        }
-      }
-    }
-    std::sort(elements.begin(), elements.end());
-    elements.erase(std::unique(elements.begin(), elements.end()), elements.end());
-    std::sort(vertices.begin(), vertices.end());
-    vertices.erase(std::unique(vertices.begin(), vertices.end()), vertices.end());
-    elements.insert(elements.end(), vertices.begin(), vertices.end());
-    for (const auto& x : elements) {
-      std::vector<Index> star;
-      for (Index i = start_[x[0]]; i < start_[x[0] + 1]; ++i) {
-        const Index t = star_[i];
-        if (x[1] == kNoIndex || topo::local_vertex(m_.tets[t], x[1]) >= 0) star.push_back(t);
-      }
-      // Sectors: star tets joined across faces that contain x, on the same side.
-      UnionFind uf(star.size());
-      auto pos = [&](Index t) { return static_cast<Index>(std::lower_bound(star.begin(), star.end(), t) - star.begin()); };
-      for (Index i = 0; i < star.size(); ++i) {
-        const Tet& v = m_.tets[star[i]];
-        const bool in_l = d_.tet_leaf[star[i]] == l;
-        for (int f = 0; f < 4; ++f) {
-          if (v[f] == x[0] || v[f] == x[1]) continue;  // face f lacks the opposite vertex v[f]
-          const Index u = nbr_[4 * star[i] + Index(f)];
-          if (u == kNoIndex || (d_.tet_leaf[u / 4] == l) != in_l) continue;
-          uf.unite(i, pos(u / 4));
-        }
-      }
-      std::size_t l_sectors = 0;
-      Index best_in = kNoIndex, best_out = kNoIndex;  // roots of the smallest movable sectors
-      std::vector<Index> count(star.size(), 0);
-      std::vector<unsigned char> pinned(star.size(), 0);
-      for (Index i = 0; i < star.size(); ++i) {
-        ++count[uf.find(i)];
-        pinned[uf.find(i)] |= pinned_[star[i]];
-      }
-      for (Index i = 0; i < star.size(); ++i) {
-        if (uf.find(i) != i) continue;
-        Index& best = d_.tet_leaf[star[i]] == l ? best_out : best_in;
-        l_sectors += d_.tet_leaf[star[i]] == l ? 1 : 0;
-        if (best == kNoIndex || count[i] < count[best]) best = i;
-      }
-      if (l_sectors < 2) continue;
-      if (best_in != kNoIndex && pinned[best_in] != 0) {
-        // Prefer any unpinned outside sector; else move the smallest own sector out.
-        best_in = kNoIndex;
-        for (Index i = 0; i < star.size(); ++i)
-          if (uf.find(i) == i && d_.tet_leaf[star[i]] != l && pinned[i] == 0 &&
-              (best_in == kNoIndex || count[i] < count[best_in]))
-            best_in = i;
-      }
-      const Index root = best_in != kNoIndex ? best_in : best_out;
-      for (Index i = 0; i < star.size(); ++i)
-        if (uf.find(i) == root) move.tets.push_back(star[i]);
-      if (root == best_in) {
-        move.to = l;
-        return move;
-      }
-      for (Index t : move.tets) {
-        for (int f = 0; f < 4; ++f) {
-          const Index u = nbr_[4 * t + Index(f)];
-          if (u != kNoIndex && d_.tet_leaf[u / 4] != l) move.to = std::min(move.to, d_.tet_leaf[u / 4]);
-        }
-      }
-      if (move.to != kNoIndex) return move;
-      move.tets.clear();
-      move.stuck = true;
-    }
-    return move;
-  }
-
-  /// Moves tet t to leaf `to`; `pin`: boundary extraction moved it there, and
-  /// no other leaf's extraction may take it back (which could cycle forever).
-  void move(Index t, Index to, bool pin = false) {
-    pinned_[t] = pin ? 1 : 0;
-    auto& from = d_.leaf_tets[d_.tet_leaf[t]];
-    from.erase(std::lower_bound(from.begin(), from.end(), t));
-    auto& dst = d_.leaf_tets[to];
-    dst.insert(std::lower_bound(dst.begin(), dst.end(), t), t);
-    d_.tet_leaf[t] = to;
-  }
-
-  /// Lowest leaf other than tet t's own that holds a face neighbour of t.
-  Index neighbour_leaf(Index t) const {
-    Index best = kNoIndex;
-    for (int f = 0; f < 4; ++f) {
-      const Index u = nbr_[4 * t + Index(f)];
-      if (u != kNoIndex && d_.tet_leaf[u / 4] != d_.tet_leaf[t]) best = std::min(best, d_.tet_leaf[u / 4]);
-    }
-    return best;
-  }
-
- private:
-  const VolumeMesh& m_;
-  Decomposition& d_;
-  std::vector<Index> nbr_;
-  std::vector<Index> start_, star_;  // vertex -> tets (CSR)
-  std::vector<unsigned char> pinned_;
-};
-
 }  // namespace
 
 FaceIdTable::FaceIdTable(std::span<const Tri> faces, std::span<const int> ids) {
@@ -277,79 +66,24 @@ LeafTaskInput build_leaf_input(std::uint32_t leaf, std::span<const Vec3> points,
   in.points.reserve(used.size());
   for (Index g : used) in.points.push_back(points[g]);
   in.tets.reserve(tets.size());
-  struct Face {
-    Tri key;
-    Tri tri;
-    bool operator<(const Face& o) const { return std::tie(key, tri) < std::tie(o.key, o.tri); }
-  };
-  std::vector<Face> faces;
-  faces.reserve(4 * tets.size());
-  for (const Tet& t : tets) {
-    const Tet lt = {local(t[0]), local(t[1]), local(t[2]), local(t[3])};
-    in.tets.push_back(lt);
-    for (int f = 0; f < 4; ++f) {
-      const Tri tri = topo::face_of(lt, f);
-      faces.push_back({topo::sorted_key(tri), tri});
+  for (const Tet& t : tets) in.tets.push_back({local(t[0]), local(t[1]), local(t[2]), local(t[3])});
+  // The hull: the faces of one tet, in the order of their sorted points.
+  const auto faces = detail::faces_by_smallest_point(in.tets, used.size());
+  for (std::size_t a = 0; a < used.size(); ++a) {
+    const auto* first = faces.items.data() + faces.first[a];
+    const auto* last = faces.items.data() + faces.first[a + 1];
+    for (const auto* i = first; i != last;) {
+      const auto* j = i + 1;
+      while (j != last && j->b == i->b && j->c == i->c) ++j;
+      if (j - i == 1) {
+        const Tri t = topo::face_of(in.tets[i->tet], static_cast<int>(i->slot));
+        in.frozen_faces.push_back(t);
+        in.frozen_ids.push_back(boundary.lookup({used[t[0]], used[t[1]], used[t[2]]}));
+      }
+      i = j;
     }
-  }
-  std::sort(faces.begin(), faces.end());
-  for (std::size_t i = 0; i < faces.size();) {
-    std::size_t j = i + 1;
-    while (j < faces.size() && faces[j].key == faces[i].key) ++j;
-    if (j - i == 1) {
-      const Tri& t = faces[i].tri;
-      in.frozen_faces.push_back(t);
-      in.frozen_ids.push_back(boundary.lookup({used[t[0]], used[t[1]], used[t[2]]}));
-    }
-    i = j;
   }
   return in;
-}
-
-FixupStats apply_fixups(const VolumeMesh& mesh, Decomposition& d, std::size_t max_sweeps) {
-  FixupStats stats;
-  Fixer fixer(mesh, d);
-  for (; stats.sweeps < max_sweeps; ++stats.sweeps) {
-    bool changed = false;
-    auto t0 = Clock::now();
-    for (Index l = 0; l < d.size(); ++l) {
-      for (Index t : fixer.loose_tets(l)) {
-        const Index to = fixer.neighbour_leaf(t);
-        if (to == kNoIndex) continue;
-        fixer.move(t, to);
-        ++stats.swaps;
-        changed = true;
-      }
-    }
-    stats.swap_s += seconds_since(t0);
-    t0 = Clock::now();
-    for (Index l = 0; l < d.size(); ++l) {
-      // Bounded: a tet moved in or out is pinned where it goes, so it never
-      // comes back into l by l's own extraction.
-      for (std::size_t pass = 0; pass < 2 * mesh.tets.size(); ++pass) {
-        const Fixer::Move move = fixer.extraction(l);
-        if (move.tets.empty()) break;
-        for (Index t : move.tets) fixer.move(t, move.to, true);
-        stats.moves += move.tets.size();
-        changed = true;
-      }
-    }
-    stats.extraction_s += seconds_since(t0);
-    if (!changed) break;
-  }
-  stats.unresolved = leaves_needing_fixups(mesh, d).size();
-  return stats;
-}
-
-std::vector<Index> leaves_needing_fixups(const VolumeMesh& mesh, const Decomposition& d) {
-  Decomposition copy = d;  // Fixer takes a mutable decomposition; nothing is moved here
-  const Fixer fixer(mesh, copy);
-  std::vector<Index> out;
-  for (Index l = 0; l < d.size(); ++l) {
-    const Fixer::Move move = fixer.extraction(l);
-    if (!fixer.loose_tets(l).empty() || !move.tets.empty() || move.stuck) out.push_back(l);
-  }
-  return out;
 }
 
 namespace {
@@ -461,18 +195,26 @@ std::vector<char> select_interface_tets(const VolumeMesh& m, int halo) {
   return flag;
 }
 
-/// Puts a round's results into `cur` as if leaf by leaf in ascending order:
-/// leaf l's tets (task output, then its kept tets) follow those of the leaves
-/// before it, and new point k of leaf l gets the next id after the new points
-/// of the leaves before it. Point moves go first, in leaf order (the leaves of
-/// a round move disjoint points: nothing moves a hull point); the rest is
-/// copied in parallel into slots fixed by prefix sums, so the result does not
-/// depend on the threads. Frees the results as it goes.
+/// Puts a round's results into `cur` as if leaf by leaf in ascending order,
+/// after the tets of no leaf (`outside`, which keep their leaf): leaf l's tets
+/// (task output, then its kept tets) follow those of the leaves before it, and
+/// new point k of leaf l gets the next id after the new points of the leaves
+/// before it. Point moves go first, in leaf order (the leaves of a round move
+/// disjoint points: nothing moves a hull point); the rest is copied in
+/// parallel into slots fixed by prefix sums, so the result does not depend on
+/// the threads. Frees the results as it goes.
+/// With `grid` set, each tet a task made is given the grid leaf that holds
+/// its barycenter instead of the task's leaf.
+struct Grid {
+  Box box;
+  int depth = 0;
+};
 void splice(VolumeMesh& cur, const std::vector<LeafId>& leaves, std::vector<TaskResult>& results,
-            std::vector<std::vector<Tet>>& kept, RoundResult& rr) {
+            std::vector<std::vector<Tet>>& kept, std::vector<Tet>& outside, std::vector<int>& outside_leaf,
+            const Grid* grid, RoundResult& rr) {
   const std::size_t n = results.size();
   std::vector<Vec3>& pts = cur.points;
-  std::vector<std::size_t> tet_at(n + 1, 0), point_at(n + 1, pts.size());
+  std::vector<std::size_t> tet_at(n + 1, outside.size()), point_at(n + 1, pts.size());
   for (std::size_t l = 0; l < n; ++l) {
     TaskResult& r = results[l];
     if (!r.kernel_error.ok() && rr.failed++ == 0) rr.first_failure = r.kernel_error.message();
@@ -483,6 +225,10 @@ void splice(VolumeMesh& cur, const std::vector<LeafId>& leaves, std::vector<Task
   cur.tets.resize(tet_at[n]);
   cur.tet_regions.resize(tet_at[n]);
   pts.resize(point_at[n]);
+  std::copy(outside.begin(), outside.end(), cur.tets.begin());
+  std::copy(outside_leaf.begin(), outside_leaf.end(), cur.tet_regions.begin());
+  outside = {};
+  outside_leaf = {};
   tbb::parallel_for(std::size_t{0}, n, [&](std::size_t l) {
     TaskResult& r = results[l];
     const auto ni = static_cast<Index>(r.point_ids.size());
@@ -497,6 +243,10 @@ void splice(VolumeMesh& cur, const std::vector<LeafId>& leaves, std::vector<Task
     std::copy(kept[l].begin(), kept[l].end(), out);
     std::fill(cur.tet_regions.begin() + static_cast<std::ptrdiff_t>(tet_at[l]),
               cur.tet_regions.begin() + static_cast<std::ptrdiff_t>(tet_at[l + 1]), static_cast<int>(leaves[l]));
+    if (grid != nullptr) {
+      for (std::size_t t = tet_at[l]; t < tet_at[l] + r.output.tets.size(); ++t)
+        cur.tet_regions[t] = static_cast<int>(leaf_of_point(grid->box, grid->depth, tet_barycenter(cur, static_cast<Index>(t))));
+    }
     r = TaskResult{};
     kept[l] = {};
   });
@@ -510,16 +260,37 @@ void splice(VolumeMesh& cur, const std::vector<LeafId>& leaves, std::vector<Task
 /// the result is the same for any worker count, completion order or policy.
 /// With `selected` (one flag per tet of `cur`), a leaf's task gets only its
 /// selected tets and the others are kept as they are, after the task's tets.
+/// A buffered round (BufferedRound) gives tets to no leaf (kept as they are,
+/// before all others) and a core box to each task.
+struct RoundExtras {
+  const std::vector<char>* selected = nullptr;
+  const std::vector<Index>* outside = nullptr;  ///< ascending
+  const std::vector<Box>* cores = nullptr;      ///< per leaf
+  const Grid* grid = nullptr;                   ///< see splice
+  std::size_t leaves_before = 0;                ///< leaves merged in this phase's earlier rounds (progress)
+};
 Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const FaceIdTable& boundary,
                  const SizingField& sizing, const LeafKernel& kernel, const PdrOptions& options, bool fixups,
-                 RoundResult& rr, const std::vector<char>* selected = nullptr) {
+                 RoundResult& rr, RoundExtras extras = {}) {
   if (fixups) rr.fixups = apply_fixups(cur, d, options.max_fixup_sweeps);
   rr.leaves = d.size();
+  const std::vector<char>* selected = extras.selected;
   std::vector<std::vector<Tet>> leaf_tets(d.size());
   std::vector<std::vector<Tet>> kept(d.size());
   tbb::parallel_for(Index{0}, static_cast<Index>(d.size()), [&](Index l) {
     for (Index t : d.leaf_tets[l]) (selected == nullptr || (*selected)[t] ? leaf_tets[l] : kept[l]).push_back(cur.tets[t]);
   });
+  std::vector<Tet> outside;
+  std::vector<int> outside_leaf;
+  if (extras.outside != nullptr) {
+    const bool has_leaf = cur.tet_regions.size() == cur.tets.size();
+    outside.resize(extras.outside->size());
+    outside_leaf.resize(extras.outside->size(), 0);
+    tbb::parallel_for(std::size_t{0}, outside.size(), [&](std::size_t i) {
+      outside[i] = cur.tets[(*extras.outside)[i]];
+      if (has_leaf) outside_leaf[i] = cur.tet_regions[(*extras.outside)[i]];
+    });
+  }
   for (const std::vector<Tet>& sent : leaf_tets) {
     rr.max_leaf_tets = std::max(rr.max_leaf_tets, sent.size());
     rr.record.tets_sent += sent.size();
@@ -531,10 +302,28 @@ Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const
   std::atomic<bool> stop{false};
   std::size_t merged = 0;
   std::size_t tet_count = cur.tets.size();
-  if (options.progress && !options.progress({phase, 0, d.size(), tet_count})) {
+  const std::size_t before = extras.leaves_before;
+  if (options.progress && !options.progress({phase, before, before + d.size(), tet_count})) {
     return cancelled(fmt::format("stopped before the {}", phase));
   }
   std::vector<TaskResult> results(d.size());
+  // One kernel on one input (a remote kernel sends its bytes to a worker; the
+  // codec is lossless, so a local one runs on the input itself) and the checks
+  // of its result, the same on both paths (size limit, validate_leaf_output).
+  const auto run_kernel = [&](const LeafKernel& k, const LeafTaskInput& in, Index l) -> Result<LeafTaskOutput> {
+    Result<LeafTaskOutput> out = run_leaf_kernel(k, in, sizing);
+    if (!out.ok()) return Status(out.status().code(), fmt::format("leaf {}: {}", l, out.status().message()));
+    const std::uint64_t bytes = out->encoded_size();
+    if (const std::uint64_t limit = leaf_output_byte_limit(in, sizing); bytes > limit) {
+      return invalid_input(
+          fmt::format("leaf {} result rejected: {} bytes, over the {} its leaf can hold", l, bytes, limit));
+    }
+    PDR_TRY(validate_leaf_output(in, *out));
+    return out;
+  };
+  // A kernel that gave up on a leaf (TetGen crashing on a hull, say) leaves it
+  // as it was, which conforms to its neighbours by construction.
+  const auto kept_on_failure = [&](const Status& s) { return options.keep_failed_leaves && is_kernel_failure(s); };
   std::function<TaskResult(Index)> task = [&](Index l) -> TaskResult {
     TaskResult r;
     if (stop.load()) {
@@ -542,29 +331,21 @@ Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const
       return r;
     }
     LeafTaskInput in = build_leaf_input(l, points, leaf_tets[l], boundary);
+    if (extras.cores != nullptr) in.core = (*extras.cores)[l];
     r.output.leaf = l;
     r.output.input_points = static_cast<std::uint32_t>(in.points.size());
     if (in.tets.empty()) return r;
-    Result<std::string> bytes = run_leaf_task(kernel, in.encode(), sizing);
-    Result<LeafTaskOutput> out = bytes.ok() ? LeafTaskOutput::decode(*bytes) : Result<LeafTaskOutput>(bytes.status());
-    if (!bytes.ok() && options.keep_failed_leaves && is_kernel_failure(bytes.status())) {
-      // The kernel gave up on this leaf (TetGen crashing on a hull, say): keep
-      // the leaf as it was, which conforms to its neighbours by construction.
-      r.kernel_error = Status(bytes.status().code(), fmt::format("leaf {}: {}", l, bytes.status().message()));
+    Result<LeafTaskOutput> out = run_kernel(kernel, in, l);
+    if (!out.ok() && kept_on_failure(out.status())) {
+      r.kernel_error = out.status();
       r.output.tets = std::move(in.tets);
       r.point_ids = std::move(in.point_ids);
       return r;
     }
     if (!out.ok()) {
-      r.status = Status(out.status().code(), fmt::format("leaf {}: {}", l, out.status().message()));
+      r.status = out.status();
       return r;
     }
-    if (const std::uint64_t limit = leaf_output_byte_limit(in, sizing); bytes->size() > limit) {
-      r.status = invalid_input(
-          fmt::format("leaf {} result rejected: {} bytes, over the {} its leaf can hold", l, bytes->size(), limit));
-      return r;
-    }
-    r.status = validate_leaf_output(in, *out);
     r.output = std::move(*out);
     r.point_ids = std::move(in.point_ids);
     return r;
@@ -581,7 +362,7 @@ Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const
     results[l] = std::move(r);
     rr.merge_s += seconds_since(t0);
     ++merged;
-    if (options.progress && !options.progress({phase, merged, d.size(), tet_count})) {
+    if (options.progress && !options.progress({phase, before + merged, before + d.size(), tet_count})) {
       error = cancelled(fmt::format("stopped after {} of {} leaves ({})", merged, d.size(), phase));
       stop = true;
     }
@@ -591,7 +372,7 @@ Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const
   PDR_TRY(error);
 
   const auto t0 = Clock::now();
-  splice(cur, d.leaves, results, kept, rr);
+  splice(cur, d.leaves, results, kept, outside, outside_leaf, extras.grid, rr);
   rr.merge_s += seconds_since(t0);
   rr.record.name = std::string(phase);
   rr.record.depth = d.depth;
@@ -601,6 +382,97 @@ Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const
   rr.record.rank = rank;
   rr.record.n1 = std::move(d.n1);
   return {};
+}
+
+/// The tasks of one buffered round (PdrOptions::buffered): the leaves of one
+/// colour (the parities of the grid coordinates, i&1 | (j&1)<<1 | (k&1)<<2),
+/// each with the tets whose barycenter it holds (its core) and those within
+/// `layers` vertex layers of them (its buffer). A tet that two leaves' layers
+/// reach at once goes to neither, nor does any layer grow across it, so the
+/// tasks' tets are disjoint; they may share hull points, which no task moves.
+/// In parallel and deterministic: per point the least and greatest leaf of
+/// its tets by atomic min and max, each tet writing only its own owner.
+/// Sweeps of buffered rounds at most (PdrOptions::buffered).
+constexpr int kMaxSweeps = 3;
+
+struct BufferedRound {
+  Decomposition d;             ///< leaves, leaf_tets (core and buffer), no lock sets: none conflict
+  std::vector<Index> outside;  ///< the tets of no task, ascending
+  std::vector<Box> cores;      ///< per leaf: its box
+};
+/// m.tet_regions must hold the leaf of each tet's barycenter.
+/// Only leaves in `allowed` (ascending; null: all) get a task.
+BufferedRound buffered_round(const VolumeMesh& m, const Box& box, int depth, int colour, int layers,
+                             const std::vector<LeafId>* allowed) {
+  constexpr LeafId kNone = std::numeric_limits<LeafId>::max();
+  constexpr LeafId kBlocked = kNone - 1;
+  std::vector<LeafId> owner(m.tets.size(), kNone);
+  tbb::parallel_for(std::size_t{0}, m.tets.size(), [&](std::size_t t) {
+    const auto l = static_cast<LeafId>(m.tet_regions[t]);
+    const auto c = leaf_coords(l, depth);
+    if (static_cast<int>((c[0] & 1U) | (c[1] & 1U) << 1 | (c[2] & 1U) << 2) != colour) return;
+    if (allowed == nullptr || std::binary_search(allowed->begin(), allowed->end(), l)) owner[t] = l;
+  });
+  std::vector<LeafId> lo(m.points.size()), hi(m.points.size());
+  for (int layer = 0; layer < layers; ++layer) {
+    std::fill(lo.begin(), lo.end(), kNone);
+    std::fill(hi.begin(), hi.end(), LeafId{0});
+    tbb::parallel_for(std::size_t{0}, m.tets.size(), [&](std::size_t t) {
+      if (owner[t] >= kBlocked) return;
+      for (Index v : m.tets[t]) {
+        std::atomic_ref<LeafId> a(lo[v]), b(hi[v]);
+        detail::atomic_lower(a, owner[t]);
+        detail::atomic_raise(b, owner[t]);
+      }
+    });
+    tbb::parallel_for(std::size_t{0}, m.tets.size(), [&](std::size_t t) {
+      if (owner[t] != kNone) return;
+      LeafId claim = kNone;
+      for (Index v : m.tets[t]) {
+        if (lo[v] == kNone) continue;
+        if (lo[v] != hi[v] || (claim != kNone && claim != lo[v])) {
+          owner[t] = kBlocked;
+          return;
+        }
+        claim = lo[v];
+      }
+      owner[t] = claim;
+    });
+  }
+  BufferedRound r;
+  r.d.box = box;
+  r.d.depth = depth;
+  r.d.per_side = 1 << depth;
+  for (std::size_t t = 0; t < owner.size(); ++t)
+    if (owner[t] < kBlocked) r.d.leaves.push_back(owner[t]);
+  std::sort(r.d.leaves.begin(), r.d.leaves.end());
+  r.d.leaves.erase(std::unique(r.d.leaves.begin(), r.d.leaves.end()), r.d.leaves.end());
+  r.d.leaf_tets.resize(r.d.size());
+  r.d.tet_leaf.assign(m.tets.size(), kNoIndex);
+  for (Index t = 0; t < owner.size(); ++t) {
+    if (owner[t] >= kBlocked) {
+      r.outside.push_back(t);
+      continue;
+    }
+    const auto l = static_cast<Index>(std::lower_bound(r.d.leaves.begin(), r.d.leaves.end(), owner[t]) -
+                                      r.d.leaves.begin());
+    r.d.tet_leaf[t] = l;
+    r.d.leaf_tets[l].push_back(t);
+  }
+  r.d.n1.assign(r.d.size(), {});
+  r.d.n2.assign(r.d.size(), {});
+  for (LeafId l : r.d.leaves) r.cores.push_back(leaf_box(box, depth, l));
+  return r;
+}
+
+/// The leaves of m.tet_regions not in `done` (ascending), ascending.
+std::vector<LeafId> leaves_without(const VolumeMesh& m, const std::vector<LeafId>& done) {
+  std::vector<LeafId> present(m.tet_regions.begin(), m.tet_regions.end());
+  tbb::parallel_sort(present.begin(), present.end());
+  present.erase(std::unique(present.begin(), present.end()), present.end());
+  std::vector<LeafId> out;
+  std::set_difference(present.begin(), present.end(), done.begin(), done.end(), std::back_inserter(out));
+  return out;
 }
 
 /// tet_regions = the leaf of the depth-`depth` grid over `box` that holds each
@@ -661,8 +533,13 @@ Result<PdrPlan> plan_pdr(const SurfaceMesh& surface, double surface_h, const Pdr
     const double volume = enclosed_volume(surface);
     const double estimate = volume / regular_tet_volume(surface_h);
     const double capped = std::isfinite(estimate) ? std::clamp(estimate, 0.0, 1e15) : 0.0;
-    plan.depth = default_depth(static_cast<std::size_t>(capped), options.final_tets_per_leaf,
-                               [&](int d) { return occupied_leaves_estimate(surface.points, volume, d); });
+    const bool buffered = options.buffered && !options.fixups.value_or(kernel.needs_manifold_hull());
+    const std::size_t per_leaf =
+        options.final_tets_per_leaf > 0 ? options.final_tets_per_leaf : buffered ? 2500 : 20000;
+    plan.depth = capped < static_cast<double>(options.min_parallel_tets)
+                     ? 0
+                     : default_depth(static_cast<std::size_t>(capped), per_leaf,
+                                     [&](int d) { return occupied_leaves_estimate(surface.points, volume, d); });
   }
   TetgenOptions& tg = plan.tetgen;
   const double leaf_side = side / static_cast<double>(1 << plan.depth);
@@ -677,101 +554,6 @@ Result<PdrPlan> plan_pdr(const SurfaceMesh& surface, double surface_h, const Pdr
   // default, made 0.963 times the serial tets).
   if (plan.depth == 0 && tg.seeds_only) tg.max_volume.reset();
   return plan;
-}
-
-namespace {
-
-constexpr char kCheckpointMagic[8] = {'P', 'D', 'R', 'C', 'K', 'P', 'T', '\0'};
-constexpr std::uint32_t kCheckpointVersion = 1;
-
-Status checkpoint_error(std::string_view what) {
-  return invalid_input(fmt::format("PDR checkpoint: {}", what));
-}
-
-}  // namespace
-
-std::string PdrCheckpoint::encode() const {
-  codec::Writer w;
-  w.bytes(kCheckpointMagic, sizeof kCheckpointMagic);
-  w.u32(kCheckpointVersion);
-  w.u32(static_cast<std::uint32_t>(rounds_done));
-  w.u64(round.size());
-  w.bytes(round.data(), round.size());
-  w.u64(mesh.points.size());
-  for (const Vec3& p : mesh.points)
-    for (double c : p) w.f64(c);
-  w.u64(mesh.tets.size());
-  for (const Tet& t : mesh.tets)
-    for (Index v : t) w.u32(v);
-  w.u64(mesh.boundary.size());
-  for (const Tri& f : mesh.boundary)
-    for (Index v : f) w.u32(v);
-  w.u64(mesh.boundary_ids.size());
-  for (int id : mesh.boundary_ids) w.u32(static_cast<std::uint32_t>(id));
-  w.u64(mesh.tet_regions.size());
-  for (int r : mesh.tet_regions) w.u32(static_cast<std::uint32_t>(r));
-  std::string bytes = w.take();
-  codec::Writer tail;
-  tail.u64(content_digest(bytes));
-  bytes += tail.take();  // appended: no second copy of a large mesh's bytes
-  return bytes;
-}
-
-Result<PdrCheckpoint> PdrCheckpoint::decode(std::string_view bytes) {
-  // The digest at the end first: a file cut short or damaged is refused whole.
-  std::uint64_t digest = 0;
-  if (bytes.size() < 8 || !codec::Reader(bytes.substr(bytes.size() - 8)).u64(digest) ||
-      digest != content_digest(bytes.substr(0, bytes.size() - 8))) {
-    return checkpoint_error("the bytes do not match their digest (cut short or damaged)");
-  }
-  bytes.remove_suffix(8);
-  codec::Reader r(bytes);
-  char magic[8];
-  std::uint32_t version = 0, rounds = 0;
-  if (!r.bytes(magic, 8) || std::memcmp(magic, kCheckpointMagic, 8) != 0 || !r.u32(version) ||
-      version != kCheckpointVersion) {
-    return checkpoint_error("bad magic or version");
-  }
-  PdrCheckpoint c;
-  std::size_t n = 0;
-  if (!r.u32(rounds) || rounds > 64 || !r.count(1, n)) return checkpoint_error("truncated header");
-  c.rounds_done = static_cast<int>(rounds);
-  c.round.resize(n);
-  if (!r.bytes(c.round.data(), n)) return checkpoint_error("truncated round name");
-  if (!r.count(24, n)) return checkpoint_error("bad point count");
-  c.mesh.points.resize(n);
-  for (Vec3& p : c.mesh.points)
-    for (double& x : p) r.f64(x);
-  const auto indices = [&](auto& items, const char* what) -> Status {
-    constexpr std::size_t k = std::tuple_size_v<typename std::decay_t<decltype(items)>::value_type>;
-    if (!r.count(4 * k, n)) return checkpoint_error(fmt::format("bad {} count", what));
-    items.resize(n);
-    for (auto& item : items) {
-      for (Index& v : item) {
-        r.u32(v);
-        if (v >= c.mesh.points.size()) return checkpoint_error(fmt::format("{} index {} out of range", what, v));
-      }
-    }
-    return {};
-  };
-  const auto ints = [&](std::vector<int>& items, std::size_t expected, const char* what) -> Status {
-    if (!r.count(4, n) || n != expected) {
-      return checkpoint_error(fmt::format("bad {} count", what));
-    }
-    items.resize(n);
-    for (int& x : items) {
-      std::uint32_t u = 0;
-      r.u32(u);
-      x = static_cast<int>(u);
-    }
-    return {};
-  };
-  PDR_TRY(indices(c.mesh.tets, "tet"));
-  PDR_TRY(indices(c.mesh.boundary, "boundary face"));
-  PDR_TRY(ints(c.mesh.boundary_ids, c.mesh.boundary.size(), "boundary id"));
-  PDR_TRY(ints(c.mesh.tet_regions, c.mesh.tets.size(), "tet region"));
-  if (r.left() != 0) return checkpoint_error(fmt::format("{} bytes after the end", r.left()));
-  return c;
 }
 
 Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing, const LeafKernel& kernel,
@@ -868,7 +650,8 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
       std::vector<char> selected;
       if (select) selected = select();
       RoundResult r;
-      PDR_TRY(run_round(phase, cur, std::move(d), boundary, sizing, k, options, fix, r, select ? &selected : nullptr));
+      PDR_TRY(run_round(phase, cur, std::move(d), boundary, sizing, k, options, fix, r,
+                        {.selected = select ? &selected : nullptr}));
       account(std::move(r));
       return {};
     });
@@ -887,10 +670,46 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
     account(std::move(r1));
     return {};
   };
-  PDR_TRY(step("refinement", refinement));
-
+  const bool buffered = options.buffered && !fixups && depth > 0;
   Box last_box = box1;
-  if (options.interface_round && depth > 0 && options.interface_rounds > 0) {
+  if (buffered) {
+    // Sweeps of eight rounds, one per colour. A leaf whose box held no tet's
+    // barycenter in its round (tets larger than a leaf span it, a thin part
+    // say) has had no task: the tets its neighbours split there do now, so
+    // the next sweep runs such leaves, until none is left.
+    const auto sweeps = [&]() -> Status {
+      const Grid grid{box1, depth};
+      PDR_TRY(decompose(cur, depth, box1).status());  // checks the initial mesh's faces
+      assign_leaves(cur, box1, depth);
+      std::vector<LeafId> done, todo;
+      for (int sweep = 0; sweep < kMaxSweeps; ++sweep) {
+        for (int colour = 0; colour < 8; ++colour) {
+          auto td = Clock::now();
+          BufferedRound b = buffered_round(cur, box1, depth, colour, options.buffer_layers, sweep > 0 ? &todo : nullptr);
+          prof.decomposition += seconds_since(td);
+          if (b.d.size() == 0) continue;
+          done.insert(done.end(), b.d.leaves.begin(), b.d.leaves.end());
+          RoundResult r;
+          PDR_TRY(run_round("refinement", cur, std::move(b.d), boundary, sizing, kernel, options, false, r,
+                            {.outside = &b.outside, .cores = &b.cores, .grid = &grid, .leaves_before = prof.leaf_count}));
+          prof.leaf_count += r.leaves;
+          prof.max_leaf_tets = std::max(prof.max_leaf_tets, r.max_leaf_tets);
+          account(std::move(r));
+        }
+        std::sort(done.begin(), done.end());
+        todo = leaves_without(cur, done);
+        if (todo.empty()) break;
+      }
+      return {};
+    };
+    const auto t0 = Clock::now();
+    PDR_TRY(step("refinement", sweeps));
+    prof.leaves = seconds_since(t0);
+  } else {
+    PDR_TRY(step("refinement", refinement));
+  }
+
+  if (!buffered && options.interface_round && depth > 0 && options.interface_rounds > 0) {
     const auto t0 = Clock::now();
     Selector near_interfaces;
     if (options.interface_halo > 0 && !fixups) {

@@ -157,7 +157,7 @@ Result<ParallelResult> mesh_parallel(const SurfaceMesh& surface, const ParallelO
   if (options.optimize) {
     const OptimizeOptions opt = leaf_optimize_options(*options.optimize);
     if (optimize_kernel == nullptr) {
-      optimizer.emplace([opt](TetMesh& leaf, const SizingField& h) { return pdrmesh::optimize(leaf, &h, opt).status(); },
+      optimizer.emplace([opt](TetMesh& leaf, const SizingField& h, const std::optional<Box>&) { return pdrmesh::optimize(leaf, &h, opt).status(); },
                         "optimize");
       optimize_kernel = &*optimizer;
     }

@@ -134,6 +134,11 @@ class Refiner {
       : m_(mesh), sizing_(sizing), o_(options) {
     const double angle = o_.min_max_angle;
     bad_cos_ = angle > 0.0 ? std::cos(angle * 3.14159265358979323846 / 180.0) : -2.0;
+    if (o_.insert_within) {
+      for (std::size_t i = 0; i < m_.boundary().size(); ++i)
+        if (m_.boundary_ids()[i] == 0) cuts_.push_back(topo::sorted_key(m_.boundary()[i]));
+      std::sort(cuts_.begin(), cuts_.end());
+    }
   }
 
   RefineStats run(const RefineProgress& progress) {
@@ -290,6 +295,42 @@ class Refiner {
     return dot(d, d) <= limit * limit;
   }
 
+  /// True when face f of a tet with vertices k is a cut (RefineOptions::insert_within).
+  bool is_cut(const Tet& k, int f) const {
+    return !cuts_.empty() && std::binary_search(cuts_.begin(), cuts_.end(), topo::sorted_key(topo::face_of(k, f)));
+  }
+
+  /// False when no candidate of a tet with vertices k can lie inside
+  /// insert_within: each lies within the tet's bounding box grown by
+  /// advance_ratio times the largest h of its vertices (a front candidate is
+  /// that far from its face's centroid, a midpoint inside the tet).
+  bool may_offer_inside(const Tet& k) const {
+    const Box& b = *o_.insert_within;
+    double reach = 0;
+    for (Index v : k) reach = std::max(reach, h_[v]);
+    reach *= o_.advance_ratio;
+    for (int i = 0; i < 3; ++i) {
+      double lo = m_.point(k[0])[i], hi = lo;
+      for (int j = 1; j < 4; ++j) {
+        lo = std::min(lo, m_.point(k[j])[i]);
+        hi = std::max(hi, m_.point(k[j])[i]);
+      }
+      if (hi + reach < b.lo[i] || lo - reach > b.hi[i]) return false;
+    }
+    return true;
+  }
+
+  /// Appends a candidate at p made by tet t (vertices k), unless p lies
+  /// outside RefineOptions::insert_within.
+  void add_candidate(std::vector<Candidate>& to, const Vec3& p, Index t, const Tet& k) const {
+    if (o_.insert_within) {
+      const Box& b = *o_.insert_within;
+      for (int i = 0; i < 3; ++i)
+        if (!(p[i] >= b.lo[i] && p[i] <= b.hi[i])) return;
+    }
+    to.push_back({p, t, k});
+  }
+
   /// Front stage: from every face of an active tet that is a hull or frozen
   /// face or has no long edge, a point advanced into the tet. Midpoint stage:
   /// the midpoint of every long edge of an active tet (each edge once per tet).
@@ -300,10 +341,11 @@ class Refiner {
       if (t + kAhead < m_.num_slots() && m_.active(t + kAhead)) prefetch_points(t + kAhead);
       if (!m_.alive(t) || !m_.active(t)) continue;
       const Tet& k = m_.tet(t);
+      if (o_.insert_within && !may_offer_inside(k)) continue;
       if (midpoints) {
         for (int e = 0; e < 6; ++e) {
           const Index a = k[topo::kEdgeVertex[e][0]], b = k[topo::kEdgeVertex[e][1]];
-          if (!short_edge(a, b)) candidates_.push_back({0.5 * (m_.point(a) + m_.point(b)), t, k});
+          if (!short_edge(a, b)) add_candidate(candidates_, 0.5 * (m_.point(a) + m_.point(b)), t, k);
         }
         continue;
       }
@@ -321,7 +363,7 @@ class Refiner {
         if (!(ln > 0.0)) continue;
         const double hf = (h_[a] + h_[b] + h_[c]) / 3.0;
         const Vec3 g = (1.0 / 3.0) * (pa + pb + pc);
-        candidates_.push_back({g - (o_.advance_ratio * hf / ln) * normal, t, k});
+        add_candidate(candidates_, g - (o_.advance_ratio * hf / ln) * normal, t, k);
       }
       if (o_.void_midpoints && candidates_.size() == before) {
         // No front face: a tet of the unfilled interior. Its longest edge's
@@ -336,7 +378,7 @@ class Refiner {
           }
         }
         const Index a = k[topo::kEdgeVertex[longest][0]], b = k[topo::kEdgeVertex[longest][1]];
-        if (!short_edge(a, b)) voids_.push_back({0.5 * (m_.point(a) + m_.point(b)), t, k});
+        if (!short_edge(a, b)) add_candidate(voids_, 0.5 * (m_.point(a) + m_.point(b)), t, k);
       }
     }
     candidates_.insert(candidates_.end(), voids_.begin(), voids_.end());
@@ -384,7 +426,7 @@ class Refiner {
           // The bound first (most walls are far), then the distance itself:
           // the bound of a needle triangle many h long is its plane's
           // distance, which rejected points far from the triangle.
-          if (lb < r_face && within_distance(k, f, p, r_face)) return false;
+          if (lb < r_face && within_distance(k, f, p, r_face) && !is_cut(k, f)) return false;
           continue;
         }
         if (lb < r_point && stamp_[face_tet(n)] != epoch_) {
@@ -792,6 +834,7 @@ class Refiner {
   const SizingField& sizing_;
   const RefineOptions& o_;
   std::vector<double> h_;  ///< h at each point, evaluated when it entered the mesh
+  std::vector<Tri> cuts_;  ///< frozen faces of boundary id 0 with insert_within, sorted keys
   std::vector<Candidate> candidates_;
   std::vector<Candidate> voids_;  ///< collect's interior candidates, placed after the front's
   std::vector<std::uint32_t> stamp_;

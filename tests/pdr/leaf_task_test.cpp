@@ -76,6 +76,22 @@ TEST(LeafTask, InputRoundTripsExactly) {
   EXPECT_EQ(back->frozen_ids, in.frozen_ids);
   EXPECT_EQ(back->encode(), bytes);
   EXPECT_EQ(in.frozen_faces.size(), 6u * 4 * 2);  // 6 sides of 2x2 squares, 2 triangles each
+  EXPECT_FALSE(back->core.has_value());
+
+  // A buffered round's task carries its leaf's box; an empty or non-finite
+  // one does not decode.
+  in.core = Box{{0.25, 0, 0}, {1, 1.5, 2}};
+  const std::string with_core = in.encode();
+  back = LeafTaskInput::decode(with_core);
+  ASSERT_TRUE(back.ok()) << back.status().to_string();
+  ASSERT_TRUE(back->core.has_value());
+  EXPECT_EQ(back->core->lo, in.core->lo);
+  EXPECT_EQ(back->core->hi, in.core->hi);
+  EXPECT_EQ(back->encode(), with_core);
+  in.core = Box{{1, 0, 0}, {0.5, 1, 1}};
+  EXPECT_EQ(LeafTaskInput::decode(in.encode()).status().code(), StatusCode::kInvalidInput);
+  in.core = Box{{0, 0, 0}, {std::numeric_limits<double>::infinity(), 1, 1}};
+  EXPECT_EQ(LeafTaskInput::decode(in.encode()).status().code(), StatusCode::kInvalidInput);
 }
 
 TEST(LeafTask, OutputRoundTripsExactly) {
@@ -91,6 +107,10 @@ TEST(LeafTask, OutputRoundTripsExactly) {
   EXPECT_EQ(back->input_points, 4u);
   EXPECT_EQ(back->new_points, out.new_points);
   EXPECT_EQ(back->tets, out.tets);
+  EXPECT_EQ(out.encoded_size(), bytes.size());
+  out.moved = {1};
+  out.moved_to = {{0.5, 0.5, 0.5}};
+  EXPECT_EQ(out.encoded_size(), out.encode().size());
 }
 
 /// Overwrites the little-endian u64 at `pos`.
@@ -230,7 +250,7 @@ TEST(LeafTask, MovedInteriorPointsRoundTripAndAreChecked) {
 }
 
 TEST(NativeLeafKernel, ReportsHookErrorsWithTheLeaf) {
-  const NativeLeafKernel kernel([](TetMesh&, const SizingField&) { return internal_error("boom"); });
+  const NativeLeafKernel kernel([](TetMesh&, const SizingField&, const std::optional<Box>&) { return internal_error("boom"); });
   Result<LeafTaskOutput> r = kernel.run(whole_grid_input(1), uniform_sizing(1));
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.status().message().find("leaf 7"), std::string::npos);

@@ -282,15 +282,20 @@ VolumeMesh cut_below(const VolumeMesh& whole, double cut) {
   return fixtures::with_hull_boundary(sub);
 }
 
-TEST(Refine, SubMeshKeepsItsCutFaces) {
-  const VolumeMesh whole = refined_cube(0.3).to_volume_mesh();
-  // The tets whose barycenter has x < cut, with their points renumbered; the
-  // first cut in the list whose piece has a manifold boundary.
+/// cut_below(whole, cut) for the first cut in the list whose piece has a
+/// manifold boundary.
+VolumeMesh valid_piece(const VolumeMesh& whole) {
   VolumeMesh sub;
   for (double cut : {0.5, 0.45, 0.55, 0.4, 0.6}) {
     sub = cut_below(whole, cut);
     if (validate_mesh(sub).ok()) break;
   }
+  return sub;
+}
+
+TEST(Refine, SubMeshKeepsItsCutFaces) {
+  const VolumeMesh whole = refined_cube(0.3).to_volume_mesh();
+  const VolumeMesh sub = valid_piece(whole);
   ASSERT_TRUE(validate_mesh(sub).ok());
   ASSERT_GT(sub.tets.size(), 10u);
   ASSERT_LT(sub.tets.size(), whole.tets.size());
@@ -306,6 +311,57 @@ TEST(Refine, SubMeshKeepsItsCutFaces) {
   EXPECT_TRUE(report.ok()) << format_validation(report);
   EXPECT_EQ(hull_keys(out), hull_keys(sub));
   for (std::size_t v = 0; v < sub.points.size(); ++v) EXPECT_EQ(out.points[v], sub.points[v]);
+}
+
+TEST(Refine, InsertsOnlyInsideItsBoxAndTreatsCutFacesAsOpen) {
+  VolumeMesh sub = valid_piece(refined_cube(0.3).to_volume_mesh());
+  ASSERT_TRUE(validate_mesh(sub).ok());
+  // The piece's faces on the cut (x well above 0) are a PDR task's cut
+  // through the volume (boundary id 0); the cube's own faces keep id 1.
+  sub.boundary = fixtures::hull_faces(sub);
+  sub.boundary_ids.clear();
+  for (const Tri& f : sub.boundary) {
+    bool on_cube = false;  // all three points on one side of the unit cube
+    for (int i = 0; i < 3; ++i)
+      for (double side : {0.0, 1.0})
+        on_cube = on_cube || (sub.points[f[0]][i] == side && sub.points[f[1]][i] == side && sub.points[f[2]][i] == side);
+    sub.boundary_ids.push_back(on_cube ? 1 : 0);
+  }
+  const SurfaceMesh surface = hull_surface(sub);
+  const SizingField field = uniform_field(surface, sub, 0.1);
+  const Box core{{0, 0, 0}, {0.25, 1, 1}};
+  RefineOptions o;
+  o.insert_within = core;
+  TetMesh mesh = fixtures::build(sub);
+  auto r = refine(mesh, field, o);
+  ASSERT_TRUE(r.ok()) << r.status().to_string();
+  ASSERT_TRUE(mesh.check().ok()) << mesh.check().to_string();
+  EXPECT_GT(r->points_added, 20u);
+  const VolumeMesh out = mesh.to_volume_mesh();
+  EXPECT_EQ(hull_keys(out), hull_keys(sub));
+  for (std::size_t v = sub.points.size(); v < out.points.size(); ++v) {
+    for (int i = 0; i < 3; ++i) {
+      EXPECT_GE(out.points[v][i], core.lo[i]);
+      EXPECT_LE(out.points[v][i], core.hi[i]);
+    }
+  }
+  // Without the box the same task refines the whole piece.
+  TetMesh free_mesh = fixtures::build(sub);
+  auto all = refine(free_mesh, field);
+  ASSERT_TRUE(all.ok()) << all.status().to_string();
+  EXPECT_GT(all->points_added, r->points_added);
+  // With the whole piece as its box, the task places points up to the cut
+  // faces, which are open to the task beyond: more than when they are walls.
+  o.insert_within = Box{{0, 0, 0}, {1, 1, 1}};
+  TetMesh open_cut = fixtures::build(sub);
+  auto open_stats = refine(open_cut, field, o);
+  ASSERT_TRUE(open_stats.ok()) << open_stats.status().to_string();
+  VolumeMesh walled = sub;
+  walled.boundary_ids.assign(walled.boundary.size(), 1);
+  TetMesh walled_mesh = fixtures::build(walled);
+  auto walled_stats = refine(walled_mesh, field, o);
+  ASSERT_TRUE(walled_stats.ok()) << walled_stats.status().to_string();
+  EXPECT_GT(open_stats->points_added, walled_stats->points_added);
 }
 
 /// The cross-section of the L-prism below, in (x, z), counter-clockwise: a

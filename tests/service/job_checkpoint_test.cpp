@@ -72,11 +72,11 @@ TEST(JobCheckpoint, AJobStoppedAfterItsFirstRoundGoesOnFromItWithTheBytesOfAWhol
   auto whole = engine.mesh(job, *surface, options, whole_run, nullptr);
   ASSERT_TRUE(whole.ok()) << whole.status().to_string();
   ASSERT_TRUE(whole_run.saw("refinement"));
-  ASSERT_TRUE(whole_run.saw("interface round"));
+  ASSERT_TRUE(whole_run.saw("optimization"));
 
   const std::filesystem::path file = dir.path() / "checkpoint.pdrck";
   const JobCheckpoint checkpoint(file, "key of job j1");
-  Phases stopped("interface round");  // the refinement round is done and stored by then
+  Phases stopped("optimization");  // the refinement is done and stored by then
   EXPECT_FALSE(engine.mesh(job, *surface, options, stopped, &checkpoint).ok());
   ASSERT_TRUE(std::filesystem::exists(file));
   {
@@ -92,7 +92,7 @@ TEST(JobCheckpoint, AJobStoppedAfterItsFirstRoundGoesOnFromItWithTheBytesOfAWhol
   ASSERT_TRUE(resumed.ok()) << resumed.status().to_string();
   EXPECT_FALSE(resumed_run.saw("initial mesh"));
   EXPECT_FALSE(resumed_run.saw("refinement"));
-  EXPECT_TRUE(resumed_run.saw("interface round"));
+  EXPECT_TRUE(resumed_run.saw("optimization"));
   const ValidationReport v = validate_mesh(*resumed, &*surface);
   EXPECT_TRUE(v.ok()) << validation_status(v).message();
   EXPECT_EQ(resumed->points, whole->points);

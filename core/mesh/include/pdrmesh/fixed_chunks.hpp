@@ -82,6 +82,14 @@ template <class T, class Each>
 Buckets<T> bucket_items(std::size_t n, std::size_t keys, std::size_t grain, Each&& each) {
   Buckets<T> b;
   b.first.assign(keys + 1, 0);
+  if (n <= grain) {  // one chunk: in this thread, without atomics
+    for (std::size_t i = 0; i < n; ++i) each(i, [&](Index key, const T&) { ++b.first[key + 1]; });
+    std::partial_sum(b.first.begin(), b.first.end(), b.first.begin());
+    b.items.resize(b.first[keys]);
+    std::vector<std::size_t> next(b.first.begin(), b.first.end() - 1);
+    for (std::size_t i = 0; i < n; ++i) each(i, [&](Index key, const T& item) { b.items[next[key]++] = item; });
+    return b;
+  }
   for_each_chunk(n, grain, [&](std::size_t, std::size_t lo, std::size_t hi) {
     for (std::size_t i = lo; i < hi; ++i) {
       each(i, [&](Index key, const T&) { std::atomic_ref<std::size_t>(b.first[key + 1]).fetch_add(1, std::memory_order_relaxed); });
@@ -103,6 +111,12 @@ Buckets<T> bucket_items(std::size_t n, std::size_t keys, std::size_t grain, Each
 /// Sorts each bucket of `b` by `less`, buckets in parallel.
 template <class T, class Less>
 void sort_buckets(Buckets<T>& b, Less less) {
+  if (b.items.size() <= 65536) {  // a small set (a leaf task's): in this thread
+    for (std::size_t k = 0; k + 1 < b.first.size(); ++k)
+      std::sort(b.items.begin() + static_cast<std::ptrdiff_t>(b.first[k]),
+                b.items.begin() + static_cast<std::ptrdiff_t>(b.first[k + 1]), less);
+    return;
+  }
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, b.first.size() - 1), [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t k = r.begin(); k != r.end(); ++k) {
       std::sort(b.items.begin() + static_cast<std::ptrdiff_t>(b.first[k]),

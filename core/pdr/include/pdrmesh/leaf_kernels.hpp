@@ -12,6 +12,7 @@
 
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 
@@ -24,10 +25,10 @@
 
 namespace pdrmesh {
 
-/// Refines a mesh in place towards h(x) without touching frozen faces; must be
-/// deterministic and thread-safe across distinct meshes. The lead wires
-/// refine(mesh, sizing, options, progress) in here.
-using RefineHook = std::function<Status(TetMesh&, const SizingField&)>;
+/// Refines a mesh in place towards h(x) without touching frozen faces, adding
+/// points only inside `core` when it is set (LeafTaskInput::core); must be
+/// deterministic and thread-safe across distinct meshes.
+using RefineHook = std::function<Status(TetMesh&, const SizingField&, const std::optional<Box>& core)>;
 
 class NativeLeafKernel final : public LeafKernel {
  public:

@@ -28,16 +28,18 @@
 // Binary layout (little-endian; u32/u64 unsigned, f64 IEEE bits):
 //   input:  magic "PDRLEAFI", u32 version, u32 leaf,
 //           u64 n, n x (u64 id, 3 x f64), u64 m, m x 4 x u32,
-//           u64 k, k x (3 x u32, u32 id as two's complement)
+//           u64 k, k x (3 x u32, u32 id as two's complement),
+//           u32 has_core, then if 1: 6 x f64 (core lo, core hi)
 //   output: magic "PDRLEAFO", u32 version, u32 leaf, u32 input_points,
 //           u64 n, n x 3 x f64, u64 m, m x 4 x u32, u64 k, k x (u32, 3 x f64)
-// (version 2: the moved points were added).
+// (version 2: the moved points were added; version 3: the core box).
 // decode() checks every count against the bytes left, indices against the
 // point count, finiteness, repeated vertices and trailing bytes.
 #pragma once
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -57,6 +59,10 @@ struct LeafTaskInput {
   std::vector<Tet> tets;               ///< local indices into points, positive
   std::vector<Tri> frozen_faces;       ///< the leaf's hull, outward, local indices
   std::vector<int> frozen_ids;         ///< per frozen face: engine surface id >= 1, 0 = interface
+  /// Set: the leaf's own closed box. The tets are then the leaf's and a buffer
+  /// of its neighbours' around it, and a refining kernel adds points only
+  /// inside the box (run_pdr's buffered rounds); unset: the tets are the leaf.
+  std::optional<Box> core;
 
   std::string encode() const;
   static Result<LeafTaskInput> decode(std::string_view bytes);
@@ -71,6 +77,8 @@ struct LeafTaskOutput {
   std::vector<Vec3> moved_to;      ///< their new coordinates, one per entry of `moved`
 
   std::string encode() const;
+  /// encode().size(), without encoding.
+  std::uint64_t encoded_size() const;
   static Result<LeafTaskOutput> decode(std::string_view bytes);
 };
 

@@ -1,31 +1,33 @@
 // SPDX-License-Identifier: AGPL-3.0-or-later
-// The PDR engine in one process (the paper's Algorithm 1, with frozen
-// interfaces): a dense initial TetGen mesh, an octree decomposition, one leaf
-// task per leaf scheduled by run_leaves, each result validated and spliced into
-// the global mesh, then (beyond the paper) an interface round over a second
-// decomposition shifted by half a leaf, so that every first-round interface lies
-// inside a leaf and is refined too, then an optional final optimization hook.
+// The PDR engine in one process (the paper's Algorithm 1): a dense initial
+// TetGen mesh, an octree grid over it, leaf tasks scheduled by run_leaves,
+// each result validated and spliced into the global mesh, then optimization
+// rounds and a final optimization task over what they left.
+//
+// Refinement (a kernel that refines the volume it is given): buffered rounds.
+// The leaves go in eight rounds by the parities of their grid coordinates, so
+// two leaves of one round are a leaf apart. A task gets its leaf's tets (those
+// whose barycenter the leaf's box holds) and one vertex layer of its
+// neighbours' tets around them, the buffer the paper's lock set protects; it
+// may change all of them and adds points only inside its box. Its hull lies in
+// the neighbouring leaves, which later rounds refine with these points in
+// view, so no interface stays coarse. A kernel that needs each leaf's hull to
+// be a closed manifold (TetGen) runs the frozen scheme instead: one round with
+// every leaf's hull frozen, then interface rounds over the grid shifted by half
+// and by a quarter leaf.
 //
 // Numbering and determinism. Global point ids are indices into one global point
 // array: the initial mesh's points (the surface points first), then each
 // round's new points, appended after the round leaf by leaf in ascending leaf
 // order (new point k of a leaf result taking the next id), whatever the order
-// in which the results came in. Every task reads only its own leaf's tets and
-// the points present before the round; its hull is frozen, so no other task
-// changes anything it reads. Hence each task's input bytes, the kernel's output
+// in which the results came in. The tasks of a round share no tet and read
+// only their own tets and the points present before the round; no task moves
+// a point of its hull. Hence each task's input bytes, the kernel's output
 // bytes and the ids given are the same for any worker count, policy or timing:
-// the result is byte-identical for 1 and N workers. Tets are listed leaf by
-// leaf (ascending leaf, then kernel output order); unused points (interior
-// points a TetGen kernel dropped) are removed at the end, keeping the order of
-// the rest.
-//
-// Rounds: (1) refinement over the octree grid, (2) the interface round over the
-// grid shifted by half a leaf (every round-1 interface lies inside a leaf),
-// (3) a second interface round over the grid shifted by a quarter leaf (where
-// round-1 and round-2 interface planes cross), then, with an optimization
-// kernel, (4) optimization over the first grid and (5) over the half-shifted
-// grid (each region is optimized at least once away from a frozen leaf
-// hull), then the optional global `optimize` hook.
+// the result is byte-identical for 1 and N workers. Tets the round's tasks did
+// not get come first, then each task's tets in ascending leaf order; unused
+// points (interior points a TetGen kernel dropped) are removed at the end,
+// keeping the order of the rest.
 #pragma once
 
 #include <cstddef>
@@ -74,12 +76,16 @@ struct PdrProgress {
 };
 
 struct PdrOptions {
-  /// Octree depth; -1: the smallest depth whose occupied leaves hold about
-  /// final_tets_per_leaf of E tets or fewer each (default_depth with
+  /// Octree depth; -1: 0 (one leaf, the serial path) when E is under
+  /// min_parallel_tets, else the smallest depth whose occupied leaves hold
+  /// about final_tets_per_leaf of E tets or fewer each (default_depth with
   /// occupied_leaves_estimate), E the estimated final tet count, enclosed
   /// volume / regular_tet_volume(mean h at the surface points).
   int depth = -1;
-  std::size_t final_tets_per_leaf = 20000;
+  /// 0: 2500 with buffered rounds (each of the eight rounds then has many
+  /// tasks, none of them long), 20000 without.
+  std::size_t final_tets_per_leaf = 0;
+  std::size_t min_parallel_tets = 100000;
   std::size_t workers = 1;
   /// Set: how many leaf tasks may run at once now, asked whenever tasks are
   /// handed out (scheduler.hpp), in place of `workers`: a coordinator whose
@@ -119,6 +125,18 @@ struct PdrOptions {
   /// depths no such tet stays; at depths beyond the default a few do
   /// (primitives13 at depth 2: min dihedral 5.2 against the serial 15.2).
   std::optional<double> initial_radius_edge = 1.4;
+  /// Refinement in buffered rounds (for a kernel that refines the volume it
+  /// is given; not with the fix-ups): the leaves go in eight rounds by the
+  /// parities of their grid coordinates. A task gets its leaf's tets and every
+  /// tet within buffer_layers vertex layers of them, may change all of them,
+  /// and adds points only inside its leaf's box (LeafTaskInput::core). Its
+  /// frozen hull lies inside the neighbouring leaves, which a later round
+  /// refines with this one's points in view, so no interface stays coarse and
+  /// no interface round follows. Two leaves of one round are a leaf apart; a
+  /// tet that both buffers would reach goes to neither. false: one round with
+  /// every leaf's hull frozen, then the interface rounds below.
+  bool buffered = true;
+  int buffer_layers = 1;
   /// The interface rounds over the decomposition shifted by half a leaf, then
   /// by a quarter leaf (skipped at depth 0, where there are no interfaces).
   bool interface_round = true;

@@ -144,6 +144,14 @@ struct RefineOptions {
   /// tets' candidates) or between passes; RefineStats::stopped_at_deadline is then
   /// true and the mesh valid, only not refined to the end.
   std::optional<std::chrono::steady_clock::time_point> deadline;
+  /// Set: no candidate outside this closed box is made. A PDR leaf task
+  /// inserts points only in its own leaf; the tets around the leaf that it is
+  /// also given hold the cavities of points near the leaf's faces and the
+  /// neighbours' points that the spacing checks must see. Its frozen faces
+  /// of boundary id 0 are then cuts through the volume, not walls: no
+  /// candidate is rejected for being near one (boundary_reject_distance holds
+  /// for the surface's faces), as the task beyond sees these points.
+  std::optional<Box> insert_within;
 };
 
 /// Checks the options (positive, finite distances and limits).
