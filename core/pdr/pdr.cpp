@@ -529,13 +529,13 @@ Result<PdrPlan> plan_pdr(const SurfaceMesh& surface, double surface_h, const Pdr
   PdrPlan plan;
   plan.surface_h = surface_h;
   plan.depth = options.depth;
+  const bool buffered = options.buffered && !options.fixups.value_or(kernel.needs_manifold_hull());
   if (plan.depth < 0) {
     const double volume = enclosed_volume(surface);
     const double estimate = volume / regular_tet_volume(surface_h);
     const double capped = std::isfinite(estimate) ? std::clamp(estimate, 0.0, 1e15) : 0.0;
-    const bool buffered = options.buffered && !options.fixups.value_or(kernel.needs_manifold_hull());
     const std::size_t per_leaf =
-        options.final_tets_per_leaf > 0 ? options.final_tets_per_leaf : buffered ? 2500 : 20000;
+        options.final_tets_per_leaf > 0 ? options.final_tets_per_leaf : buffered ? 5000 : 20000;
     plan.depth = capped < static_cast<double>(options.min_parallel_tets)
                      ? 0
                      : default_depth(static_cast<std::size_t>(capped), per_leaf,
@@ -544,7 +544,7 @@ Result<PdrPlan> plan_pdr(const SurfaceMesh& surface, double surface_h, const Pdr
   TetgenOptions& tg = plan.tetgen;
   const double leaf_side = side / static_cast<double>(1 << plan.depth);
   tg.max_volume = std::max(leaf_side * leaf_side * leaf_side / options.initial_volume_divisor,
-                           options.initial_min_volume_factor * regular_tet_volume(surface_h));
+                           options.initial_min_volume_factor.value_or(buffered ? 16 : 2) * regular_tet_volume(surface_h));
   tg.time_limit_s = options.tetgen_time_limit_s;
   tg.radius_edge = options.initial_radius_edge;
   tg.seeds_only = options.initial_seeds_only.value_or(!kernel.needs_manifold_hull());

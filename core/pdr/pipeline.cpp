@@ -96,6 +96,40 @@ Status optimize_volume(VolumeMesh& mesh, const SizingField& sizing, const Optimi
   return {};
 }
 
+namespace {
+
+/// mesh_serial with `options`' sizing and optimization, as a ParallelResult:
+/// one leaf (tet_regions all 0) and the serial steps' times in the profile.
+Result<ParallelResult> serial_as_parallel(const SurfaceMesh& surface, const ParallelOptions& options) {
+  const auto t0 = Clock::now();
+  if (options.pdr.progress && !options.pdr.progress({"initial mesh", 0, 0, 0}))
+    return cancelled("stopped before the initial mesh");
+  SerialOptions so;
+  so.sizing = options.sizing;
+  so.optimize = options.optimize;
+  so.tetgen.time_limit_s = options.pdr.tetgen_time_limit_s;
+  PDR_ASSIGN_OR_RETURN(SerialResult serial, mesh_serial(surface, so));
+  ParallelResult out;
+  out.mesh = std::move(serial.mesh);
+  out.mesh.tet_regions.assign(out.mesh.tets.size(), 0);
+  PdrProfile& p = out.profile;
+  p.initial = serial.seconds_initial;
+  p.sizing = serial.seconds_sizing;
+  p.leaves = serial.seconds_refine;
+  p.task_busy = serial.seconds_refine + serial.seconds_optimize;
+  p.optimization = p.global_optimization = serial.seconds_optimize;
+  p.leaf_count = 1;
+  p.max_concurrency = 1;
+  p.final_tets = out.mesh.tets.size();
+  p.interior_points = out.mesh.points.size() - surface.points.size();
+  p.total = seconds_since(t0);
+  out.seconds_sizing = serial.seconds_sizing;
+  if (options.pdr.progress) options.pdr.progress({"optimization", 1, 1, out.mesh.tets.size()});
+  return out;
+}
+
+}  // namespace
+
 Result<ParallelResult> mesh_parallel(const SurfaceMesh& surface, const ParallelOptions& options,
                                      const LeafKernel* kernel, const LeafKernel* optimize_kernel) {
   PDR_TRY(validate(options.sizing));
@@ -104,6 +138,13 @@ Result<ParallelResult> mesh_parallel(const SurfaceMesh& surface, const ParallelO
   if (kernel == nullptr) {
     PDR_ASSIGN_OR_RETURN(native, make_leaf_kernel("native"));
     kernel = native.get();
+  }
+  // A surface too small for leaf tasks (the plan's depth 0) with the native
+  // kernel is the serial mesher's job: its steps, its bytes.
+  if (options.pdr.resume == nullptr && !options.pdr.checkpoint && kernel->name() == "native" &&
+      !kernel->needs_manifold_hull()) {
+    const std::optional<PdrPlan> plan = plan_from_surface(surface, options, *kernel);
+    if (plan && plan->depth == 0) return serial_as_parallel(surface, options);
   }
   ParallelResult out;
   std::optional<SizingField> sizing_slot;

@@ -712,6 +712,31 @@ TEST(Pdr, DepthZeroStartsFromTheSerialInitialMesh) {
   EXPECT_TRUE(plan->tetgen.seeds_only);
 }
 
+TEST(Pdr, ASurfaceTooSmallForLeafTasksGetsTheSerialMesh) {
+  // sphere966 at its own spacing: about 15,000 tets, under min_parallel_tets,
+  // so depth 0, where mesh_parallel is the serial mesher.
+  const Sphere* sp = sphere();
+  ASSERT_NE(sp, nullptr) << "sphere966.mesh not readable";
+  ParallelOptions o;
+  o.pdr.workers = 2;
+  Result<ParallelResult> run = mesh_parallel(sp->surface, o);
+  ASSERT_TRUE(run.ok()) << run.status().to_string();
+  expect_valid(run->mesh, sp->surface);
+  EXPECT_EQ(run->profile.depth, 0);
+  EXPECT_EQ(run->profile.leaf_count, 1u);
+  EXPECT_EQ(run->mesh.tet_regions, std::vector<int>(run->mesh.tets.size(), 0));
+  Result<SerialResult> serial = mesh_serial(sp->surface, SerialOptions{});
+  ASSERT_TRUE(serial.ok()) << serial.status().to_string();
+  EXPECT_EQ(run->mesh.points, serial->mesh.points);
+  EXPECT_EQ(run->mesh.tets, serial->mesh.tets);
+  // Asked for leaves, it makes them.
+  o.pdr.depth = 1;
+  Result<ParallelResult> leaves = mesh_parallel(sp->surface, o);
+  ASSERT_TRUE(leaves.ok()) << leaves.status().to_string();
+  EXPECT_EQ(leaves->profile.depth, 1);
+  EXPECT_GT(leaves->profile.leaf_count, 1u);
+}
+
 TEST(Pdr, MeshParallelIsByteIdenticalWithTheInitialMeshBesideTheSizing) {
   // 1 worker: sizing, then the initial mesh; 2 and 4: both at once (the plan
   // from SizingField::surface_values). The bytes must not change.

@@ -82,7 +82,7 @@ struct PdrOptions {
   /// occupied_leaves_estimate), E the estimated final tet count, enclosed
   /// volume / regular_tet_volume(mean h at the surface points).
   int depth = -1;
-  /// 0: 2500 with buffered rounds (each of the eight rounds then has many
+  /// 0: 5000 with buffered rounds (each of the eight rounds then has many
   /// tasks, none of them long), 20000 without.
   std::size_t final_tets_per_leaf = 0;
   std::size_t min_parallel_tets = 100000;
@@ -98,11 +98,14 @@ struct PdrOptions {
   /// at depth 0 with seeds_only none (the serial pipeline's initial mesh).
   double initial_volume_divisor = 200;
   /// ... but never below this times the regular tet volume at the mean h of
-  /// the surface points: a denser initial mesh than the target leaves its
-  /// points in the result (sphere966 at depth 3: 6.7 times the serial tets
-  /// without this bound, 1.07 with 2, 0.52 with 8: too coarse a start leaves
-  /// small leaves nothing to refine between their frozen hulls).
-  double initial_min_volume_factor = 2;
+  /// the surface points: the refiner keeps every initial point, so seeds
+  /// about as dense as the target set the spacing instead of the refiner
+  /// (buffered rounds on sphere966 at diag/100, depth 4: 0.78 times the
+  /// serial tets with 2, 1.06 with 8, 1.02 with 27). Unset: 16 with buffered
+  /// rounds; 2 with frozen leaf hulls, where too coarse a start leaves small
+  /// leaves nothing to refine between their hulls (0.52 times the serial tets
+  /// with 8 on sphere966 at depth 3).
+  std::optional<double> initial_min_volume_factor;
   /// Unset: true for a kernel that refines the volume it is given (native),
   /// false for one that needs the fix-ups (tetgen: they were tuned on TetGen's
   /// refined initial mesh and take 3x longer on the seeded one, primitives13 at
