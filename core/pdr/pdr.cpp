@@ -195,6 +195,12 @@ std::vector<char> select_interface_tets(const VolumeMesh& m, int halo) {
   return flag;
 }
 
+/// A grid of leaves: the depth-`depth` octree over `box`.
+struct Grid {
+  Box box;
+  int depth = 0;
+};
+
 /// Puts a round's results into `cur` as if leaf by leaf in ascending order,
 /// after the tets of no leaf (`outside`, which keep their leaf): leaf l's tets
 /// (task output, then its kept tets) follow those of the leaves before it, and
@@ -202,13 +208,9 @@ std::vector<char> select_interface_tets(const VolumeMesh& m, int halo) {
 /// before it. Point moves go first, in leaf order (the leaves of a round move
 /// disjoint points: nothing moves a hull point); the rest is copied in
 /// parallel into slots fixed by prefix sums, so the result does not depend on
-/// the threads. Frees the results as it goes.
-/// With `grid` set, each tet a task made is given the grid leaf that holds
-/// its barycenter instead of the task's leaf.
-struct Grid {
-  Box box;
-  int depth = 0;
-};
+/// the threads. Frees the results as it goes. With `grid` set, each tet a
+/// task made is given the grid leaf that holds its barycenter instead of the
+/// task's leaf.
 void splice(VolumeMesh& cur, const std::vector<LeafId>& leaves, std::vector<TaskResult>& results,
             std::vector<std::vector<Tet>>& kept, std::vector<Tet>& outside, std::vector<int>& outside_leaf,
             const Grid* grid, RoundResult& rr) {
@@ -384,6 +386,9 @@ Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const
   return {};
 }
 
+/// Sweeps of buffered rounds at most (PdrOptions::buffered).
+constexpr int kMaxSweeps = 3;
+
 /// The tasks of one buffered round (PdrOptions::buffered): the leaves of one
 /// colour (the parities of the grid coordinates, i&1 | (j&1)<<1 | (k&1)<<2),
 /// each with the tets whose barycenter it holds (its core) and those within
@@ -392,9 +397,6 @@ Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const
 /// tasks' tets are disjoint; they may share hull points, which no task moves.
 /// In parallel and deterministic: per point the least and greatest leaf of
 /// its tets by atomic min and max, each tet writing only its own owner.
-/// Sweeps of buffered rounds at most (PdrOptions::buffered).
-constexpr int kMaxSweeps = 3;
-
 struct BufferedRound {
   Decomposition d;             ///< leaves, leaf_tets (core and buffer), no lock sets: none conflict
   std::vector<Index> outside;  ///< the tets of no task, ascending
