@@ -99,24 +99,26 @@ Result<TetMesh> TetMesh::from_volume_mesh(const VolumeMesh& mesh, std::vector<Gl
   const auto bucket = [&](Index a) {
     return std::span<const detail::FaceRef>(faces.items.data() + faces.first[a], faces.first[a + 1] - faces.first[a]);
   };
-  for (Index a = 0; a < m.points_.size(); ++a) {
-    const auto group = bucket(a);
-    for (std::size_t i = 0; i < group.size();) {
-      std::size_t j = i + 1;
-      while (j < group.size() && group[j].b == group[i].b && group[j].c == group[i].c) ++j;
-      if (j - i > 2)
-        return invalid_input(fmt::format("face (points {}, {}, {}) is shared by {} tets, first {}", a, group[i].b,
-                                         group[i].c, j - i, group[i].tet));
-      if (j - i == 2) {
-        const Index x = pack_face(group[i].tet, static_cast<int>(group[i].slot));
-        const Index y = pack_face(group[i + 1].tet, static_cast<int>(group[i + 1].slot));
-        if (face_tet(x) == face_tet(y)) return invalid_input(fmt::format("tet {} has a repeated point", face_tet(x)));
+  std::string problem;
+  for (Index a = 0; a < m.points_.size() && problem.empty(); ++a) {
+    detail::for_each_face_group(faces, a, [&](std::span<const detail::FaceRef> group) {
+      if (!problem.empty()) return;
+      if (group.size() > 2) {
+        problem = fmt::format("face (points {}, {}, {}) is shared by {} tets, first {}", a, group[0].b, group[0].c,
+                              group.size(), group[0].tet);
+      } else if (group.size() == 2) {
+        const Index x = pack_face(group[0].tet, static_cast<int>(group[0].slot));
+        const Index y = pack_face(group[1].tet, static_cast<int>(group[1].slot));
+        if (face_tet(x) == face_tet(y)) {
+          problem = fmt::format("tet {} has a repeated point", face_tet(x));
+          return;
+        }
         m.cells_[face_tet(x)].adj[face_local(x)] = y;
         m.cells_[face_tet(y)].adj[face_local(y)] = x;
       }
-      i = j;
-    }
+    });
   }
+  if (!problem.empty()) return invalid_input(problem);
 
   for (std::size_t i = 0; i < mesh.boundary.size(); ++i) {
     const Tri key = topo::sorted_key(mesh.boundary[i]);

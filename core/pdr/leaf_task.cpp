@@ -248,25 +248,24 @@ Status validate_leaf_output(const LeafTaskInput& in, const LeafTaskOutput& out) 
   // opposite orientations, one of a single tet is a hull face.
   const auto faces = detail::faces_by_smallest_point(out.tets, limit);
   std::vector<Tri> hull;
-  for (std::size_t a = 0; a < limit; ++a) {
-    const auto* first = faces.items.data() + faces.first[a];
-    const auto* last = faces.items.data() + faces.first[a + 1];
-    for (const auto* i = first; i != last;) {
-      const auto* j = i + 1;
-      while (j != last && j->b == i->b && j->c == i->c) ++j;
-      const Tri key = {static_cast<Index>(a), i->b, i->c};
-      const Tri tri = canonical(topo::face_of(out.tets[i->tet], static_cast<int>(i->slot)));
-      if (j - i > 2) return fail(fmt::format("face {} is shared by {} tets", tri_str(key), j - i));
-      if (j - i == 2) {
-        const Tri other = canonical(topo::face_of(out.tets[(i + 1)->tet], static_cast<int>((i + 1)->slot)));
+  std::string problem;
+  for (std::size_t a = 0; a < limit && problem.empty(); ++a) {
+    detail::for_each_face_group(faces, a, [&](std::span<const detail::FaceRef> group) {
+      if (!problem.empty()) return;
+      const Tri key = {static_cast<Index>(a), group[0].b, group[0].c};
+      const Tri tri = canonical(topo::face_of(out.tets[group[0].tet], static_cast<int>(group[0].slot)));
+      if (group.size() > 2) {
+        problem = fmt::format("face {} is shared by {} tets", tri_str(key), group.size());
+      } else if (group.size() == 2) {
+        const Tri other = canonical(topo::face_of(out.tets[group[1].tet], static_cast<int>(group[1].slot)));
         if (!(tri[1] == other[2] && tri[2] == other[1]))
-          return fail(fmt::format("face {} is used twice with the same orientation", tri_str(key)));
+          problem = fmt::format("face {} is used twice with the same orientation", tri_str(key));
       } else {
         hull.push_back(tri);
       }
-      i = j;
-    }
+    });
   }
+  if (!problem.empty()) return fail(problem);
   std::vector<Tri> frozen;
   frozen.reserve(in.frozen_faces.size());
   for (const Tri& f : in.frozen_faces) frozen.push_back(canonical(f));

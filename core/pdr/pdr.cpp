@@ -70,18 +70,12 @@ LeafTaskInput build_leaf_input(std::uint32_t leaf, std::span<const Vec3> points,
   // The hull: the faces of one tet, in the order of their sorted points.
   const auto faces = detail::faces_by_smallest_point(in.tets, used.size());
   for (std::size_t a = 0; a < used.size(); ++a) {
-    const auto* first = faces.items.data() + faces.first[a];
-    const auto* last = faces.items.data() + faces.first[a + 1];
-    for (const auto* i = first; i != last;) {
-      const auto* j = i + 1;
-      while (j != last && j->b == i->b && j->c == i->c) ++j;
-      if (j - i == 1) {
-        const Tri t = topo::face_of(in.tets[i->tet], static_cast<int>(i->slot));
-        in.frozen_faces.push_back(t);
-        in.frozen_ids.push_back(boundary.lookup({used[t[0]], used[t[1]], used[t[2]]}));
-      }
-      i = j;
-    }
+    detail::for_each_face_group(faces, a, [&](std::span<const detail::FaceRef> group) {
+      if (group.size() != 1) return;
+      const Tri t = topo::face_of(in.tets[group[0].tet], static_cast<int>(group[0].slot));
+      in.frozen_faces.push_back(t);
+      in.frozen_ids.push_back(boundary.lookup({used[t[0]], used[t[1]], used[t[2]]}));
+    });
   }
   return in;
 }

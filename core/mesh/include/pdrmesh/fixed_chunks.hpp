@@ -150,4 +150,17 @@ inline Buckets<FaceRef> faces_by_smallest_point(std::span<const Tet> tets, std::
   return b;
 }
 
+/// Calls f(group) for every run of faces with the same points in bucket a of
+/// faces_by_smallest_point's result (a span of one or more FaceRefs).
+template <class F>
+void for_each_face_group(const Buckets<FaceRef>& faces, std::size_t a, F&& f) {
+  const FaceRef* const last = faces.items.data() + faces.first[a + 1];
+  for (const FaceRef* i = faces.items.data() + faces.first[a]; i != last;) {
+    const FaceRef* j = i + 1;
+    while (j != last && j->b == i->b && j->c == i->c) ++j;
+    f(std::span<const FaceRef>(i, j));
+    i = j;
+  }
+}
+
 }  // namespace pdrmesh::detail
