@@ -139,13 +139,14 @@ Result<ParallelResult> mesh_parallel(const SurfaceMesh& surface, const ParallelO
     PDR_ASSIGN_OR_RETURN(native, make_leaf_kernel("native"));
     kernel = native.get();
   }
-  // A surface too small for leaf tasks (the plan's depth 0) with the native
-  // kernel is the serial mesher's job: its steps, its bytes.
-  if (options.pdr.resume == nullptr && !options.pdr.checkpoint && kernel->name() == "native" &&
-      !kernel->needs_manifold_hull()) {
-    const std::optional<PdrPlan> plan = plan_from_surface(surface, options, *kernel);
-    if (plan && plan->depth == 0) return serial_as_parallel(surface, options);
-  }
+  // run_pdr's plan from the surface alone (none when resuming). A surface too
+  // small for leaf tasks (its depth 0) with the native kernel is the serial
+  // mesher's job: its steps, its bytes.
+  const std::optional<PdrPlan> surface_plan =
+      options.pdr.resume == nullptr ? plan_from_surface(surface, options, *kernel) : std::nullopt;
+  if (surface_plan && surface_plan->depth == 0 && !options.pdr.checkpoint && kernel->name() == "native" &&
+      !kernel->needs_manifold_hull())
+    return serial_as_parallel(surface, options);
   ParallelResult out;
   std::optional<SizingField> sizing_slot;
   double background_s = 0, build_s = 0;
@@ -167,7 +168,7 @@ Result<ParallelResult> mesh_parallel(const SurfaceMesh& surface, const ParallelO
   std::optional<PdrPlan> plan;  // set: `initial` was made from it, beside the sizing field
   std::optional<VolumeMesh> initial;
   double initial_s = 0, overlapped_s = 0;
-  if (options.pdr.workers >= 2 && options.pdr.resume == nullptr) plan = plan_from_surface(surface, options, *kernel);
+  if (options.pdr.workers >= 2) plan = surface_plan;
   if (plan) {
     if (options.pdr.progress && !options.pdr.progress({"initial mesh", 0, 0, 0}))
       return cancelled("stopped before the initial mesh");
