@@ -3,6 +3,8 @@
 // (The refiner works on its own adjacency structure and converts to and from this.)
 #pragma once
 
+#include <map>
+#include <string>
 #include <vector>
 
 #include "pdrmesh/types.hpp"
@@ -13,12 +15,21 @@ namespace pdrmesh {
 /// (the VTK/Gmsh/Medit convention). `boundary` lists the boundary triangles
 /// oriented outward with one `boundary_ids` entry each; `tet_regions` is
 /// empty or holds one integer per tet (a region, or the octree leaf that made it).
+/// `boundary_names` names some boundary ids (carried from the input surface).
 struct VolumeMesh {
   std::vector<Vec3> points;
   std::vector<Tet> tets;
   std::vector<Tri> boundary;
   std::vector<int> boundary_ids;
   std::vector<int> tet_regions;
+  std::map<int, std::string> boundary_names;
 };
+
+/// The name a format writes for boundary id `id`: its entry in `names`, else
+/// "surface_<id>" (the name unnamed surfaces have always had).
+inline std::string boundary_name(const std::map<int, std::string>& names, int id) {
+  const auto it = names.find(id);
+  return it != names.end() ? it->second : "surface_" + std::to_string(id);
+}
 
 }  // namespace pdrmesh
