@@ -25,11 +25,12 @@ OptimizeOptions leaf_optimize_options(OptimizeOptions options) {
 Result<std::unique_ptr<LeafKernel>> make_leaf_kernel(std::string_view name) {
   if (name == "native") {
     return std::unique_ptr<LeafKernel>(std::make_unique<NativeLeafKernel>(
-        [](TetMesh& leaf, const SizingField& h, const std::optional<Box>& core) {
+        SizedRefineHook([](TetMesh& leaf, const SizingField& h, const std::optional<Box>& core,
+                           std::vector<double>& sizes) {
           RefineOptions options;
           options.insert_within = core;
-          return refine(leaf, h, options).status();
-        }));
+          return refine(leaf, h, options, {}, &sizes).status();
+        })));
   }
   if (name == "tetgen") return std::unique_ptr<LeafKernel>(std::make_unique<TetgenLeafKernel>());
   if (name == "optimize") {
@@ -42,13 +43,22 @@ Result<std::unique_ptr<LeafKernel>> make_leaf_kernel(std::string_view name) {
   return invalid_input(fmt::format("unknown leaf kernel '{}' (native, tetgen or optimize)", name));
 }
 
+NativeLeafKernel::NativeLeafKernel(RefineHook refine, std::string name)
+    : refine_([hook = std::move(refine)](TetMesh& mesh, const SizingField& sizing, const std::optional<Box>& core,
+                                         std::vector<double>& sizes) {
+        sizes.clear();  // the hook does not keep them
+        return hook ? hook(mesh, sizing, core) : Status();
+      }),
+      name_(std::move(name)) {}
+
 Result<LeafTaskOutput> NativeLeafKernel::run(const LeafTaskInput& in, const SizingField& sizing) const {
   Result<TetMesh> mesh = leaf_tet_mesh(in);
   if (!mesh.ok()) {
     return Status(mesh.status().code(), fmt::format("leaf {}: {}", in.leaf, mesh.status().message()));
   }
+  std::vector<double> sizes = in.sizes;
   if (refine_) {
-    const Status s = refine_(*mesh, sizing, in.core);
+    const Status s = refine_(*mesh, sizing, in.core, sizes);
     if (!s.ok()) return Status(s.code(), fmt::format("leaf {}: refinement: {}", in.leaf, s.message()));
   }
   // The output names the input points by their index (leaf_output_from): a
@@ -60,7 +70,9 @@ Result<LeafTaskOutput> NativeLeafKernel::run(const LeafTaskInput& in, const Sizi
   if (mesh->num_points() < n || (n > 0 && mesh->point_id(n - 1) != n - 1))
     return internal_error(
         fmt::format("leaf {}: the {} hook dropped input points (a leaf keeps them all)", in.leaf, name_));
-  return leaf_output_from(in, *mesh);
+  LeafTaskOutput out = leaf_output_from(in, *mesh);
+  if (sizes.size() == mesh->num_points()) out.new_sizes.assign(sizes.begin() + n, sizes.end());
+  return out;
 }
 
 Result<LeafTaskOutput> TetgenLeafKernel::run(const LeafTaskInput& in, const SizingField& sizing) const {

@@ -24,7 +24,7 @@ namespace {
 
 constexpr char kInputMagic[8] = {'P', 'D', 'R', 'L', 'E', 'A', 'F', 'I'};
 constexpr char kOutputMagic[8] = {'P', 'D', 'R', 'L', 'E', 'A', 'F', 'O'};
-constexpr std::uint32_t kVersion = 3;
+constexpr std::uint32_t kVersion = 4;
 
 Status decode_error(std::string_view what, std::string_view detail) {
   return invalid_input(fmt::format("leaf task {}: {}", what, detail));
@@ -53,6 +53,22 @@ bool get_indices(codec::Reader& r, std::array<Index, N>& a, std::size_t limit) {
     for (std::size_t j = 0; j < i; ++j)
       if (a[j] == a[i]) return false;
   }
+  return true;
+}
+
+/// Writes a sizes array: its count, then the values.
+void put_sizes(codec::Writer& w, const std::vector<double>& sizes) {
+  w.u64(sizes.size());
+  for (double h : sizes) w.f64(h);
+}
+
+/// Reads a sizes array of 0 or `n` entries, each finite and > 0.
+bool get_sizes(codec::Reader& r, std::size_t n, std::vector<double>& sizes) {
+  std::size_t s = 0;
+  if (!r.count(8, s) || (s != 0 && s != n)) return false;
+  sizes.resize(s);
+  for (double& h : sizes)
+    if (!r.f64(h) || !std::isfinite(h) || !(h > 0)) return false;
   return true;
 }
 
@@ -95,6 +111,7 @@ std::string LeafTaskInput::encode() const {
     put_point(w, core->lo);
     put_point(w, core->hi);
   }
+  put_sizes(w, sizes);
   return w.take();
 }
 
@@ -140,6 +157,7 @@ Result<LeafTaskInput> LeafTaskInput::decode(std::string_view bytes) {
       return decode_error("input", "the core box is truncated, not finite or empty");
     in.core = b;
   }
+  if (!get_sizes(r, n, in.sizes)) return decode_error("input", "the sizes are truncated, miscounted or not positive");
   if (r.left() != 0) return decode_error("input", fmt::format("{} trailing bytes", r.left()));
   return in;
 }
@@ -152,6 +170,7 @@ std::string LeafTaskOutput::encode() const {
   w.u32(input_points);
   w.u64(new_points.size());
   for (const Vec3& p : new_points) put_point(w, p);
+  put_sizes(w, new_sizes);
   w.u64(tets.size());
   for (const Tet& t : tets) put_indices(w, t);
   w.u64(moved.size());
@@ -163,8 +182,8 @@ std::string LeafTaskOutput::encode() const {
 }
 
 std::uint64_t LeafTaskOutput::encoded_size() const {
-  return 20 + 8 + 24 * std::uint64_t{new_points.size()} + 8 + 16 * std::uint64_t{tets.size()} + 8 +
-         28 * std::uint64_t{moved.size()};
+  return 20 + 8 + 24 * std::uint64_t{new_points.size()} + 8 + 8 * std::uint64_t{new_sizes.size()} + 8 +
+         16 * std::uint64_t{tets.size()} + 8 + 28 * std::uint64_t{moved.size()};
 }
 
 Result<LeafTaskOutput> LeafTaskOutput::decode(std::string_view bytes) {
@@ -179,6 +198,8 @@ Result<LeafTaskOutput> LeafTaskOutput::decode(std::string_view bytes) {
     if (!get_point(r, out.new_points[i]))
       return decode_error("output", fmt::format("new point {} is truncated or not finite", i));
   }
+  if (!get_sizes(r, n, out.new_sizes))
+    return decode_error("output", "the new points' sizes are truncated, miscounted or not positive");
   const std::size_t limit = std::size_t{out.input_points} + n;
   std::size_t m = 0;
   if (!r.count(16, m)) return decode_error("output", "tet count exceeds the buffer");
@@ -208,6 +229,10 @@ Status validate_leaf_output(const LeafTaskInput& in, const LeafTaskOutput& out) 
     return fail(fmt::format("it counts {} input points, the task had {}", out.input_points, in.points.size()));
   const std::size_t ni = in.points.size();
   const std::size_t limit = ni + out.new_points.size();
+  if (!out.new_sizes.empty() && out.new_sizes.size() != out.new_points.size())
+    return fail(fmt::format("it gives {} sizes for {} new points", out.new_sizes.size(), out.new_points.size()));
+  for (double h : out.new_sizes)
+    if (!std::isfinite(h) || !(h > 0)) return fail(fmt::format("a new point's size is {}", h));
   if (out.moved_to.size() != out.moved.size())
     return fail(fmt::format("it moves {} points with {} coordinates", out.moved.size(), out.moved_to.size()));
   std::vector<Vec3> moved_points;  // in.points with the moves applied (only when there are moves)
@@ -294,8 +319,8 @@ std::uint64_t leaf_output_byte_limit(const LeafTaskInput& in, const SizingField&
   for (int a = 0; a < 3; ++a) volume *= box.hi[a] - box.lo[a] + 2 * r;
   const double new_points = volume / (4.0 / 3.0 * std::numbers::pi * r * r * r);
   const double points = static_cast<double>(in.points.size()) + new_points;
-  // Header and counts, then 3 doubles a new point, 4 u32 a tet, a u32 and 3 doubles a move.
-  const double bytes = 64 + 24 * new_points + 16 * 12 * points + 28 * static_cast<double>(in.points.size());
+  // Header and counts, then 4 doubles a new point (its size too), 4 u32 a tet, a u32 and 3 doubles a move.
+  const double bytes = 72 + 32 * new_points + 16 * 12 * points + 28 * static_cast<double>(in.points.size());
   return static_cast<std::uint64_t>(std::min(std::ceil(bytes), kCap));
 }
 

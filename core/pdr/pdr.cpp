@@ -53,7 +53,7 @@ int FaceIdTable::lookup(const Tri& face) const {
 }
 
 LeafTaskInput build_leaf_input(std::uint32_t leaf, std::span<const Vec3> points, std::span<const Tet> tets,
-                               const FaceIdTable& boundary) {
+                               const FaceIdTable& boundary, std::span<const double> sizes) {
   LeafTaskInput in;
   in.leaf = leaf;
   std::vector<Index> used;
@@ -65,6 +65,10 @@ LeafTaskInput build_leaf_input(std::uint32_t leaf, std::span<const Vec3> points,
   in.point_ids.assign(used.begin(), used.end());
   in.points.reserve(used.size());
   for (Index g : used) in.points.push_back(points[g]);
+  if (!sizes.empty()) {
+    in.sizes.reserve(used.size());
+    for (Index g : used) in.sizes.push_back(sizes[g]);
+  }
   in.tets.reserve(tets.size());
   for (const Tet& t : tets) in.tets.push_back({local(t[0]), local(t[1]), local(t[2]), local(t[3])});
   // The hull: the faces of one tet, in the order of their sorted points.
@@ -102,11 +106,12 @@ struct TaskResult {
 
 /// The expected cost of each leaf's task, as ranks (0 = the most expensive
 /// starts first): its tet count plus the tets its volume should hold at h
-/// (sampled on every 4th tet), or the size of the leaf's selection when the
+/// (sampled on every 4th tet; h at its barycenter, or the mean of its points'
+/// `sizes` when given), or the size of the leaf's selection when the
 /// round sends only part of it. A heuristic for the order only; the result
 /// does not depend on it.
 std::vector<Index> cost_ranks(const VolumeMesh& cur, const Decomposition& d, const SizingField& sizing,
-                              const std::vector<std::vector<Tet>>& sent) {
+                              const std::vector<std::vector<Tet>>& sent, std::span<const double> sizes) {
   std::vector<double> cost(d.size(), 0.0);
   tbb::parallel_for(std::size_t{0}, d.size(), [&](std::size_t l) {
     const auto& tets = d.leaf_tets[l];
@@ -119,7 +124,9 @@ std::vector<Index> cost_ranks(const VolumeMesh& cur, const Decomposition& d, con
       const Tet& v = cur.tets[tets[i]];
       const auto& P = cur.points;
       const double vol = signed_volume(P[v[0]], P[v[1]], P[v[2]], P[v[3]]);
-      c += 4 * vol / regular_tet_volume(sizing.at(tet_barycenter(cur, tets[i])));
+      const double h = sizes.empty() ? sizing.at(tet_barycenter(cur, tets[i]))
+                                     : 0.25 * (sizes[v[0]] + sizes[v[1]] + sizes[v[2]] + sizes[v[3]]);
+      c += 4 * vol / regular_tet_volume(h);
     }
     cost[l] = c;
   });
@@ -204,23 +211,30 @@ struct Grid {
 /// parallel into slots fixed by prefix sums, so the result does not depend on
 /// the threads. Frees the results as it goes. With `grid` set, each tet a
 /// task made is given the grid leaf that holds its barycenter instead of the
-/// task's leaf.
+/// task's leaf. With `sizes` (h per point of `cur`), the new points' sizes
+/// are appended (a task's new_sizes, or sizing.at where it gave none) and a
+/// moved point's is evaluated again.
 void splice(VolumeMesh& cur, const std::vector<LeafId>& leaves, std::vector<TaskResult>& results,
             std::vector<std::vector<Tet>>& kept, std::vector<Tet>& outside, std::vector<int>& outside_leaf,
-            const Grid* grid, RoundResult& rr) {
+            const Grid* grid, std::vector<double>* sizes, const SizingField& sizing, RoundResult& rr) {
   const std::size_t n = results.size();
   std::vector<Vec3>& pts = cur.points;
   std::vector<std::size_t> tet_at(n + 1, outside.size()), point_at(n + 1, pts.size());
   for (std::size_t l = 0; l < n; ++l) {
     TaskResult& r = results[l];
     if (!r.kernel_error.ok() && rr.failed++ == 0) rr.first_failure = r.kernel_error.message();
-    for (std::size_t i = 0; i < r.output.moved.size(); ++i) pts[r.point_ids[r.output.moved[i]]] = r.output.moved_to[i];
+    for (std::size_t i = 0; i < r.output.moved.size(); ++i) {
+      const GlobalId g = r.point_ids[r.output.moved[i]];
+      pts[g] = r.output.moved_to[i];
+      if (sizes != nullptr) (*sizes)[g] = sizing.at(pts[g]);
+    }
     tet_at[l + 1] = tet_at[l] + r.output.tets.size() + kept[l].size();
     point_at[l + 1] = point_at[l] + r.output.new_points.size();
   }
   cur.tets.resize(tet_at[n]);
   cur.tet_regions.resize(tet_at[n]);
   pts.resize(point_at[n]);
+  if (sizes != nullptr) sizes->resize(point_at[n]);
   std::copy(outside.begin(), outside.end(), cur.tets.begin());
   std::copy(outside_leaf.begin(), outside_leaf.end(), cur.tet_regions.begin());
   outside = {};
@@ -230,6 +244,15 @@ void splice(VolumeMesh& cur, const std::vector<LeafId>& leaves, std::vector<Task
     const auto ni = static_cast<Index>(r.point_ids.size());
     const auto base = static_cast<Index>(point_at[l]);
     std::copy(r.output.new_points.begin(), r.output.new_points.end(), pts.begin() + static_cast<std::ptrdiff_t>(base));
+    if (sizes != nullptr) {
+      const auto to = sizes->begin() + static_cast<std::ptrdiff_t>(base);
+      if (r.output.new_sizes.size() == r.output.new_points.size()) {
+        std::copy(r.output.new_sizes.begin(), r.output.new_sizes.end(), to);
+      } else {
+        std::transform(r.output.new_points.begin(), r.output.new_points.end(), to,
+                       [&](const Vec3& p) { return sizing.at(p); });
+      }
+    }
     auto out = cur.tets.begin() + static_cast<std::ptrdiff_t>(tet_at[l]);
     for (const Tet& t : r.output.tets) {
       Tet g;
@@ -263,6 +286,7 @@ struct RoundExtras {
   const std::vector<Index>* outside = nullptr;  ///< ascending
   const std::vector<Box>* cores = nullptr;      ///< per leaf
   const Grid* grid = nullptr;                   ///< see splice
+  std::vector<double>* sizes = nullptr;         ///< h per point of `cur`, kept up to date (see splice)
   std::size_t leaves_before = 0;                ///< leaves merged in this phase's earlier rounds (progress)
 };
 Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const FaceIdTable& boundary,
@@ -292,7 +316,9 @@ Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const
     rr.record.tets_sent += sent.size();
   }
   rr.record.tets = cur.tets.size();
-  const std::vector<Index> rank = cost_ranks(cur, d, sizing, leaf_tets);
+  const std::span<const double> sizes =
+      extras.sizes != nullptr ? std::span<const double>(*extras.sizes) : std::span<const double>();
+  const std::vector<Index> rank = cost_ranks(cur, d, sizing, leaf_tets, sizes);
   const std::vector<Vec3>& points = cur.points;  // read-only during the round
   Status error;
   std::atomic<bool> stop{false};
@@ -305,16 +331,17 @@ Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const
   std::vector<TaskResult> results(d.size());
   // One kernel on one input (a remote kernel sends its bytes to a worker; the
   // codec is lossless, so a local one runs on the input itself) and the checks
-  // of its result, the same on both paths (size limit, validate_leaf_output).
+  // of its result (size limit, validate_leaf_output), which a trusted kernel's
+  // results skip (the latter runs in debug builds).
   const auto run_kernel = [&](const LeafKernel& k, const LeafTaskInput& in, Index l) -> Result<LeafTaskOutput> {
     Result<LeafTaskOutput> out = run_leaf_kernel(k, in, sizing);
     if (!out.ok()) return Status(out.status().code(), fmt::format("leaf {}: {}", l, out.status().message()));
     const std::uint64_t bytes = out->encoded_size();
-    if (const std::uint64_t limit = leaf_output_byte_limit(in, sizing); bytes > limit) {
+    if (const std::uint64_t limit = k.trusted() ? bytes : leaf_output_byte_limit(in, sizing); bytes > limit) {
       return invalid_input(
           fmt::format("leaf {} result rejected: {} bytes, over the {} its leaf can hold", l, bytes, limit));
     }
-    PDR_TRY(validate_leaf_output(in, *out));
+    if (kDebugChecks || !k.trusted()) PDR_TRY(validate_leaf_output(in, *out));
     return out;
   };
   // A kernel that gave up on a leaf (TetGen crashing on a hull, say) leaves it
@@ -326,7 +353,7 @@ Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const
       r.status = cancelled("stopped");
       return r;
     }
-    LeafTaskInput in = build_leaf_input(l, points, leaf_tets[l], boundary);
+    LeafTaskInput in = build_leaf_input(l, points, leaf_tets[l], boundary, sizes);
     if (extras.cores != nullptr) in.core = (*extras.cores)[l];
     r.output.leaf = l;
     r.output.input_points = static_cast<std::uint32_t>(in.points.size());
@@ -368,7 +395,7 @@ Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const
   PDR_TRY(error);
 
   const auto t0 = Clock::now();
-  splice(cur, d.leaves, results, kept, outside, outside_leaf, extras.grid, rr);
+  splice(cur, d.leaves, results, kept, outside, outside_leaf, extras.grid, extras.sizes, sizing, rr);
   rr.merge_s += seconds_since(t0);
   rr.record.name = std::string(phase);
   rr.record.depth = d.depth;
@@ -439,22 +466,34 @@ BufferedRound buffered_round(const VolumeMesh& m, const Box& box, int depth, int
   r.d.box = box;
   r.d.depth = depth;
   r.d.per_side = 1 << depth;
-  for (std::size_t t = 0; t < owner.size(); ++t)
-    if (owner[t] < kBlocked) r.d.leaves.push_back(owner[t]);
-  std::sort(r.d.leaves.begin(), r.d.leaves.end());
-  r.d.leaves.erase(std::unique(r.d.leaves.begin(), r.d.leaves.end()), r.d.leaves.end());
-  r.d.leaf_tets.resize(r.d.size());
-  r.d.tet_leaf.assign(m.tets.size(), kNoIndex);
-  for (Index t = 0; t < owner.size(); ++t) {
-    if (owner[t] >= kBlocked) {
-      r.outside.push_back(t);
-      continue;
-    }
-    const auto l = static_cast<Index>(std::lower_bound(r.d.leaves.begin(), r.d.leaves.end(), owner[t]) -
-                                      r.d.leaves.begin());
-    r.d.tet_leaf[t] = l;
-    r.d.leaf_tets[l].push_back(t);
+  // The leaves with a tet, ascending, and each one's index among them.
+  const std::size_t grid_leaves = std::size_t{1} << (3 * depth);
+  std::vector<Index> dense(grid_leaves, kNoIndex);
+  tbb::parallel_for(std::size_t{0}, owner.size(), [&](std::size_t t) {
+    if (owner[t] < kBlocked) std::atomic_ref<Index>(dense[owner[t]]).store(0, std::memory_order_relaxed);
+  });
+  for (std::size_t l = 0; l < grid_leaves; ++l) {
+    if (dense[l] == kNoIndex) continue;
+    dense[l] = static_cast<Index>(r.d.leaves.size());
+    r.d.leaves.push_back(static_cast<LeafId>(l));
   }
+  // Each leaf's tets, ascending, and those of no leaf.
+  const std::size_t nl = r.d.leaves.size();
+  constexpr std::size_t kGrain = 65536;
+  r.outside = detail::filter_indices(owner.size(), kGrain, [&](std::size_t t) { return owner[t] >= kBlocked; });
+  auto buckets = detail::bucket_items<Index>(owner.size(), nl, kGrain, [&](std::size_t t, auto&& emit) {
+    if (owner[t] < kBlocked) emit(dense[owner[t]], static_cast<Index>(t));
+  });
+  detail::sort_buckets(buckets, std::less<Index>());
+  r.d.tet_leaf.resize(owner.size());
+  tbb::parallel_for(std::size_t{0}, owner.size(), [&](std::size_t t) {
+    r.d.tet_leaf[t] = owner[t] < kBlocked ? dense[owner[t]] : kNoIndex;
+  });
+  r.d.leaf_tets.resize(nl);
+  tbb::parallel_for(std::size_t{0}, nl, [&](std::size_t k) {
+    r.d.leaf_tets[k].assign(buckets.items.begin() + static_cast<std::ptrdiff_t>(buckets.first[k]),
+                            buckets.items.begin() + static_cast<std::ptrdiff_t>(buckets.first[k + 1]));
+  });
   r.d.n1.assign(r.d.size(), {});
   r.d.n2.assign(r.d.size(), {});
   for (LeafId l : r.d.leaves) r.cores.push_back(leaf_box(box, depth, l));
@@ -677,6 +716,9 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
       const Grid grid{box1, depth};
       PDR_TRY(decompose(cur, depth, box1).status());  // checks the initial mesh's faces
       assign_leaves(cur, box1, depth);
+      // h at every point, evaluated once here and then by the task that makes the point.
+      std::vector<double> sizes(cur.points.size());
+      tbb::parallel_for(std::size_t{0}, sizes.size(), [&](std::size_t v) { sizes[v] = sizing.at(cur.points[v]); });
       std::vector<LeafId> done, todo;
       for (int sweep = 0; sweep < kMaxSweeps; ++sweep) {
         for (int colour = 0; colour < 8; ++colour) {
@@ -687,7 +729,11 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
           done.insert(done.end(), b.d.leaves.begin(), b.d.leaves.end());
           RoundResult r;
           PDR_TRY(run_round("refinement", cur, std::move(b.d), boundary, sizing, kernel, options, false, r,
-                            {.outside = &b.outside, .cores = &b.cores, .grid = &grid, .leaves_before = prof.leaf_count}));
+                            {.outside = &b.outside,
+                             .cores = &b.cores,
+                             .grid = &grid,
+                             .sizes = &sizes,
+                             .leaves_before = prof.leaf_count}));
           prof.leaf_count += r.leaves;
           prof.max_leaf_tets = std::max(prof.max_leaf_tets, r.max_leaf_tets);
           account(std::move(r));

@@ -141,11 +141,18 @@ class Refiner {
     }
   }
 
+  /// h at the mesh's points, one per point, instead of evaluating them in run().
+  void set_sizes(std::vector<double> sizes) { h_ = std::move(sizes); }
+  /// h at every point after run().
+  std::vector<double> take_sizes() { return std::move(h_); }
+
   RefineStats run(const RefineProgress& progress) {
     const auto t0 = Clock::now();
     RefineStats stats;
-    h_.resize(m_.num_points());
-    for (Index v = 0; v < m_.num_points(); ++v) h_[v] = sizing_.at(m_.point(v));
+    if (h_.size() != m_.num_points()) {
+      h_.resize(m_.num_points());
+      for (Index v = 0; v < m_.num_points(); ++v) h_[v] = sizing_.at(m_.point(v));
+    }
     while (last_tet_ + 1 < m_.num_slots() && !m_.alive(last_tet_)) ++last_tet_;
     bool midpoints = false;
     for (int pass = 1; pass <= o_.max_passes; ++pass) {
@@ -224,10 +231,14 @@ class Refiner {
     return false;
   }
 
+  /// Retires the tets whose candidates would all be dropped: those with no
+  /// long edge, and (insert_within) those too far from the box to offer a
+  /// point inside it. An operation that replaces one makes active tets again.
   void deactivate() {
     for (Index t = 0; t < m_.num_slots(); ++t) {
       if (t + kAhead < m_.num_slots() && m_.active(t + kAhead)) prefetch_points(t + kAhead);
-      if (m_.alive(t) && m_.active(t) && satisfied(t)) m_.set_active(t, false);
+      if (m_.alive(t) && m_.active(t) && (satisfied(t) || (o_.insert_within && !may_offer_inside(m_.tet(t)))))
+        m_.set_active(t, false);
     }
   }
 
@@ -879,10 +890,12 @@ Status validate(const RefineOptions& o) {
 }
 
 Result<RefineStats> refine(TetMesh& mesh, const SizingField& sizing, const RefineOptions& options,
-                           const RefineProgress& progress) {
+                           const RefineProgress& progress, std::vector<double>* sizes) {
   PDR_TRY(validate(options));
   Refiner refiner(mesh, sizing, options);
+  if (sizes != nullptr && sizes->size() == mesh.num_points()) refiner.set_sizes(std::move(*sizes));
   RefineStats stats = refiner.run(progress);
+  if (sizes != nullptr) *sizes = refiner.take_sizes();
 #ifndef NDEBUG
   PDR_TRY(mesh.check());
 #endif

@@ -92,6 +92,20 @@ TEST(LeafTask, InputRoundTripsExactly) {
   EXPECT_EQ(LeafTaskInput::decode(in.encode()).status().code(), StatusCode::kInvalidInput);
   in.core = Box{{0, 0, 0}, {std::numeric_limits<double>::infinity(), 1, 1}};
   EXPECT_EQ(LeafTaskInput::decode(in.encode()).status().code(), StatusCode::kInvalidInput);
+
+  // Sizes travel bit for bit, one per point or none; a miscounted, zero or
+  // non-finite one does not decode.
+  in.core.reset();
+  for (std::size_t i = 0; i < in.points.size(); ++i) in.sizes.push_back(0.1 + 1.0 / static_cast<double>(i + 3));
+  back = LeafTaskInput::decode(in.encode());
+  ASSERT_TRUE(back.ok()) << back.status().to_string();
+  EXPECT_EQ(back->sizes, in.sizes);
+  in.sizes[4] = 0;
+  EXPECT_EQ(LeafTaskInput::decode(in.encode()).status().code(), StatusCode::kInvalidInput);
+  in.sizes[4] = std::nan("");
+  EXPECT_EQ(LeafTaskInput::decode(in.encode()).status().code(), StatusCode::kInvalidInput);
+  in.sizes.pop_back();
+  EXPECT_EQ(LeafTaskInput::decode(in.encode()).status().code(), StatusCode::kInvalidInput);
 }
 
 TEST(LeafTask, OutputRoundTripsExactly) {
@@ -111,6 +125,13 @@ TEST(LeafTask, OutputRoundTripsExactly) {
   out.moved = {1};
   out.moved_to = {{0.5, 0.5, 0.5}};
   EXPECT_EQ(out.encoded_size(), out.encode().size());
+  out.new_sizes = {0.3};
+  EXPECT_EQ(out.encoded_size(), out.encode().size());
+  back = LeafTaskOutput::decode(out.encode());
+  ASSERT_TRUE(back.ok()) << back.status().to_string();
+  EXPECT_EQ(back->new_sizes, out.new_sizes);
+  out.new_sizes = {-1};
+  EXPECT_EQ(LeafTaskOutput::decode(out.encode()).status().code(), StatusCode::kInvalidInput);
 }
 
 /// Overwrites the little-endian u64 at `pos`.
@@ -219,6 +240,36 @@ TEST(NativeLeafKernel, RefinesInsideTheFrozenHull) {
   const ValidationReport rep = validate_mesh(v);
   EXPECT_TRUE(rep.ok()) << format_validation(rep);
   EXPECT_NEAR(volume_of(v), 8.0, 1e-12);
+}
+
+// The native kernel given its points' sizes makes the same tets and points as
+// without them (they are the values it would compute), and hands back the
+// sizing field's own value at every new point.
+TEST(NativeLeafKernel, GivenSizesChangeNothingAndNewPointsComeWithTheirs) {
+  LeafTaskInput in = whole_grid_input(3);
+  const SizingField field = uniform_sizing(0.6);
+  const SizingField* h = &field;
+  Result<std::unique_ptr<LeafKernel>> kernel = make_leaf_kernel("native");
+  ASSERT_TRUE(kernel.ok());
+  Result<LeafTaskOutput> plain = run_leaf_kernel(**kernel, in, *h);
+  ASSERT_TRUE(plain.ok()) << plain.status().to_string();
+  for (const Vec3& p : in.points) in.sizes.push_back(h->at(p));
+  Result<LeafTaskOutput> sized = run_leaf_kernel(**kernel, in, *h);
+  ASSERT_TRUE(sized.ok()) << sized.status().to_string();
+  ASSERT_GT(sized->new_points.size(), 0u);
+  EXPECT_EQ(sized->new_points, plain->new_points);
+  EXPECT_EQ(sized->tets, plain->tets);
+  ASSERT_EQ(sized->new_sizes.size(), sized->new_points.size());
+  for (std::size_t i = 0; i < sized->new_points.size(); ++i) EXPECT_EQ(sized->new_sizes[i], h->at(sized->new_points[i]));
+  EXPECT_TRUE(validate_leaf_output(in, *sized).ok()) << validate_leaf_output(in, *sized).to_string();
+  const ValidationReport rep = validate_mesh(as_volume(in, *sized));
+  EXPECT_TRUE(rep.ok()) << format_validation(rep);
+  LeafTaskOutput lying = *sized;
+  lying.new_sizes.pop_back();
+  EXPECT_NE(validate_leaf_output(in, lying).message().find("sizes"), std::string::npos);
+  lying.new_sizes = sized->new_sizes;
+  lying.new_sizes[0] = 0;
+  EXPECT_NE(validate_leaf_output(in, lying).message().find("size"), std::string::npos);
 }
 
 TEST(LeafTask, MovedInteriorPointsRoundTripAndAreChecked) {

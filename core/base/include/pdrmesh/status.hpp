@@ -15,6 +15,14 @@
 
 namespace pdrmesh {
 
+/// True in debug builds (NDEBUG unset), where the consistency checks that a
+/// release build leaves to the end of a run also run after each step.
+#ifdef NDEBUG
+inline constexpr bool kDebugChecks = false;
+#else
+inline constexpr bool kDebugChecks = true;
+#endif
+
 enum class StatusCode {
   kOk = 0,
   kInvalidInput,       ///< the user's data is wrong (malformed file, defective surface)

@@ -66,6 +66,24 @@ struct NoInitAllocator : std::allocator<T> {
 template <class T>
 using UninitVector = std::vector<T, NoInitAllocator<T>>;
 
+/// The i in [0, n) with keep(i), ascending, in parallel: each fixed chunk
+/// counts its own, prefix sums give each chunk its place.
+template <class Keep>
+std::vector<Index> filter_indices(std::size_t n, std::size_t grain, Keep&& keep) {
+  std::vector<std::size_t> at(chunk_count(n, grain) + 1, 0);
+  for_each_chunk(n, grain, [&](std::size_t c, std::size_t lo, std::size_t hi) {
+    for (std::size_t i = lo; i < hi; ++i) at[c + 1] += keep(i) ? 1 : 0;
+  });
+  std::partial_sum(at.begin(), at.end(), at.begin());
+  std::vector<Index> out(at.back());
+  for_each_chunk(n, grain, [&](std::size_t c, std::size_t lo, std::size_t hi) {
+    std::size_t k = at[c];
+    for (std::size_t i = lo; i < hi; ++i)
+      if (keep(i)) out[k++] = static_cast<Index>(i);
+  });
+  return out;
+}
+
 /// Items grouped by a key in [0, keys): key k's items are items[first[k] .. first[k + 1]).
 template <class T>
 struct Buckets {

@@ -29,19 +29,27 @@ namespace pdrmesh {
 /// points only inside `core` when it is set (LeafTaskInput::core); must be
 /// deterministic and thread-safe across distinct meshes.
 using RefineHook = std::function<Status(TetMesh&, const SizingField&, const std::optional<Box>& core)>;
+/// A RefineHook that also takes h at the mesh's points (`sizes`: one per point
+/// as LeafTaskInput::sizes gives them, or empty) and leaves h at every point,
+/// new ones included, in it (or leaves it empty), as refine() does.
+using SizedRefineHook = std::function<Status(TetMesh&, const SizingField&, const std::optional<Box>& core,
+                                             std::vector<double>& sizes)>;
 
 class NativeLeafKernel final : public LeafKernel {
  public:
   /// `name` is what name() answers: the make_leaf_kernel name of this hook.
-  explicit NativeLeafKernel(RefineHook refine, std::string name = "native")
+  explicit NativeLeafKernel(RefineHook refine, std::string name = "native");
+  explicit NativeLeafKernel(SizedRefineHook refine, std::string name = "native")
       : refine_(std::move(refine)), name_(std::move(name)) {}
-  /// leaf_tet_mesh(in), the hook, then leaf_output_from. Errors of the hook are
-  /// returned with the leaf named.
+  /// leaf_tet_mesh(in), the hook, then leaf_output_from, with the new points'
+  /// sizes when a sized hook gave them. Errors of the hook are returned with
+  /// the leaf named.
   Result<LeafTaskOutput> run(const LeafTaskInput& in, const SizingField& sizing) const override;
   std::string_view name() const override { return name_; }
+  bool trusted() const override { return true; }
 
  private:
-  RefineHook refine_;
+  SizedRefineHook refine_;
   std::string name_;
 };
 

@@ -29,10 +29,13 @@
 //   input:  magic "PDRLEAFI", u32 version, u32 leaf,
 //           u64 n, n x (u64 id, 3 x f64), u64 m, m x 4 x u32,
 //           u64 k, k x (3 x u32, u32 id as two's complement),
-//           u32 has_core, then if 1: 6 x f64 (core lo, core hi)
+//           u32 has_core, then if 1: 6 x f64 (core lo, core hi),
+//           u64 s (0 or n), s x f64 (sizes)
 //   output: magic "PDRLEAFO", u32 version, u32 leaf, u32 input_points,
-//           u64 n, n x 3 x f64, u64 m, m x 4 x u32, u64 k, k x (u32, 3 x f64)
-// (version 2: the moved points were added; version 3: the core box).
+//           u64 n, n x 3 x f64, u64 s (0 or n), s x f64 (new_sizes),
+//           u64 m, m x 4 x u32, u64 k, k x (u32, 3 x f64)
+// (version 2: the moved points were added; version 3: the core box;
+// version 4: the sizes).
 // decode() checks every count against the bytes left, indices against the
 // point count, finiteness, repeated vertices and trailing bytes.
 #pragma once
@@ -63,6 +66,10 @@ struct LeafTaskInput {
   /// of its neighbours' around it, and a refining kernel adds points only
   /// inside the box (run_pdr's buffered rounds); unset: the tets are the leaf.
   std::optional<Box> core;
+  /// Empty, or per point h there (SizingField::at, bit for bit), so that a
+  /// kernel need not evaluate the sizing field again at points an earlier
+  /// task made (their h comes back in LeafTaskOutput::new_sizes).
+  std::vector<double> sizes;
 
   std::string encode() const;
   static Result<LeafTaskInput> decode(std::string_view bytes);
@@ -72,6 +79,7 @@ struct LeafTaskOutput {
   std::uint32_t leaf = 0;          ///< must equal the input's leaf
   std::uint32_t input_points = 0;  ///< must equal the input's point count
   std::vector<Vec3> new_points;    ///< local reference input_points + k
+  std::vector<double> new_sizes;   ///< empty, or per new point h there (SizingField::at), finite and > 0
   std::vector<Tet> tets;           ///< local references (see the file comment), positive
   std::vector<Index> moved;        ///< input points (off the hull) given new coordinates, ascending
   std::vector<Vec3> moved_to;      ///< their new coordinates, one per entry of `moved`
@@ -88,13 +96,15 @@ struct LeafTaskOutput {
 /// face shared by at most two tets, with opposite orientations; the hull
 /// (faces used once) equal to in.frozen_faces exactly, orientation included;
 /// moved points ascending, input points not on the hull, finite, and used as
-/// moved in the orientation test.
+/// moved in the orientation test; new_sizes empty or one per new point,
+/// finite and positive.
 /// invalid_input naming the leaf and the first problem otherwise.
 Status validate_leaf_output(const LeafTaskInput& in, const LeafTaskOutput& out);
 
 /// The most bytes an honest result for `in` can take: a remote worker's result
 /// announced above it is refused before it is received, and the engine refuses
-/// a local one above it too (same rule on both paths, so the same bytes).
+/// a local one above it too (same rule on both paths, so the same bytes; a
+/// kernel that is only ever local and trusted is exempt).
 /// h_lo = sizing.lower_bound(box of the leaf's points). New points are taken to
 /// keep at least 0.4 h_lo apart (the refiner rejects closer than 0.6 h and the
 /// optimization's insertions than 0.5 h), so at most V / (4/3 pi (0.2 h_lo)^3)
@@ -126,6 +136,12 @@ class LeafKernel {
   /// each leaf face-connected (the paper's partition swap and boundary
   /// extraction fix-ups; run_pdr applies them before building the tasks).
   virtual bool needs_manifold_hull() const { return false; }
+  /// True when the kernel's results need no acceptance test task by task: it
+  /// runs in this process, on the input itself, with operations that keep the
+  /// frozen hull and positive orientation by construction. run_pdr then skips
+  /// the byte limit and checks them (validate_leaf_output) only in debug
+  /// builds; a result from another process is always checked.
+  virtual bool trusted() const { return false; }
 };
 
 /// True when `s` says the kernel itself gave up on the leaf (kInternal: a

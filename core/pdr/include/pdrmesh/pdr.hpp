@@ -310,9 +310,10 @@ class FaceIdTable {
 
 /// The task input of one leaf: its points (ascending global index, which is
 /// also the global id), its tets in local indices, its hull oriented outward as
-/// frozen faces with their surface ids (0 for an interface face).
+/// frozen faces with their surface ids (0 for an interface face); with
+/// `sizes` (one per global point) their h as LeafTaskInput::sizes.
 LeafTaskInput build_leaf_input(std::uint32_t leaf, std::span<const Vec3> points, std::span<const Tet> tets,
-                               const FaceIdTable& boundary);
+                               const FaceIdTable& boundary, std::span<const double> sizes = {});
 
 struct FixupStats {
   std::size_t swaps = 0;       ///< partition swap: tets moved out of a leaf

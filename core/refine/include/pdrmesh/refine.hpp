@@ -178,7 +178,10 @@ using RefineProgress = std::function<void(const RefinePassStats&)>;  // may be e
 
 /// Runs the passes on `mesh` (in place) towards `sizing`. invalid_input on bad
 /// options; internal_error if the mesh check fails afterwards in debug builds.
+/// `sizes`, when given: on entry h at the mesh's points (sizing.at, bit for
+/// bit) if it has one entry per point, else ignored; on return h at every
+/// point, the new ones included.
 Result<RefineStats> refine(TetMesh& mesh, const SizingField& sizing, const RefineOptions& options = {},
-                           const RefineProgress& progress = {});
+                           const RefineProgress& progress = {}, std::vector<double>* sizes = nullptr);
 
 }  // namespace pdrmesh
