@@ -210,6 +210,11 @@ TEST(Validate, SameErrorsInTheSameOrderOnOneAndFourThreads) {
       EXPECT_TRUE(std::is_sorted(inverted.begin(), inverted.end()));
     }
     expect_same_report(one, validate_in_arena(4, mesh, &surface, options));
+    // The face check in slices of points (as for a large mesh) finds the same.
+    for (const std::size_t slices : {std::size_t{2}, std::size_t{5}}) {
+      options.face_slices = slices;
+      expect_same_report(one, validate_in_arena(4, mesh, &surface, options));
+    }
   }
   // Index errors over many chunks stop the validator early, the same way.
   VolumeMesh bad = fixtures::kuhn_grid(20);

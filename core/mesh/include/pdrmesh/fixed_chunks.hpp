@@ -156,16 +156,24 @@ struct FaceRef {
 /// Every face of every tet, bucketed by its smallest point (every index must be
 /// below `points`) and each bucket sorted by (b, c, tet, slot): the order of one
 /// sort of all faces by (sorted points, tet, slot), in linear time plus small
-/// sorts, 16 bytes a face. Equal faces are adjacent.
-inline Buckets<FaceRef> faces_by_smallest_point(std::span<const Tet> tets, std::size_t points) {
-  auto b = bucket_items<FaceRef>(tets.size(), points, 16384, [&](std::size_t t, auto&& emit) {
+/// sorts, 16 bytes a face. Equal faces are adjacent. With [lo, hi): only the
+/// faces whose smallest point lies there, point a in bucket a - lo, so that a
+/// caller walking the points in slices holds one slice's faces at a time.
+inline Buckets<FaceRef> faces_by_smallest_point(std::span<const Tet> tets, std::size_t lo, std::size_t hi) {
+  auto b = bucket_items<FaceRef>(tets.size(), hi - lo, 16384, [&](std::size_t t, auto&& emit) {
     for (int f = 0; f < 4; ++f) {
       const Tri s = topo::sorted_key(topo::face_of(tets[t], f));
-      emit(s[0], FaceRef{s[1], s[2], static_cast<Index>(t), static_cast<std::uint32_t>(f)});
+      if (s[0] >= lo && s[0] < hi)
+        emit(static_cast<Index>(s[0] - lo), FaceRef{s[1], s[2], static_cast<Index>(t), static_cast<std::uint32_t>(f)});
     }
   });
   sort_buckets(b, std::less<FaceRef>());
   return b;
+}
+
+/// Every face (every index must be below `points`).
+inline Buckets<FaceRef> faces_by_smallest_point(std::span<const Tet> tets, std::size_t points) {
+  return faces_by_smallest_point(tets, 0, points);
 }
 
 /// Calls f(group) for every run of faces with the same points in bucket a of

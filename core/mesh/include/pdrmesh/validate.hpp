@@ -19,6 +19,9 @@ struct ValidationOptions {
   double volume_tolerance = 1e-9;
   /// At most this many messages are kept per check (all are counted).
   std::size_t max_messages_per_check = 10;
+  /// The face check holds one slice of the points' faces at a time: this many
+  /// slices (0: four from a million tets on, else one). The report is the same.
+  std::size_t face_slices = 0;
 };
 
 struct ValidationReport {
