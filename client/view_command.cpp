@@ -45,14 +45,14 @@ int run_view(const std::string& mesh_path, const std::string& output, const std:
   o.height = height;
   o.title = std::filesystem::path(mesh_path).filename().string();
   auto mesh = read_volume(mesh_path);
-  auto report = [](const Status& s) {
+  auto report = [](const pdrmesh::Status& s) {
     fmt::print(stderr, "pdrmesh: error: {}\n", s.to_string());
-    return exit_code_for(s);
+    return cli::exit_code_for(s);  // not service_commands.cpp's gRPC overload (unity builds)
   };
   if (!mesh.ok()) return report(mesh.status());
   const picture::Format format = lower_suffix(output) == ".png" ? picture::Format::kPng : picture::Format::kSvg;
   auto pic = picture::draw(*mesh, o, format);
-  if (!pic.ok()) return report(Status(pic.status().code(), fmt::format("{}: {}", mesh_path, pic.status().message())));
+  if (!pic.ok()) return report(pdrmesh::Status(pic.status().code(), fmt::format("{}: {}", mesh_path, pic.status().message())));
   std::ofstream out(output, std::ios::binary);
   out.write(pic->bytes.data(), static_cast<std::streamsize>(pic->bytes.size()));
   out.close();
