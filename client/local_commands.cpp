@@ -379,10 +379,12 @@ int run_validate(const std::string& path, const std::string& surface_path, bool 
   return report.ok() ? kExitOk : kExitBadInput;
 }
 
-int run_convert(const std::string& in, const std::string& out) {
+int run_convert(const std::string& in, const std::string& out, const std::string& vtu) {
   auto mesh = read_volume(in);
   if (!mesh.ok()) return fail(mesh.status());
-  if (Status s = write_volume(*mesh, out); !s.ok()) return fail(s);
+  VolumeWriteOptions options;
+  options.vtu = vtu == "ascii" ? VtuEncoding::kAscii : vtu == "zlib" ? VtuEncoding::kCompressed : VtuEncoding::kBinary;
+  if (Status s = write_volume(*mesh, out, options); !s.ok()) return fail(s);
   return kExitOk;
 }
 
@@ -493,13 +495,18 @@ void add_local_commands(CLI::App& app, int& exit_code) {
     auto* cmd = app.add_subcommand("convert", "Convert a volume mesh between formats (by suffix).");
     auto in = std::make_shared<std::string>();
     auto out = std::make_shared<std::string>();
+    auto vtu = std::make_shared<std::string>("binary");
     cmd->add_option("IN", *in, "input volume mesh " + volume_formats)->required();
     cmd->add_option("OUT", *out, "output volume mesh " + volume_formats)
         ->required()
         ->check(output_check(OutputKind::kVolumeMesh));
+    cmd->add_option("--vtu", *vtu, "how a .vtu output stores its data: raw binary, zlib-compressed binary, or ascii")
+        ->check(CLI::IsMember({"binary", "zlib", "ascii"}))
+        ->capture_default_str();
     cmd->footer(help_footer({{"pdrmesh convert part.meshb part.vtu", "for ParaView"},
+                             {"pdrmesh convert part.vtu small.vtu --vtu zlib", "a compressed VTU"},
                              {"pdrmesh convert part.meshb part.su2", "for SU2"}}));
-    cmd->callback([&exit_code, in, out] { exit_code = run_convert(*in, *out); });
+    cmd->callback([&exit_code, in, out, vtu] { exit_code = run_convert(*in, *out, *vtu); });
   }
 }
 

@@ -15,6 +15,7 @@
 #include "local_commands.hpp"
 #include "options.hpp"
 #include "service_commands.hpp"
+#include "view_command.hpp"
 
 namespace {
 
@@ -67,6 +68,7 @@ int main(int argc, char** argv) {
                           {"pdrmesh help run", "the options of one command"}}));
   int exit_code = kExitOk;
   add_local_commands(app, exit_code);
+  add_view_command(app, exit_code);
   add_service_commands(app, exit_code);
   add_help_command(app, exit_code);
   // The first word that is not an option names the command: a mistyped one

@@ -39,6 +39,7 @@ inline constexpr Accepts kGrowth{"a growth factor greater than 1 (1.2: the spaci
 inline constexpr Accepts kWorkers{"a whole number from 1 to 4096", "N", 1, 4096, false, true};
 inline constexpr Accepts kTets{"a positive number of tets", "TETS", 0, std::numeric_limits<double>::infinity(), true};
 inline constexpr Accepts kDepth{"a whole number from 0 to 10", "DEPTH", 0, 10, false, true};
+inline constexpr Accepts kPixels{"a whole number of pixels from 64 to 8192", "PIXELS", 64, 8192, false, true};
 
 /// The check of a number option: the whole text a finite number (no NaN,
 /// infinity or overflow) within the rule; else "must be <what>, got '<text>'".

@@ -12,6 +12,8 @@ packages=(
   libprotobuf-dev protobuf-compiler
   libtbb-dev libspdlog-dev libfmt-dev
   libcli11-dev nlohmann-json3-dev libsqlite3-dev
+  zlib1g-dev                                  # compressed VTU (vtkZLibDataCompressor)
+  libpng-dev                                  # pdrmesh view: PNG pictures
   libgtest-dev libgmock-dev
   python3-yaml                                # tests/deploy: the manifest check
   clang-14 libclang-rt-14-dev                 # scripts/sanitize.sh: ASan/UBSan/TSan builds, libFuzzer

@@ -366,11 +366,12 @@ Result<VolumeFormat> volume_format_from_path(const std::filesystem::path& path) 
 
 namespace {
 
-Status write_format(const VolumeMesh& mesh, VolumeFormat format, const std::filesystem::path& path) {
+Status write_format(const VolumeMesh& mesh, VolumeFormat format, const std::filesystem::path& path,
+                    const VolumeWriteOptions& options) {
   switch (format) {
     case VolumeFormat::kMedit: return volio::write_medit(mesh, path);
     case VolumeFormat::kMeditBinary: return volio::write_meshb(mesh, path);
-    case VolumeFormat::kVtu: return volio::write_vtu(mesh, path);
+    case VolumeFormat::kVtu: return volio::write_vtu(mesh, path, options.vtu);
     case VolumeFormat::kUgridAscii: return volio::write_ugrid_ascii(mesh, path);
     case VolumeFormat::kUgridLittle: return volio::write_ugrid_binary(mesh, path, true);
     case VolumeFormat::kUgridBig: return volio::write_ugrid_binary(mesh, path, false);
@@ -411,19 +412,20 @@ void StagedVolume::discard() noexcept {
   staged_.clear();
 }
 
-Result<StagedVolume> stage_volume(const VolumeMesh& mesh, const std::filesystem::path& path) {
+Result<StagedVolume> stage_volume(const VolumeMesh& mesh, const std::filesystem::path& path,
+                                  const VolumeWriteOptions& options) {
   PDR_ASSIGN_OR_RETURN(const VolumeFormat format, volume_format_from_path(path));
   PDR_TRY(volio::check_writable(mesh));
   const std::filesystem::path partial =
       path.parent_path() / fmt::format(".{}.{}.partial", path.filename().string(), ::getpid());
   StagedVolume staged(partial, path);  // removes the partial file if the write fails
-  if (Status s = write_format(mesh, format, partial); !s.ok())
+  if (Status s = write_format(mesh, format, partial, options); !s.ok())
     return Status(s.code(), fmt::format("{} (writing {})", s.message(), path.string()));
   return staged;
 }
 
-Status write_volume(const VolumeMesh& mesh, const std::filesystem::path& path) {
-  PDR_ASSIGN_OR_RETURN(StagedVolume staged, stage_volume(mesh, path));
+Status write_volume(const VolumeMesh& mesh, const std::filesystem::path& path, const VolumeWriteOptions& options) {
+  PDR_ASSIGN_OR_RETURN(StagedVolume staged, stage_volume(mesh, path, options));
   return staged.commit();
 }
 

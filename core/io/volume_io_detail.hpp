@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "pdrmesh/status.hpp"
+#include "pdrmesh/volume_io.hpp"
 #include "pdrmesh/volume_mesh.hpp"
 
 namespace pdrmesh::volio {
@@ -194,7 +195,9 @@ Result<VolumeMesh> read_medit(std::string_view text, const std::string& name);
 Status write_meshb(const VolumeMesh& mesh, const std::filesystem::path& path);
 Result<VolumeMesh> read_meshb(std::string_view data, const std::string& name);
 
-Status write_vtu(const VolumeMesh& mesh, const std::filesystem::path& path);
+inline constexpr int kVtkTriangle = 5;  ///< VTK cell types
+inline constexpr int kVtkTetra = 10;
+Status write_vtu(const VolumeMesh& mesh, const std::filesystem::path& path, VtuEncoding encoding);
 Result<VolumeMesh> read_vtu(std::string_view text, const std::string& name);
 
 Status write_ugrid_ascii(const VolumeMesh& mesh, const std::filesystem::path& path);

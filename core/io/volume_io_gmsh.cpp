@@ -1,17 +1,21 @@
 // SPDX-License-Identifier: AGPL-3.0-or-later
-// Gmsh 4.1 ASCII (.msh) volume meshes.
+// Gmsh 4.1 ASCII (.msh) volume meshes; 2.2 (ASCII and binary) is read too.
 //
-// Written: one surface entity and physical surface per surface id (named
-// "surface_<id>"), one volume entity and physical volume per region (named
+// Written: one surface entity and physical surface per surface id (named by
+// the mesh's boundary_names, else "surface_<id>"), one volume entity and physical volume per region (named
 // "region_<r>"; a single one named "volume" when the mesh has no regions),
 // all nodes in one block (tags 1..N in mesh order), elements grouped by
 // entity with element tag = position in the mesh (tets 1..T, then boundary
 // triangles T+1..T+B), so that reading back restores the original order.
 // Physical tags equal the ids (regions) when those are all positive, else
-// they count 1, 2, ... and the names carry the ids.
-// Read: Gmsh 4.1 ASCII with 3-node triangles (type 2) and 4-node tets (type
-// 4); points and lines are skipped, other element kinds are refused. Gmsh
-// tets have the same positive orientation as VTK.
+// they count 1, 2, ... and the names carry the ids (a named surface then
+// keeps its name, not its id).
+// Read: Gmsh 4.1 ASCII and 2.2 (ASCII and binary) with 3-node triangles (type 2) and 4-node tets
+// (type 4); points and lines are skipped, other element kinds are refused.
+// A surface's id is its physical tag (4.1: its entity's first one), or the
+// <id> of a physical name "surface_<id>"; any other physical name of a
+// surface becomes the id's boundary name. Gmsh tets have the same positive
+// orientation as VTK.
 #include <fmt/compile.h>
 
 #include <algorithm>
@@ -85,10 +89,17 @@ struct Group {
   Box box;
 };
 
-template <std::size_t K>
+/// A physical name as Gmsh reads it back: no double quotes, no line breaks.
+std::string quotable(std::string name) {
+  for (char& c : name)
+    if (c == '"') c = '\'';
+    else if (c == '\n' || c == '\r') c = ' ';
+  return name;
+}
+
+template <std::size_t K, class NameOf>
 std::vector<Group> make_groups(const VolumeMesh& mesh, const std::vector<std::array<Index, K>>& elements,
-                               const std::vector<int>& values, std::string_view prefix,
-                               std::vector<std::size_t>& order) {
+                               const std::vector<int>& values, NameOf&& name_of, std::vector<std::size_t>& order) {
   const std::vector<int> keys = distinct(values);
   const std::vector<int> entity = entity_of(values, keys);
   order = group_by(entity, keys.size());
@@ -100,7 +111,7 @@ std::vector<Group> make_groups(const VolumeMesh& mesh, const std::vector<std::ar
   for (std::size_t e = 0; e < keys.size(); ++e) {
     const std::size_t n = counts[e];
     const int tag = static_cast<int>(e) + 1;
-    groups.push_back({tag, positive ? keys[e] : tag, fmt::format("{}{}", prefix, keys[e]), at, at + n,
+    groups.push_back({tag, positive ? keys[e] : tag, quotable(name_of(keys[e])), at, at + n,
                       bounds_of(mesh, elements, order, at, at + n)});
     at += n;
   }
@@ -112,14 +123,16 @@ std::vector<Group> make_groups(const VolumeMesh& mesh, const std::vector<std::ar
 Status write_gmsh(const VolumeMesh& mesh, const std::filesystem::path& path) {
   const std::size_t np = mesh.points.size(), nt = mesh.tets.size(), nb = mesh.boundary.size();
   std::vector<std::size_t> tri_order, tet_order;
-  const std::vector<Group> surfaces = make_groups(mesh, mesh.boundary, mesh.boundary_ids, "surface_", tri_order);
+  const std::vector<Group> surfaces = make_groups(
+      mesh, mesh.boundary, mesh.boundary_ids, [&](int id) { return boundary_name(mesh.boundary_names, id); }, tri_order);
   std::vector<Group> volumes;
   if (mesh.tet_regions.empty()) {
     tet_order.resize(nt);
     std::iota(tet_order.begin(), tet_order.end(), std::size_t{0});
     volumes.push_back({1, 1, "volume", 0, nt, bounds_of(mesh, mesh.tets, tet_order, 0, nt)});
   } else {
-    volumes = make_groups(mesh, mesh.tets, mesh.tet_regions, "region_", tet_order);
+    volumes = make_groups(
+        mesh, mesh.tets, mesh.tet_regions, [](int r) { return fmt::format("region_{}", r); }, tet_order);
   }
 
   const std::array<const std::vector<Group>*, 2> lists{&surfaces, &volumes};
@@ -178,7 +191,7 @@ namespace {
 
 class GmshReader {
  public:
-  GmshReader(std::string_view text, const std::string& name) : in_(text, name) {}
+  GmshReader(std::string_view text, const std::string& name) : text_(text), in_(text, name), bytes_(text, name) {}
   Result<VolumeMesh> read();
 
  private:
@@ -191,12 +204,31 @@ class GmshReader {
   Status read_block_start(int& dim, int& entity, int& third, std::string_view third_what);
   Status read_nodes();
   Status read_elements();
+  /// Format 2.2: "count", then "tag x y z" lines (binary: int32 tag, 3 float64).
+  Status read_nodes_v2();
+  /// Where binary data begins: after the newline that ends the last token.
+  Result<std::size_t> binary_start();
+  /// Format 2.2: "count", then "tag type ntags tags... nodes..." lines.
+  Status read_elements_v2();
+  /// Binary 2.2: blocks of "type count ntags" and count records of int32
+  /// "tag tags... nodes...".
+  Status read_elements_v2_binary(std::size_t n);
+  /// One triangle or tet of format 2.2 (`tags`: physical, elementary).
+  Status add_element_v2(int type, std::int64_t tag, const int (&tags)[2], const std::array<Index, 4>& v);
+  /// Sorts the points by tag when the tags are not 1..N in order.
+  Status index_nodes();
   Status node_index(std::int64_t tag, Index& out);
-  /// The id of a surface (dim 2) or volume (dim 3) entity; `named` says whether
-  /// a physical name "<prefix><int>" gave it.
-  int resolve(int dim, int entity, std::string_view prefix, bool& named) const;
+  struct Raw;
+  /// The id of a surface (dim 2) or volume (dim 3) element; `named` says
+  /// whether a physical name "<prefix><int>" gave it. Other physical names of
+  /// surfaces go to names_.
+  int resolve(int dim, const Raw& raw, std::string_view prefix, bool& named);
 
+  std::string_view text_;
   TextScanner in_;
+  ByteReader bytes_;    ///< binary 2.2 sections
+  bool binary_ = false;  ///< binary 2.2
+  int major_ = 4;  ///< format version 4 (4.1) or 2 (2.2)
   bool have_format_ = false, have_nodes_ = false;
   std::map<std::pair<int, int>, std::string> physical_names_;
   std::map<std::pair<int, int>, int> entity_physical_;  // (dim, entity) -> first physical tag
@@ -205,8 +237,10 @@ class GmshReader {
   std::vector<Vec3> points_;
   struct Raw {
     std::int64_t tag;
-    int entity;
+    int entity;    ///< 4.1: the entity tag; 2.2: the elementary tag (0: none)
+    int physical;  ///< 2.2: the physical tag (0: none); 4.1: unused
   };
+  std::map<int, std::string> names_;
   std::vector<Raw> tet_raw_, tri_raw_;
   std::vector<Tet> tets_;
   std::vector<Tri> tris_;
@@ -216,14 +250,29 @@ Status GmshReader::read_format() {
   const std::string_view version = in_.next();
   double v = 0;
   PDR_TRY(in_.parse_real(version, v, "format version"));
-  if (v != 4.1)
-    return unsupported(fmt::format("{}:{}: Gmsh format {}; only 4.1 is read", in_.name(),
+  if (v != 4.1 && v != 2.2 && v != 2.1 && v != 2.0)
+    return unsupported(fmt::format("{}:{}: Gmsh format {}; 4.1 and 2.2 are read", in_.name(),
                                    in_.line_at(in_.last_token_start()), std::string(version)));
+  major_ = v < 3 ? 2 : 4;
   int file_type = 0, data_size = 0;
   PDR_TRY(in_.integer(file_type, "file type"));
-  if (file_type != 0) return unsupported(fmt::format("{}: binary Gmsh files are not read", in_.name()));
+  if (file_type != 0 && (file_type != 1 || major_ != 2))
+    return unsupported(fmt::format("{}: binary Gmsh {} files are not read (ASCII 4.1 and 2.2, binary 2.2 are)",
+                                   in_.name(), std::string(version)));
   PDR_TRY(in_.integer(data_size, "data size"));
+  if (data_size != 8) return in_.error(fmt::format("data size {}: only 8-byte reals are read", data_size));
   have_format_ = true;
+  if (file_type == 1) {
+    // The integer 1 in the writer's byte order.
+    binary_ = true;
+    PDR_ASSIGN_OR_RETURN(const std::size_t at, binary_start());
+    PDR_TRY(bytes_.seek(at, "byte-order mark"));
+    std::int32_t one = 0;
+    PDR_TRY(bytes_.get(one, "byte-order mark"));
+    if (one != 1 && byteswap_value(one) != 1) return bytes_.error_at(at, fmt::format("byte-order mark is {}, not 1", one));
+    bytes_.set_swap(one != 1);
+    in_.set_range(bytes_.pos(), text_.size());
+  }
   return in_.expect("$EndMeshFormat");
 }
 
@@ -319,6 +368,53 @@ Status GmshReader::read_nodes() {
   if (node_tags_.size() != total)
     return in_.error(fmt::format("node blocks hold {} nodes, the header announced {}", node_tags_.size(), total));
   PDR_TRY(in_.expect("$EndNodes"));
+  return index_nodes();
+}
+
+Result<std::size_t> GmshReader::binary_start() {
+  std::size_t at = in_.pos();
+  if (at < text_.size() && text_[at] == '\r') ++at;
+  if (at >= text_.size() || text_[at] != '\n') return in_.error("expected a line break before binary data");
+  return at + 1;
+}
+
+Status GmshReader::read_nodes_v2() {
+  if (have_nodes_) return in_.error("second $Nodes section");
+  have_nodes_ = true;
+  std::size_t n = 0;
+  PDR_TRY(in_.count(n, binary_ ? 1 : 4, "node count"));
+  node_tags_.resize(n);
+  points_.resize(n);
+  if (binary_) {
+    PDR_ASSIGN_OR_RETURN(const std::size_t at, binary_start());
+    PDR_TRY(bytes_.seek(at, "nodes"));
+    PDR_TRY(bytes_.fits(n, 28, text_.size() - at, "nodes"));
+    for (std::size_t i = 0; i < n; ++i) {
+      std::int64_t tag = 0;
+      PDR_TRY(bytes_.integer(tag, 4, "node tag"));
+      if (tag < 1) return bytes_.error(fmt::format("node tag {} is not positive", tag));
+      node_tags_[i] = tag;
+      identity_ = identity_ && tag == static_cast<std::int64_t>(i) + 1;
+      for (double& c : points_[i]) PDR_TRY(bytes_.real(c, 8, "node coordinate"));
+    }
+    in_.set_range(bytes_.pos(), text_.size());
+    PDR_TRY(in_.expect("$EndNodes"));
+    return index_nodes();
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    PDR_TRY(in_.integer(node_tags_[i], "node tag"));
+    if (node_tags_[i] < 1) return in_.error(fmt::format("node tag {} is not positive", node_tags_[i]));
+    identity_ = identity_ && node_tags_[i] == static_cast<std::int64_t>(i) + 1;
+    PDR_TRY(in_.real(points_[i][0], "node x"));
+    PDR_TRY(in_.real(points_[i][1], "node y"));
+    PDR_TRY(in_.real(points_[i][2], "node z"));
+  }
+  PDR_TRY(in_.expect("$EndNodes"));
+  return index_nodes();
+}
+
+Status GmshReader::index_nodes() {
+  const std::size_t total = node_tags_.size();
   if (!identity_) {
     // Points in ascending tag order; lookups by binary search.
     std::vector<std::size_t> order(total);
@@ -385,10 +481,10 @@ Status GmshReader::read_elements() {
       }
       if (type == kGmshTetra) {
         tets_.push_back(v);
-        tet_raw_.push_back({tag, entity});
+        tet_raw_.push_back({tag, entity, 0});
       } else {
         tris_.push_back({v[0], v[1], v[2]});
-        tri_raw_.push_back({tag, entity});
+        tri_raw_.push_back({tag, entity, 0});
       }
     }
   }
@@ -396,17 +492,114 @@ Status GmshReader::read_elements() {
   return in_.expect("$EndElements");
 }
 
-int GmshReader::resolve(int dim, int entity, std::string_view prefix, bool& named) const {
+Status GmshReader::read_elements_v2() {
+  if (!have_nodes_) return in_.error("$Elements before $Nodes");
+  std::size_t n = 0;
+  PDR_TRY(in_.count(n, binary_ ? 1 : 4, "element count"));
+  if (binary_) return read_elements_v2_binary(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    std::int64_t tag = 0;
+    int type = 0, ntags = 0;
+    PDR_TRY(in_.integer(tag, "element tag"));
+    PDR_TRY(in_.integer(type, "element type"));
+    const std::size_t type_at = in_.last_token_start();
+    const int nodes = gmsh_nodes(type);
+    if (nodes == 0) return in_.error(fmt::format("unknown element type {}", type));
+    if (!skippable(type) && type != kGmshTriangle && type != kGmshTetra)
+      return unsupported(fmt::format("{}:{}: an element of Gmsh type {}: only 3-node triangles and 4-node "
+                                     "tetrahedra are read", in_.name(), in_.line_at(type_at), type));
+    PDR_TRY(in_.integer(ntags, "tag count"));
+    if (ntags < 0 || static_cast<std::size_t>(ntags) * 2 > in_.remaining() + 1)
+      return in_.error(fmt::format("tag count {} is not valid", ntags));
+    int tags[2] = {0, 0};
+    for (int k = 0; k < ntags; ++k) {
+      int t = 0;
+      PDR_TRY(in_.integer(t, "element tag"));
+      if (k < 2) tags[k] = t;
+    }
+    std::array<Index, 4> v{};
+    for (int k = 0; k < nodes; ++k) {
+      std::int64_t node = 0;
+      PDR_TRY(in_.integer(node, "element node"));
+      if (k < 4 && !skippable(type)) PDR_TRY(node_index(node, v[static_cast<std::size_t>(k)]));
+    }
+    PDR_TRY(add_element_v2(type, tag, tags, v));
+  }
+  return in_.expect("$EndElements");
+}
+
+Status GmshReader::add_element_v2(int type, std::int64_t tag, const int (&tags)[2], const std::array<Index, 4>& v) {
+  if (type == kGmshTetra) {
+    tets_.push_back(v);
+    tet_raw_.push_back({tag, tags[1], tags[0]});
+  } else if (type == kGmshTriangle) {
+    tris_.push_back({v[0], v[1], v[2]});
+    tri_raw_.push_back({tag, tags[1], tags[0]});
+  }
+  return {};
+}
+
+Status GmshReader::read_elements_v2_binary(std::size_t n) {
+  PDR_ASSIGN_OR_RETURN(const std::size_t at, binary_start());
+  PDR_TRY(bytes_.seek(at, "elements"));
+  for (std::size_t seen = 0; seen < n;) {
+    std::int64_t type = 0, count = 0, ntags = 0;
+    const std::size_t block_at = bytes_.pos();
+    PDR_TRY(bytes_.integer(type, 4, "element type"));
+    PDR_TRY(bytes_.integer(count, 4, "element count"));
+    PDR_TRY(bytes_.integer(ntags, 4, "tag count"));
+    const int nodes = type > 0 && type < 100 ? gmsh_nodes(static_cast<int>(type)) : 0;
+    if (nodes == 0) return bytes_.error_at(block_at, fmt::format("unknown element type {}", type));
+    if (!skippable(static_cast<int>(type)) && type != kGmshTriangle && type != kGmshTetra)
+      return unsupported(fmt::format("{}: byte offset {}: elements of Gmsh type {}: only 3-node triangles and "
+                                     "4-node tetrahedra are read", in_.name(), block_at, type));
+    if (count < 1 || static_cast<std::uint64_t>(count) > n - seen || ntags < 0 || ntags > 1000)
+      return bytes_.error_at(block_at, fmt::format("element block of {} elements with {} tags is not valid", count, ntags));
+    const std::uint64_t record = 4 * (1 + static_cast<std::uint64_t>(ntags) + static_cast<std::uint64_t>(nodes));
+    PDR_TRY(bytes_.fits(static_cast<std::uint64_t>(count), record, text_.size() - bytes_.pos(), "elements"));
+    for (std::int64_t e = 0; e < count; ++e) {
+      std::int64_t tag = 0, x = 0;
+      PDR_TRY(bytes_.integer(tag, 4, "element tag"));
+      int tags[2] = {0, 0};
+      for (std::int64_t k = 0; k < ntags; ++k) {
+        PDR_TRY(bytes_.integer(x, 4, "element tag"));
+        if (k < 2) tags[k] = static_cast<int>(x);
+      }
+      std::array<Index, 4> v{};
+      for (int k = 0; k < nodes; ++k) {
+        PDR_TRY(bytes_.integer(x, 4, "element node"));
+        if (k < 4 && !skippable(static_cast<int>(type))) {
+          if (Status s = node_index(x, v[static_cast<std::size_t>(k)]); !s.ok())
+            return bytes_.error(fmt::format("node tag {} is not in $Nodes", x));
+        }
+      }
+      PDR_TRY(add_element_v2(static_cast<int>(type), tag, tags, v));
+    }
+    seen += static_cast<std::size_t>(count);
+  }
+  in_.set_range(bytes_.pos(), text_.size());
+  return in_.expect("$EndElements");
+}
+
+int GmshReader::resolve(int dim, const Raw& raw, std::string_view prefix, bool& named) {
   named = false;
-  const auto phys = entity_physical_.find({dim, entity});
-  if (phys == entity_physical_.end()) return entity;
-  const auto name = physical_names_.find({dim, phys->second});
+  int phys = raw.physical;
+  if (major_ == 4) {
+    const auto it = entity_physical_.find({dim, raw.entity});
+    if (it == entity_physical_.end()) return raw.entity;
+    phys = it->second;
+  } else if (phys == 0) {
+    return raw.entity;
+  }
+  const auto name = physical_names_.find({dim, phys});
+  if (name == physical_names_.end()) return phys;
   int id = 0;
-  if (name != physical_names_.end() && parse_suffixed_int(name->second, prefix, id)) {
+  if (parse_suffixed_int(name->second, prefix, id)) {
     named = true;
     return id;
   }
-  return phys->second;
+  if (dim == 2) names_.emplace(phys, name->second);
+  return phys;
 }
 
 /// Element order by element tag (stable), as written.
@@ -432,9 +625,9 @@ Result<VolumeMesh> GmshReader::read() {
     } else if (section == "$Entities") {
       PDR_TRY(read_entities());
     } else if (section == "$Nodes") {
-      PDR_TRY(read_nodes());
+      PDR_TRY(major_ == 2 ? read_nodes_v2() : read_nodes());
     } else if (section == "$Elements") {
-      PDR_TRY(read_elements());
+      PDR_TRY(major_ == 2 ? read_elements_v2() : read_elements());
     } else if (section.size() > 1 && section[0] == '$') {
       const std::string end = fmt::format("$End{}", section.substr(1));
       for (std::string_view t = in_.next(); t != end; t = in_.next())
@@ -454,7 +647,7 @@ Result<VolumeMesh> GmshReader::read() {
   bool named = false;
   for (std::size_t i : tri_order) {
     mesh.boundary.push_back(tris_[i]);
-    mesh.boundary_ids.push_back(resolve(2, tri_raw_[i].entity, "surface_", named));
+    mesh.boundary_ids.push_back(resolve(2, tri_raw_[i], "surface_", named));
   }
   const std::vector<std::size_t> tet_order = by_tag(tet_raw_);
   std::vector<int> regions;
@@ -462,12 +655,13 @@ Result<VolumeMesh> GmshReader::read() {
   bool any_named = false;
   for (std::size_t i : tet_order) {
     mesh.tets.push_back(tets_[i]);
-    regions.push_back(resolve(3, tet_raw_[i].entity, "region_", named));
+    regions.push_back(resolve(3, tet_raw_[i], "region_", named));
     any_named = any_named || named;
-    entities.push_back(tet_raw_[i].entity);
+    entities.push_back(major_ == 2 ? regions.back() : tet_raw_[i].entity);
   }
   // One unnamed volume means "no regions" (what we write for a mesh without them).
   if (any_named || distinct(std::move(entities)).size() > 1) mesh.tet_regions = std::move(regions);
+  mesh.boundary_names = std::move(names_);
   return mesh;
 }
 

@@ -2,19 +2,31 @@
 // VTK XML UnstructuredGrid (.vtu) volume meshes, for ParaView and friends.
 //
 // Cells are the tets (VTK_TETRA, 10) followed by the boundary triangles
-// (VTK_TRIANGLE, 5). Cell data: `min_dihedral` (Float64, degrees; meaningful
-// for tets only, 0 for triangles), `surface_id` (Int32, 0 for tets) and, when
-// the mesh has regions, `region` (Int32, 0 for triangles). min_dihedral is
-// what dihedral_range gives (NaN where a tet's geometry overflows doubles);
-// it is output only and not read back. Everything is written as
-// format="ascii" with shortest round-trip numbers, which is exact (checked
-// bit-exact through VTK 9.1's vtkXMLUnstructuredGridReader).
-// The reader is not a general XML parser: it reads ascii DataArrays of an
-// UnstructuredGrid with one Piece (what we write, and what VTK/ParaView write
-// in ascii mode) and reports anything else clearly.
+// (VTK_TRIANGLE, 5). Cell data: `min_dihedral` (Float64, degrees: a tet's
+// smallest dihedral angle; a boundary triangle carries that of the tet behind
+// it, NaN when no tet has it as a face), `surface_id` (Int32, 0 for tets) and,
+// when the mesh has regions, `region` (Int32, 0 for triangles). min_dihedral is
+// output only and not read back. Field data: `boundary_ids` (Int32) and
+// `boundary_names` (String), one entry per named boundary id, which ParaView's
+// spreadsheet view shows side by side.
+//
+// Encodings (VtuEncoding): appended raw binary (the default), the same with
+// zlib compression (vtkZLibDataCompressor, 32 KiB blocks), or ascii with
+// shortest round-trip numbers. All are exact (binary trivially; ascii checked
+// bit-exact through VTK 9.1's vtkXMLUnstructuredGridReader). Headers are
+// UInt64, little endian.
+//
+// The reader is not a general XML parser: it reads the DataArrays of an
+// UnstructuredGrid with one Piece in every encoding VTK, ParaView and meshio
+// write: ascii, inline base64 (format="binary"), appended raw or base64, zlib
+// compressed or not, UInt32 or UInt64 headers, either byte order. Damaged
+// binary data is an invalid_input error naming the array.
 #include <fmt/compile.h>
 #include <oneapi/tbb/parallel_for.h>
+#include <zlib.h>
 
+#include <algorithm>
+#include <functional>
 #include <optional>
 #include <vector>
 
@@ -24,310 +36,284 @@
 namespace pdrmesh::volio {
 namespace {
 
-constexpr int kVtkTriangle = 5;
-constexpr int kVtkTetra = 10;
+constexpr std::size_t kZlibBlock = 32768;  // bytes a compressed block holds (VTK's default)
 
-/// One DataArray of `n` values, `fn(out_iterator, i)` writing value i (it
-/// must only read shared data). Eight values a line. The lines are formatted
-/// in parallel, a chunk of them to a buffer each, and written in order: the
-/// same bytes for any thread count.
-template <class Fn>
-Status write_array(OutputFile& out, std::string_view header, std::size_t n, Fn&& fn) {
-  auto it = std::back_inserter(out.buf());
-  fmt::format_to(it, "        {}\n", header);
+// ---------------------------------------------------------------- writing
+
+/// One DataArray to write: `count` values of `width` bytes; `fill(first, n,
+/// dst)` stores values [first, first + n) little endian at dst (it must only
+/// read shared data: chunks are filled in parallel).
+struct OutArray {
+  std::string attributes;  ///< type, Name, NumberOfComponents
+  std::size_t count = 0;
+  int width = 8;
+  bool is_float = false;
+  std::function<void(std::size_t, std::size_t, char*)> fill;
+};
+
+template <class T>
+void store(char* dst, T v) {
+  if (!kHostLittle) v = byteswap_value(v);
+  std::memcpy(dst, &v, sizeof(T));
+}
+
+/// Formats little-endian binary values as ascii, eight a line.
+void format_ascii(const OutArray& a, const char* src, std::size_t first, std::size_t n, fmt::memory_buffer& b) {
+  auto o = std::back_inserter(b);
+  for (std::size_t i = 0; i < n; ++i) {
+    const char* p = src + i * static_cast<std::size_t>(a.width);
+    if (a.is_float) {
+      double v = 0;
+      std::memcpy(&v, p, 8);
+      if (!kHostLittle) v = byteswap_value(v);
+      fmt::format_to(o, FMT_COMPILE("{} "), v);
+    } else if (a.width == 1) {
+      fmt::format_to(o, FMT_COMPILE("{} "), static_cast<unsigned>(static_cast<unsigned char>(*p)));
+    } else if (a.width == 4) {
+      std::int32_t v = 0;
+      std::memcpy(&v, p, 4);
+      if (!kHostLittle) v = byteswap_value(v);
+      fmt::format_to(o, FMT_COMPILE("{} "), v);
+    } else {
+      std::int64_t v = 0;
+      std::memcpy(&v, p, 8);
+      if (!kHostLittle) v = byteswap_value(v);
+      fmt::format_to(o, FMT_COMPILE("{} "), v);
+    }
+    if ((first + i + 1) % 8 == 0 || first + i + 1 == a.count) b.push_back('\n');
+  }
+}
+
+/// An ascii DataArray, formatted a chunk of lines per task in parallel and
+/// written in order: the same bytes for any thread count.
+Status write_ascii_array(OutputFile& out, const OutArray& a) {
+  fmt::format_to(std::back_inserter(out.buf()), "        <DataArray {} format=\"ascii\">\n", a.attributes);
   constexpr std::size_t kChunk = 8 * 2048;  // values a chunk (whole lines)
   constexpr std::size_t kBatch = 64;        // chunks formatted at once (bounded memory)
+  const std::size_t n = a.count;
   std::vector<fmt::memory_buffer> chunks(std::min(kBatch, (n + kChunk - 1) / kChunk));
   for (std::size_t first = 0; first < n; first += kChunk * kBatch) {
     const std::size_t count = std::min(kBatch, (n - first + kChunk - 1) / kChunk);
     tbb::parallel_for(std::size_t{0}, count, [&](std::size_t c) {
-      fmt::memory_buffer& b = chunks[c];
-      b.clear();
-      auto o = std::back_inserter(b);
       const std::size_t lo = first + c * kChunk, hi = std::min(n, lo + kChunk);
-      for (std::size_t i = lo; i < hi; ++i) {
-        fn(o, i);
-        if ((i + 1) % 8 == 0 || i + 1 == n) b.push_back('\n');
-      }
+      std::vector<char> raw((hi - lo) * static_cast<std::size_t>(a.width));
+      a.fill(lo, hi - lo, raw.data());
+      chunks[c].clear();
+      format_ascii(a, raw.data(), lo, hi - lo, chunks[c]);
     });
     for (std::size_t c = 0; c < count; ++c) {
       out.buf().append(chunks[c].data(), chunks[c].data() + chunks[c].size());
       PDR_TRY(out.maybe_flush());
     }
   }
-  fmt::format_to(it, "        </DataArray>\n");
+  fmt::format_to(std::back_inserter(out.buf()), "        </DataArray>\n");
   return {};
 }
 
-/// The value of attribute `key` in an XML start tag, if present.
-std::optional<std::string_view> attribute(std::string_view tag, std::string_view key) {
-  std::size_t from = 0;
-  while (true) {
-    const std::size_t at = tag.find(key, from);
-    if (at == std::string_view::npos) return std::nullopt;
-    from = at + key.size();
-    if (at == 0 || (tag[at - 1] != ' ' && tag[at - 1] != '\t' && tag[at - 1] != '\n' && tag[at - 1] != '\r'))
-      continue;
-    std::size_t p = from;
-    while (p < tag.size() && (tag[p] == ' ' || tag[p] == '\t')) ++p;
-    if (p >= tag.size() || tag[p] != '=') continue;
-    ++p;
-    while (p < tag.size() && (tag[p] == ' ' || tag[p] == '\t')) ++p;
-    if (p >= tag.size() || (tag[p] != '"' && tag[p] != '\'')) continue;
-    const char quote = tag[p];
-    const std::size_t close = tag.find(quote, p + 1);
-    if (close == std::string_view::npos) return std::nullopt;
-    return tag.substr(p + 1, close - p - 1);
-  }
+/// An array's compressed form: the vtkZLibDataCompressor header (UInt64
+/// block count, block size, last block size, each block's compressed size)
+/// followed by the blocks, compressed in parallel.
+Result<std::string> compress_array(const OutArray& a) {
+  const std::size_t bytes = a.count * static_cast<std::size_t>(a.width);
+  const std::size_t blocks = (bytes + kZlibBlock - 1) / kZlibBlock;
+  const std::size_t per_block = kZlibBlock / static_cast<std::size_t>(a.width);
+  std::vector<std::string> packed(blocks);
+  std::vector<int> rc(blocks, Z_OK);
+  tbb::parallel_for(std::size_t{0}, blocks, [&](std::size_t k) {
+    const std::size_t first = k * per_block, n = std::min(per_block, a.count - first);
+    std::vector<char> raw(n * static_cast<std::size_t>(a.width));
+    a.fill(first, n, raw.data());
+    uLongf size = compressBound(static_cast<uLong>(raw.size()));
+    packed[k].resize(size);
+    rc[k] = compress2(reinterpret_cast<Bytef*>(packed[k].data()), &size, reinterpret_cast<const Bytef*>(raw.data()),
+                      static_cast<uLong>(raw.size()), Z_DEFAULT_COMPRESSION);
+    packed[k].resize(size);
+  });
+  for (int r : rc)
+    if (r != Z_OK) return internal_error(fmt::format("zlib compress2 failed ({})", r));
+  fmt::memory_buffer head;
+  put<std::uint64_t>(head, blocks, true);
+  put<std::uint64_t>(head, kZlibBlock, true);
+  put<std::uint64_t>(head, bytes % kZlibBlock, true);
+  for (const std::string& p : packed) put<std::uint64_t>(head, p.size(), true);
+  std::string out(head.data(), head.size());
+  for (const std::string& p : packed) out += p;
+  return out;
 }
 
-struct Element {
-  std::size_t start = 0;  ///< position of '<'
-  std::string_view tag;   ///< the start tag, '<' to '>'
-  std::size_t content_begin = 0, content_end = 0;
-};
-
-class VtuReader {
- public:
-  VtuReader(std::string_view text, const std::string& name) : text_(text), in_(text, name) {}
-
-  Result<VolumeMesh> read();
-
- private:
-  /// Finds the first element `<name` in [from, to); its content ends at `</name>`.
-  Result<std::optional<Element>> find(std::string_view name, std::size_t from, std::size_t to);
-  Result<std::size_t> attribute_count(const Element& e, std::string_view key);
-  Status check_ascii(const Element& e);
-  template <class T>
-  Status parse_array(const Element& e, std::size_t n, std::vector<T>& out, std::string_view what);
-  Result<std::optional<Element>> named_array(const Element& section, std::string_view name);
-
-  std::string_view text_;
-  TextScanner in_;
-};
-
-Result<std::optional<Element>> VtuReader::find(std::string_view name, std::size_t from, std::size_t to) {
-  std::size_t at = from;
-  for (;;) {
-    at = text_.find(fmt::format("<{}", name), at);
-    if (at == std::string_view::npos || at >= to) return std::optional<Element>{};
-    const char after = at + 1 + name.size() < text_.size() ? text_[at + 1 + name.size()] : '\0';
-    if (after == ' ' || after == '>' || after == '/' || after == '\n' || after == '\t' || after == '\r') break;
-    at += 1 + name.size();
+/// A raw appended array: UInt64 byte count, then the values, a chunk at a time.
+Status write_raw_array(OutputFile& out, const OutArray& a) {
+  const std::size_t w = static_cast<std::size_t>(a.width);
+  put<std::uint64_t>(out.buf(), a.count * w, true);
+  constexpr std::size_t kChunk = std::size_t{1} << 20;  // values a chunk
+  for (std::size_t first = 0; first < a.count; first += kChunk) {
+    const std::size_t n = std::min(kChunk, a.count - first), at = out.buf().size();
+    out.buf().resize(at + n * w);
+    a.fill(first, n, out.buf().data() + at);
+    PDR_TRY(out.maybe_flush());
   }
-  const std::size_t close = text_.find('>', at);
-  if (close == std::string_view::npos || close >= to)
-    return in_.error_at(at, fmt::format("unterminated <{}> tag", name));
-  Element e;
-  e.start = at;
-  e.tag = text_.substr(at, close + 1 - at);
-  e.content_begin = close + 1;
-  if (text_[close - 1] == '/') {
-    e.content_end = e.content_begin;
-  } else {
-    const std::size_t end = text_.find(fmt::format("</{}>", name), e.content_begin);
-    if (end == std::string_view::npos || end > to) return in_.error_at(at, fmt::format("<{}> is not closed", name));
-    e.content_end = end;
-  }
-  return std::optional<Element>{e};
-}
-
-Result<std::size_t> VtuReader::attribute_count(const Element& e, std::string_view key) {
-  const auto v = attribute(e.tag, key);
-  if (!v) return in_.error_at(e.start, fmt::format("missing attribute {}", key));
-  std::int64_t n = 0;
-  const auto [p, ec] = std::from_chars(v->data(), v->data() + v->size(), n);
-  if (ec != std::errc() || p != v->data() + v->size() || n < 0 || static_cast<std::uint64_t>(n) >= kNoIndex)
-    return in_.error_at(e.start, fmt::format("attribute {}=\"{}\" is not a valid count", key, *v));
-  return static_cast<std::size_t>(n);
-}
-
-Status VtuReader::check_ascii(const Element& e) {
-  const auto format = attribute(e.tag, "format");
-  if (!format || *format != "ascii")
-    return unsupported(fmt::format("{}:{}: DataArray '{}' has format=\"{}\"; only ascii VTU files are read",
-                                   in_.name(), in_.line_at(e.start), attribute(e.tag, "Name").value_or(""),
-                                   format.value_or("")));
   return {};
 }
 
-template <class T>
-Status VtuReader::parse_array(const Element& e, std::size_t n, std::vector<T>& out, std::string_view what) {
-  PDR_TRY(check_ascii(e));
-  // The values end where nested markup (VTK's <InformationKey>) begins.
-  const std::size_t end = std::min(e.content_end, text_.find('<', e.content_begin));
-  const std::size_t length = end - e.content_begin;
-  if (static_cast<std::uint64_t>(n) * 2 > length + 1)
-    return in_.error_at(e.start, fmt::format("{} needs {} values but holds only {} bytes", what, n, length));
-  in_.set_range(e.content_begin, end);
-  out.resize(n);
-  for (T& v : out) {
-    if constexpr (std::is_same_v<T, double>) {
-      PDR_TRY(in_.real(v, what));
-    } else {
-      std::int64_t w = 0;
-      PDR_TRY(in_.integer(w, what));
-      if (w < std::numeric_limits<T>::min() || w > std::numeric_limits<T>::max())
-        return in_.error(fmt::format("{} value {} is out of range", what, w));
-      v = static_cast<T>(w);
+/// The smallest dihedral angle of each boundary triangle's tet (the tet
+/// with that face), NaN where no tet has it.
+std::vector<double> boundary_min_dihedral(const VolumeMesh& mesh, const std::vector<double>& tet_min) {
+  using Key = std::array<Index, 3>;
+  auto key = [](Index a, Index b, Index c) {
+    Key k{a, b, c};
+    std::sort(k.begin(), k.end());
+    return k;
+  };
+  std::vector<std::pair<Key, std::size_t>> faces(mesh.boundary.size());
+  std::vector<bool> on_boundary(mesh.points.size(), false);
+  for (std::size_t i = 0; i < mesh.boundary.size(); ++i) {
+    const Tri& t = mesh.boundary[i];
+    faces[i] = {key(t[0], t[1], t[2]), i};
+    for (Index v : t) on_boundary[v] = true;
+  }
+  std::sort(faces.begin(), faces.end());
+  std::vector<double> out(mesh.boundary.size(), std::numeric_limits<double>::quiet_NaN());
+  for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
+    const Tet& k = mesh.tets[t];
+    int flagged = 0;
+    for (Index v : k) flagged += on_boundary[v] ? 1 : 0;
+    if (flagged < 3) continue;
+    for (int skip = 0; skip < 4; ++skip) {
+      Index f[3];
+      int n = 0;
+      for (int v = 0; v < 4; ++v)
+        if (v != skip) f[n++] = k[static_cast<std::size_t>(v)];
+      const Key fk = key(f[0], f[1], f[2]);
+      auto it = std::lower_bound(faces.begin(), faces.end(), std::pair<Key, std::size_t>{fk, 0});
+      for (; it != faces.end() && it->first == fk; ++it) out[it->second] = tet_min[t];
     }
   }
-  if (!in_.next().empty()) return in_.error(fmt::format("{} has more than the {} values expected", what, n));
-  return {};
+  return out;
 }
 
-Result<std::optional<Element>> VtuReader::named_array(const Element& section, std::string_view name) {
-  std::size_t at = section.content_begin;
-  for (;;) {
-    PDR_ASSIGN_OR_RETURN(std::optional<Element> e, find("DataArray", at, section.content_end));
-    if (!e) return std::optional<Element>{};
-    if (attribute(e->tag, "Name") == name) return e;
-    at = e->content_end;
+/// VTK's ascii form of a String array: each string as its byte values, then 0.
+std::string ascii_strings(const std::vector<std::string>& strings) {
+  fmt::memory_buffer b;
+  for (const std::string& s : strings) {
+    for (char c : s) fmt::format_to(std::back_inserter(b), "{} ", static_cast<unsigned>(static_cast<unsigned char>(c)));
+    fmt::format_to(std::back_inserter(b), "0\n");
   }
-}
-
-Result<VolumeMesh> VtuReader::read() {
-  PDR_ASSIGN_OR_RETURN(const std::optional<Element> file, find("VTKFile", 0, text_.size()));
-  if (!file) return in_.error_at(0, "not a VTK XML file (no <VTKFile>)");
-  if (attribute(file->tag, "type") != "UnstructuredGrid")
-    return unsupported(fmt::format("{}: VTKFile type=\"{}\"; only UnstructuredGrid is read", in_.name(),
-                                   attribute(file->tag, "type").value_or("")));
-  PDR_ASSIGN_OR_RETURN(const std::optional<Element> piece, find("Piece", file->content_begin, file->content_end));
-  if (!piece) return in_.error_at(file->start, "no <Piece>");
-  PDR_ASSIGN_OR_RETURN(const std::optional<Element> second, find("Piece", piece->content_end, file->content_end));
-  if (second) return unsupported(fmt::format("{}:{}: more than one <Piece>", in_.name(), in_.line_at(second->start)));
-  PDR_ASSIGN_OR_RETURN(const std::size_t np, attribute_count(*piece, "NumberOfPoints"));
-  PDR_ASSIGN_OR_RETURN(const std::size_t nc, attribute_count(*piece, "NumberOfCells"));
-
-  VolumeMesh mesh;
-  // Points: the first DataArray inside <Points>.
-  PDR_ASSIGN_OR_RETURN(const std::optional<Element> points, find("Points", piece->content_begin, piece->content_end));
-  if (!points) return in_.error_at(piece->start, "no <Points>");
-  PDR_ASSIGN_OR_RETURN(const std::optional<Element> xyz, find("DataArray", points->content_begin, points->content_end));
-  if (!xyz) return in_.error_at(points->start, "<Points> has no DataArray");
-  if (attribute(xyz->tag, "NumberOfComponents") != "3")
-    return in_.error_at(xyz->start, "points must have NumberOfComponents=\"3\"");
-  std::vector<double> coords;
-  PDR_TRY(parse_array(*xyz, 3 * np, coords, "point coordinate"));
-  mesh.points.resize(np);
-  for (std::size_t i = 0; i < np; ++i) mesh.points[i] = {coords[3 * i], coords[3 * i + 1], coords[3 * i + 2]};
-  coords = {};
-
-  // Cells.
-  PDR_ASSIGN_OR_RETURN(const std::optional<Element> cells, find("Cells", piece->content_begin, piece->content_end));
-  if (!cells) return in_.error_at(piece->start, "no <Cells>");
-  std::vector<std::int64_t> connectivity, offsets;
-  std::vector<std::uint8_t> types;
-  PDR_ASSIGN_OR_RETURN(const std::optional<Element> types_el, named_array(*cells, "types"));
-  PDR_ASSIGN_OR_RETURN(const std::optional<Element> offsets_el, named_array(*cells, "offsets"));
-  PDR_ASSIGN_OR_RETURN(const std::optional<Element> conn_el, named_array(*cells, "connectivity"));
-  if (!types_el || !offsets_el || !conn_el)
-    return in_.error_at(cells->start, "<Cells> needs DataArrays named connectivity, offsets and types");
-  PDR_TRY(parse_array(*types_el, nc, types, "cell type"));
-  PDR_TRY(parse_array(*offsets_el, nc, offsets, "cell offset"));
-  std::int64_t previous = 0;
-  for (std::size_t c = 0; c < nc; ++c) {
-    const std::int64_t size = types[c] == kVtkTetra ? 4 : types[c] == kVtkTriangle ? 3 : -1;
-    if (size < 0)
-      return unsupported(fmt::format("{}:{}: cell {} has VTK type {}; only tetrahedra (10) and triangles (5) are read",
-                                     in_.name(), in_.line_at(types_el->start), c, types[c]));
-    if (offsets[c] != previous + size)
-      return in_.error_at(offsets_el->start, fmt::format("cell {} (type {}) has offset {}, expected {}", c, types[c],
-                                                         offsets[c], previous + size));
-    previous = offsets[c];
-  }
-  PDR_TRY(parse_array(*conn_el, static_cast<std::size_t>(previous), connectivity, "cell connectivity"));
-  for (std::size_t k = 0; k < connectivity.size(); ++k)
-    if (connectivity[k] < 0 || connectivity[k] >= static_cast<std::int64_t>(np))
-      return in_.error_at(conn_el->start, fmt::format("connectivity entry {} is {}, out of range for {} points", k,
-                                                      connectivity[k], np));
-
-  // Cell data (optional).
-  std::vector<std::int32_t> surface_id, region;
-  bool have_region = false;
-  PDR_ASSIGN_OR_RETURN(const std::optional<Element> cell_data,
-                       find("CellData", piece->content_begin, piece->content_end));
-  if (cell_data) {
-    PDR_ASSIGN_OR_RETURN(const std::optional<Element> ids_el, named_array(*cell_data, "surface_id"));
-    if (ids_el) PDR_TRY(parse_array(*ids_el, nc, surface_id, "surface_id"));
-    PDR_ASSIGN_OR_RETURN(const std::optional<Element> region_el, named_array(*cell_data, "region"));
-    if (region_el) {
-      PDR_TRY(parse_array(*region_el, nc, region, "region"));
-      have_region = true;
-    }
-  }
-
-  std::size_t k = 0;
-  for (std::size_t c = 0; c < nc; ++c) {
-    if (types[c] == kVtkTetra) {
-      mesh.tets.push_back({static_cast<Index>(connectivity[k]), static_cast<Index>(connectivity[k + 1]),
-                           static_cast<Index>(connectivity[k + 2]), static_cast<Index>(connectivity[k + 3])});
-      if (have_region) mesh.tet_regions.push_back(region[c]);
-      k += 4;
-    } else {
-      mesh.boundary.push_back({static_cast<Index>(connectivity[k]), static_cast<Index>(connectivity[k + 1]),
-                               static_cast<Index>(connectivity[k + 2])});
-      mesh.boundary_ids.push_back(surface_id.empty() ? 1 : surface_id[c]);
-      k += 3;
-    }
-  }
-  return mesh;
+  return fmt::to_string(b);
 }
 
 }  // namespace
 
-Status write_vtu(const VolumeMesh& mesh, const std::filesystem::path& path) {
+Status write_vtu(const VolumeMesh& mesh, const std::filesystem::path& path, VtuEncoding encoding) {
   const std::size_t nt = mesh.tets.size(), nb = mesh.boundary.size(), nc = nt + nb;
-  const std::vector<double> min_dihedral = min_dihedral_per_tet(mesh);
+  const std::vector<double> tet_min = min_dihedral_per_tet(mesh);
+  const std::vector<double> tri_min = boundary_min_dihedral(mesh, tet_min);
+
+  std::vector<OutArray> arrays;
+  arrays.push_back({"type=\"Float64\" Name=\"Points\" NumberOfComponents=\"3\"", 3 * mesh.points.size(), 8, true,
+                    [&](std::size_t first, std::size_t n, char* dst) {
+                      for (std::size_t i = 0; i < n; ++i) store(dst + 8 * i, mesh.points[(first + i) / 3][(first + i) % 3]);
+                    }});
+  arrays.push_back({"type=\"Int64\" Name=\"connectivity\"", 4 * nt + 3 * nb, 8, false,
+                    [&](std::size_t first, std::size_t n, char* dst) {
+                      for (std::size_t i = 0; i < n; ++i) {
+                        const std::size_t k = first + i;
+                        const Index v = k < 4 * nt ? mesh.tets[k / 4][k % 4] : mesh.boundary[(k - 4 * nt) / 3][(k - 4 * nt) % 3];
+                        store<std::int64_t>(dst + 8 * i, v);
+                      }
+                    }});
+  arrays.push_back({"type=\"Int64\" Name=\"offsets\"", nc, 8, false, [&](std::size_t first, std::size_t n, char* dst) {
+                      for (std::size_t i = 0; i < n; ++i) {
+                        const std::size_t c = first + i;
+                        store<std::int64_t>(dst + 8 * i, static_cast<std::int64_t>(c < nt ? 4 * (c + 1) : 4 * nt + 3 * (c - nt + 1)));
+                      }
+                    }});
+  arrays.push_back({"type=\"UInt8\" Name=\"types\"", nc, 1, false, [&](std::size_t first, std::size_t n, char* dst) {
+                      for (std::size_t i = 0; i < n; ++i) dst[i] = static_cast<char>(first + i < nt ? kVtkTetra : kVtkTriangle);
+                    }});
+  const std::size_t cell_arrays_begin = arrays.size();
+  arrays.push_back({"type=\"Float64\" Name=\"min_dihedral\"", nc, 8, true, [&](std::size_t first, std::size_t n, char* dst) {
+                      for (std::size_t i = 0; i < n; ++i) {
+                        const std::size_t c = first + i;
+                        store(dst + 8 * i, c < nt ? tet_min[c] : tri_min[c - nt]);
+                      }
+                    }});
+  arrays.push_back({"type=\"Int32\" Name=\"surface_id\"", nc, 4, false, [&](std::size_t first, std::size_t n, char* dst) {
+                      for (std::size_t i = 0; i < n; ++i) {
+                        const std::size_t c = first + i;
+                        store<std::int32_t>(dst + 4 * i, c < nt ? 0 : mesh.boundary_ids[c - nt]);
+                      }
+                    }});
+  if (!mesh.tet_regions.empty())
+    arrays.push_back({"type=\"Int32\" Name=\"region\"", nc, 4, false, [&](std::size_t first, std::size_t n, char* dst) {
+                        for (std::size_t i = 0; i < n; ++i) {
+                          const std::size_t c = first + i;
+                          store<std::int32_t>(dst + 4 * i, c < nt ? mesh.tet_regions[c] : 0);
+                        }
+                      }});
+
+  // Compressed arrays are made first: their sizes fix the offsets in the header.
+  std::vector<std::string> packed;
+  std::vector<std::uint64_t> offsets;
+  std::uint64_t offset = 0;
+  for (const OutArray& a : arrays) {
+    offsets.push_back(offset);
+    if (encoding == VtuEncoding::kCompressed) {
+      PDR_ASSIGN_OR_RETURN(std::string p, compress_array(a));
+      offset += p.size();
+      packed.push_back(std::move(p));
+    } else {
+      offset += 8 + a.count * static_cast<std::uint64_t>(a.width);
+    }
+  }
+
   OutputFile out(path);
   PDR_TRY(out.open());
   auto it = std::back_inserter(out.buf());
-  using It = decltype(it);
   fmt::format_to(it,
                  "<?xml version=\"1.0\"?>\n"
                  "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" "
-                 "header_type=\"UInt64\">\n"
-                 "  <UnstructuredGrid>\n"
-                 "    <Piece NumberOfPoints=\"{}\" NumberOfCells=\"{}\">\n"
-                 "      <Points>\n",
-                 mesh.points.size(), nc);
-  PDR_TRY(write_array(out, "<DataArray type=\"Float64\" Name=\"Points\" NumberOfComponents=\"3\" format=\"ascii\">",
-                      mesh.points.size(), [&](It& o, std::size_t i) {
-                        const Vec3& p = mesh.points[i];
-                        fmt::format_to(o, FMT_COMPILE("{} {} {} "), p[0], p[1], p[2]);
-                      }));
-  fmt::format_to(it, "      </Points>\n      <Cells>\n");
-  PDR_TRY(write_array(out, "<DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">", nc,
-                      [&](It& o, std::size_t c) {
-                        if (c < nt) {
-                          const Tet& t = mesh.tets[c];
-                          fmt::format_to(o, FMT_COMPILE("{} {} {} {} "), t[0], t[1], t[2], t[3]);
-                        } else {
-                          const Tri& t = mesh.boundary[c - nt];
-                          fmt::format_to(o, FMT_COMPILE("{} {} {} "), t[0], t[1], t[2]);
-                        }
-                      }));
-  PDR_TRY(write_array(out, "<DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">", nc,
-                      [&](It& o, std::size_t c) {
-                        fmt::format_to(o, FMT_COMPILE("{} "), c < nt ? 4 * (c + 1) : 4 * nt + 3 * (c - nt + 1));
-                      }));
-  PDR_TRY(write_array(out, "<DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">", nc,
-                      [&](It& o, std::size_t c) { fmt::format_to(o, FMT_COMPILE("{} "), c < nt ? kVtkTetra : kVtkTriangle); }));
-  fmt::format_to(it, "      </Cells>\n      <CellData Scalars=\"min_dihedral\">\n");
-  PDR_TRY(write_array(out, "<DataArray type=\"Float64\" Name=\"min_dihedral\" format=\"ascii\">", nc,
-                      [&](It& o, std::size_t c) { fmt::format_to(o, FMT_COMPILE("{} "), c < nt ? min_dihedral[c] : 0.0); }));
-  PDR_TRY(write_array(out, "<DataArray type=\"Int32\" Name=\"surface_id\" format=\"ascii\">", nc,
-                      [&](It& o, std::size_t c) {
-                        fmt::format_to(o, FMT_COMPILE("{} "), c < nt ? 0 : mesh.boundary_ids[c - nt]);
-                      }));
-  if (!mesh.tet_regions.empty()) {
-    PDR_TRY(write_array(out, "<DataArray type=\"Int32\" Name=\"region\" format=\"ascii\">", nc,
-                        [&](It& o, std::size_t c) { fmt::format_to(o, FMT_COMPILE("{} "), c < nt ? mesh.tet_regions[c] : 0); }));
+                 "header_type=\"UInt64\"{}>\n"
+                 "  <UnstructuredGrid>\n",
+                 encoding == VtuEncoding::kCompressed ? " compressor=\"vtkZLibDataCompressor\"" : "");
+  if (!mesh.boundary_names.empty()) {
+    std::vector<std::string> names;
+    fmt::format_to(it, "    <FieldData>\n      <DataArray type=\"Int32\" Name=\"boundary_ids\" NumberOfTuples=\"{}\" "
+                       "format=\"ascii\">\n        ",
+                   mesh.boundary_names.size());
+    for (const auto& [id, name] : mesh.boundary_names) {
+      fmt::format_to(it, "{} ", id);
+      names.push_back(name);
+    }
+    fmt::format_to(it, "\n      </DataArray>\n      <DataArray type=\"String\" Name=\"boundary_names\" "
+                       "NumberOfTuples=\"{}\" format=\"ascii\">\n{}      </DataArray>\n    </FieldData>\n",
+                   names.size(), ascii_strings(names));
   }
-  fmt::format_to(it, "      </CellData>\n    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n");
+  fmt::format_to(it, "    <Piece NumberOfPoints=\"{}\" NumberOfCells=\"{}\">\n", mesh.points.size(), nc);
+  for (std::size_t k = 0; k < arrays.size(); ++k) {
+    if (k == 0) fmt::format_to(it, "      <Points>\n");
+    if (k == 1) fmt::format_to(it, "      </Points>\n      <Cells>\n");
+    if (k == cell_arrays_begin) fmt::format_to(it, "      </Cells>\n      <CellData Scalars=\"min_dihedral\">\n");
+    if (encoding == VtuEncoding::kAscii) {
+      PDR_TRY(write_ascii_array(out, arrays[k]));
+    } else {
+      fmt::format_to(it, "        <DataArray {} format=\"appended\" offset=\"{}\"/>\n", arrays[k].attributes, offsets[k]);
+    }
+  }
+  fmt::format_to(it, "      </CellData>\n    </Piece>\n  </UnstructuredGrid>\n");
+  if (encoding != VtuEncoding::kAscii) {
+    fmt::format_to(it, "  <AppendedData encoding=\"raw\">\n   _");
+    for (std::size_t k = 0; k < arrays.size(); ++k) {
+      if (encoding == VtuEncoding::kCompressed) {
+        out.buf().append(packed[k].data(), packed[k].data() + packed[k].size());
+        PDR_TRY(out.maybe_flush());
+      } else {
+        PDR_TRY(write_raw_array(out, arrays[k]));
+      }
+    }
+    fmt::format_to(it, "\n  </AppendedData>\n");
+  }
+  fmt::format_to(it, "</VTKFile>\n");
   return out.close();
 }
-
-Result<VolumeMesh> read_vtu(std::string_view text, const std::string& name) { return VtuReader(text, name).read(); }
 
 }  // namespace pdrmesh::volio

@@ -246,34 +246,70 @@ std::string quality_to_json(const QualityReport& q) {
 }
 
 std::string quality_histogram_svg(const QualityReport& q, const std::string& title) {
-  constexpr int kW = 640, kH = 360, kLeft = 60, kBottom = 40, kTop = 40;
-  const int plot_h = kH - kBottom - kTop;
-  const int bar_w = (kW - kLeft - 20) / 18;
-  std::size_t total = 0;
-  for (auto c : q.histogram) total += c;
-  double peak = 0;
-  for (auto c : q.histogram) peak = std::max(peak, total ? static_cast<double>(c) / static_cast<double>(total) : 0.0);
-  if (peak == 0) peak = 1;
+  // Bars on a logarithmic count axis (from 0.5, so that a single angle shows),
+  // the angle axis labelled at the bin edges, and the two tails an engineer
+  // looks for (under 10 and over 165 degrees) shaded with their tet shares.
+  constexpr int kW = 680, kH = 380, kLeft = 70, kRight = 20, kBottom = 46, kTop = 56;
+  const int plot_h = kH - kBottom - kTop, plot_w = kW - kLeft - kRight;
+  const double bin_w = plot_w / 18.0;
+  std::size_t peak = 1;
+  for (auto c : q.histogram) peak = std::max<std::size_t>(peak, c);
+  int decades = 1;
+  while (std::pow(10.0, decades) < static_cast<double>(peak)) ++decades;
+  const double lo = std::log10(0.5), hi = decades;
+  auto y_of = [&](double count) { return kTop + plot_h - (std::log10(count) - lo) / (hi - lo) * plot_h; };
+  auto x_of = [&](double degrees) { return kLeft + degrees / 10.0 * bin_w; };
+  auto escape = [](const std::string& t) {
+    std::string out;
+    for (char c : t) out += c == '<' ? std::string("&lt;") : c == '>' ? std::string("&gt;") : c == '&' ? std::string("&amp;") : std::string(1, c);
+    return out;
+  };
   std::string s = fmt::format(
       "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{}\" height=\"{}\" font-family=\"sans-serif\" font-size=\"11\">\n"
       "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n"
-      "<text x=\"{}\" y=\"20\" font-size=\"14\">{}</text>\n",
-      kW, kH, kLeft, title);
+      "<text x=\"{}\" y=\"20\" font-size=\"14\">{}</text>\n"
+      "<text x=\"{}\" y=\"38\">dihedral angles of {} tets: min {:.2f}, max {:.2f} degrees</text>\n",
+      kW, kH, kLeft, escape(title), kLeft, q.tets, q.min_dihedral, q.max_dihedral);
+  // The tails, shaded behind the bars, with their shares of the tets.
+  s += fmt::format("<rect x=\"{:.1f}\" y=\"{}\" width=\"{:.1f}\" height=\"{}\" fill=\"#fbe3e1\"/>\n", x_of(0), kTop,
+                   x_of(10) - x_of(0), plot_h);
+  s += fmt::format("<rect x=\"{:.1f}\" y=\"{}\" width=\"{:.1f}\" height=\"{}\" fill=\"#fbe3e1\"/>\n", x_of(165), kTop,
+                   x_of(180) - x_of(165), plot_h);
+  s += fmt::format("<text x=\"{:.1f}\" y=\"{}\" fill=\"#a02020\">&lt; 10&#176;: {:.3f}% of tets</text>\n", x_of(0) + 3,
+                   kTop + 12, 100 * q.share_below_10);
+  s += fmt::format("<text x=\"{:.1f}\" y=\"{}\" fill=\"#a02020\" text-anchor=\"end\">&gt; 165&#176;: {:.3f}% of tets</text>\n",
+                   x_of(180) - 3, kTop + 12, 100 * q.share_above_165);
+  // Count axis: a grid line and a label per decade.
+  for (int d = 0; d <= decades; ++d) {
+    const double y = y_of(std::pow(10.0, d));
+    const char* units[] = {"", "", "", "k", "k", "k", "M", "M", "M", "G"};
+    const int shown = d < 3 ? static_cast<int>(std::pow(10.0, d)) : static_cast<int>(std::pow(10.0, d % 3));
+    s += fmt::format("<line x1=\"{}\" y1=\"{:.1f}\" x2=\"{}\" y2=\"{:.1f}\" stroke=\"#dddddd\"/>\n", kLeft, y,
+                     kLeft + plot_w, y);
+    s += fmt::format("<text x=\"{}\" y=\"{:.1f}\" text-anchor=\"end\">{}{}</text>\n", kLeft - 6, y + 4, shown,
+                     units[std::min(d, 9)]);
+  }
   for (std::size_t i = 0; i < 18; ++i) {
-    const double share = total ? static_cast<double>(q.histogram[i]) / static_cast<double>(total) : 0.0;
-    const int h = static_cast<int>(share / peak * plot_h);
-    const int x = kLeft + static_cast<int>(i) * bar_w;
-    s += fmt::format("<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"#4a78b5\"/>\n", x,
-                     kTop + plot_h - h, bar_w - 2, h);
-    s += fmt::format("<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">{}</text>\n", x + bar_w / 2,
-                     kH - kBottom + 14, 10 * i);
+    if (q.histogram[i] == 0) continue;
+    const double y = y_of(static_cast<double>(q.histogram[i]));
+    s += fmt::format("<rect x=\"{:.1f}\" y=\"{:.1f}\" width=\"{:.1f}\" height=\"{:.1f}\" fill=\"#4a78b5\"><title>{}-{} degrees: {} angles</title></rect>\n",
+                     x_of(10.0 * static_cast<double>(i)) + 1, y, bin_w - 2, kTop + plot_h - y, 10 * i, 10 * (i + 1),
+                     q.histogram[i]);
+  }
+  // Angle axis: labels at the bin edges.
+  s += fmt::format("<line x1=\"{}\" y1=\"{}\" x2=\"{}\" y2=\"{}\" stroke=\"black\"/>\n", kLeft, kTop + plot_h,
+                   kLeft + plot_w, kTop + plot_h);
+  for (int e = 0; e <= 18; ++e) {
+    const double x = x_of(10.0 * e);
+    s += fmt::format("<line x1=\"{:.1f}\" y1=\"{}\" x2=\"{:.1f}\" y2=\"{}\" stroke=\"black\"/>\n", x, kTop + plot_h, x,
+                     kTop + plot_h + 4);
+    s += fmt::format("<text x=\"{:.1f}\" y=\"{}\" text-anchor=\"middle\">{}</text>\n", x, kTop + plot_h + 16, 10 * e);
   }
   s += fmt::format("<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">dihedral angle (degrees)</text>\n",
-                   kLeft + 9 * bar_w, kH - 8);
-  s += fmt::format("<text x=\"12\" y=\"{}\" transform=\"rotate(-90 12 {})\" text-anchor=\"middle\">share of angles (peak {:.1f}%)</text>\n",
-                   kTop + plot_h / 2, kTop + plot_h / 2, 100 * peak);
-  s += fmt::format("<text x=\"{}\" y=\"{}\">min {:.2f}, max {:.2f} degrees; {} tets</text>\n</svg>\n",
-                   kLeft, kTop - 6, q.min_dihedral, q.max_dihedral, q.tets);
+                   kLeft + plot_w / 2, kH - 8);
+  s += fmt::format("<text x=\"14\" y=\"{0}\" transform=\"rotate(-90 14 {0})\" text-anchor=\"middle\">angles (log scale)</text>\n",
+                   kTop + plot_h / 2);
+  s += "</svg>\n";
   return s;
 }
 

@@ -133,10 +133,11 @@ void volume_seeds(const fs::path& out) {
     m.boundary = in.frozen_faces;
     for (std::size_t i = 0; i < m.boundary.size(); ++i) m.boundary_ids.push_back(1 + static_cast<int>(i % 3));
     m.tet_regions.assign(m.tets.size(), 1);
+    m.boundary_names = {{1, "inlet"}, {3, "wall"}};
     const std::pair<const char*, std::function<Status(const VolumeMesh&, const fs::path&)>> writers[] = {
         {"mesh", volio::write_medit},
         {"meshb", volio::write_meshb},
-        {"vtu", volio::write_vtu},
+        {"vtu", [](const VolumeMesh& v, const fs::path& p) { return volio::write_vtu(v, p, VtuEncoding::kBinary); }},
         {"ugrid", volio::write_ugrid_ascii},
         {"ugrid_lb8", [](const VolumeMesh& v, const fs::path& p) { return volio::write_ugrid_binary(v, p, true); }},
         {"ugrid_b8", [](const VolumeMesh& v, const fs::path& p) { return volio::write_ugrid_binary(v, p, false); }},
@@ -146,6 +147,13 @@ void volume_seeds(const fs::path& out) {
       const fs::path tmp = out / ("tmp." + std::string(target));
       if (!write(m, tmp).ok()) continue;
       put(out / ("volume_" + std::string(target)), "grid" + std::to_string(k), slurp(tmp));
+      fs::remove(tmp);
+    }
+    // The other VTU encodings: compressed binary and ascii.
+    for (const auto& [suffix, encoding] : {std::pair{"_zlib", VtuEncoding::kCompressed}, std::pair{"_ascii", VtuEncoding::kAscii}}) {
+      const fs::path tmp = out / "tmp.vtu";
+      if (!volio::write_vtu(m, tmp, encoding).ok()) continue;
+      put(out / "volume_vtu", "grid" + std::to_string(k) + suffix, slurp(tmp));
       fs::remove(tmp);
     }
   }

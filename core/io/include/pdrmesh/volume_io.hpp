@@ -26,12 +26,27 @@ namespace pdrmesh {
 enum class VolumeFormat {
   kMedit,        ///< .mesh   Medit ASCII; triangle ref = surface id, tet ref = region (0: none)
   kMeditBinary,  ///< .meshb  libMeshb binary, version 2 (32-bit ints, 64-bit reals); reads 1-4
-  kVtu,          ///< .vtu    VTK XML UnstructuredGrid, ASCII; tets + boundary triangles as cells
+  kVtu,          ///< .vtu    VTK XML UnstructuredGrid (see VtuEncoding); tets + boundary triangles as cells,
+                 ///<         boundary names as field data
   kUgridAscii,   ///< .ugrid      AFLR3/FUN3D UGRID, ASCII (no regions)
   kUgridLittle,  ///< .lb8.ugrid  UGRID C-binary, little endian int32/float64 (no regions)
   kUgridBig,     ///< .b8.ugrid   UGRID C-binary, big endian int32/float64 (no regions)
-  kGmsh,         ///< .msh    Gmsh 4.1 ASCII; physical surface per surface id, volume per region
+  kGmsh,         ///< .msh    Gmsh 4.1 ASCII (reads 2.2 too); physical surface per surface id (named by
+                 ///<         boundary_name), volume per region
   kSu2,          ///< .su2    SU2 ASCII; one marker "surface_<id>" per surface id (no regions)
+};
+
+/// How a .vtu file stores its arrays. Reading takes all of these and what
+/// VTK, ParaView and meshio write besides (inline base64, appended base64).
+enum class VtuEncoding {
+  kBinary,      ///< appended raw binary (the default)
+  kCompressed,  ///< appended raw binary, zlib-compressed (vtkZLibDataCompressor)
+  kAscii,       ///< ascii text
+};
+
+/// Choices of the writers that some formats offer.
+struct VolumeWriteOptions {
+  VtuEncoding vtu = VtuEncoding::kBinary;
 };
 
 /// The format named by a file's suffix (case-insensitive). Unknown suffix:
@@ -47,7 +62,8 @@ std::string_view volume_format_suffixes();
 /// leaves a partial mesh under `path`. A mesh with inconsistent sizes,
 /// out-of-range indices or non-finite coordinates is refused with
 /// `invalid_input` before anything is written.
-Status write_volume(const VolumeMesh& mesh, const std::filesystem::path& path);
+Status write_volume(const VolumeMesh& mesh, const std::filesystem::path& path,
+                    const VolumeWriteOptions& options = {});
 
 /// A mesh file written beside its destination but not yet in place
 /// (stage_volume): commit() renames it onto the destination; destroying it
@@ -67,7 +83,8 @@ class StagedVolume {
   void discard() noexcept;
 
  private:
-  friend Result<StagedVolume> stage_volume(const VolumeMesh& mesh, const std::filesystem::path& path);
+  friend Result<StagedVolume> stage_volume(const VolumeMesh& mesh, const std::filesystem::path& path,
+                                           const VolumeWriteOptions& options);
   StagedVolume(std::filesystem::path staged, std::filesystem::path destination)
       : staged_(std::move(staged)), destination_(std::move(destination)) {}
 
@@ -78,7 +95,8 @@ class StagedVolume {
 /// write_volume without the final rename: for a caller that decides later
 /// (say, after validating the mesh alongside the write) whether the file goes
 /// in place.
-Result<StagedVolume> stage_volume(const VolumeMesh& mesh, const std::filesystem::path& path);
+Result<StagedVolume> stage_volume(const VolumeMesh& mesh, const std::filesystem::path& path,
+                                  const VolumeWriteOptions& options = {});
 
 /// Reads a volume mesh in the format named by the suffix of `path`. Malformed
 /// files give `invalid_input` naming file:line (text) or the byte offset
