@@ -2,6 +2,7 @@
 #include "local_commands.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <oneapi/tbb/global_control.h>
 #include <oneapi/tbb/parallel_invoke.h>
 
@@ -9,6 +10,7 @@
 #include <chrono>
 #include <cstdio>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -18,6 +20,8 @@
 #include "options.hpp"
 #include "progress_display.hpp"
 #include "run_options.hpp"
+#include "pdrmesh/boundary_names.hpp"
+#include "pdrmesh/boundary_names_io.hpp"
 #include "pdrmesh/leaf_kernels.hpp"
 #include "pdrmesh/pdr_profile.hpp"
 #include "pdrmesh/optimize.hpp"
@@ -69,13 +73,33 @@ struct StepTimes {
   double overlapped = 0;  ///< of validation + write + quality: the time they ran side by side
 };
 
-/// Reads and checks a surface; on failure prints why and returns the exit code.
-int load_checked_surface(const std::string& path, Progress& progress, SurfaceMesh& out, StepTimes* times = nullptr) {
+/// Puts the names of the --names file `names_path` (empty: none) over the
+/// surface's own names.
+Status apply_names_file(const std::string& names_path, const std::vector<int>& ids, std::map<int, std::string>& names) {
+  if (names_path.empty()) return {};
+  PDR_ASSIGN_OR_RETURN(const auto given, read_boundary_names(names_path));
+  return merge_boundary_names(names, ids, given, names_path);
+}
+
+/// "boundary names: 1 inlet, 2 outlet" for the progress lines; empty without names.
+std::string names_line(const std::map<int, std::string>& names) {
+  if (names.empty()) return {};
+  std::vector<std::string> items;
+  for (const auto& [id, name] : names) items.push_back(fmt::format("{} {}", id, name));
+  return fmt::format("boundary names: {}", fmt::join(items, ", "));
+}
+
+/// Reads and checks a surface, with the names of a --names file (`names_path`,
+/// empty: none); on failure prints why and returns the exit code.
+int load_checked_surface(const std::string& path, const std::string& names_path, Progress& progress,
+                         SurfaceMesh& out, StepTimes* times = nullptr) {
   auto t = Clock::now();
   auto surface = read_surface(path);
   if (!surface.ok()) return fail(surface.status());
+  if (Status s = apply_names_file(names_path, surface->surface_ids, surface->surface_names); !s.ok()) return fail(s);
   if (times) times->read = seconds_since(t);
   progress.say("read {}: {} points, {} triangles", path, surface->points.size(), surface->triangles.size());
+  if (!surface->surface_names.empty()) progress.say("{}", names_line(surface->surface_names));
   t = Clock::now();
   const SurfaceReport report = check_surface(*surface);
   if (times) times->check = seconds_since(t);
@@ -182,13 +206,14 @@ struct MeshArgs {
   bool no_refine = false;
   bool no_optimize = false;
   SizeArgs size;
+  std::string names;  ///< --names FILE; empty: none
 };
 
 int run_mesh(const MeshArgs& a) {
   Progress progress(a.quiet);
   const auto start = Clock::now();
   SurfaceMesh surface;
-  if (int code = load_checked_surface(a.surface, progress, surface); code != kExitOk) return code;
+  if (int code = load_checked_surface(a.surface, a.names, progress, surface); code != kExitOk) return code;
   // The time limit counts from the start: what reading and checking took is gone.
   const double left_s = a.time_limit_s > 0 ? a.time_limit_s - seconds_since(start) : 0;
   if (a.time_limit_s > 0 && !(left_s > 0))
@@ -283,7 +308,8 @@ int run_run(const RunArgs& a) {
   Progress progress(a.quiet);
   SurfaceMesh surface;
   StepTimes times;
-  if (int code = load_checked_surface(a.surface, progress, surface, &times); code != kExitOk) return code;
+  if (int code = load_checked_surface(a.surface, a.mesh.names, progress, surface, &times); code != kExitOk)
+    return code;
 
   auto kernel = make_leaf_kernel(a.mesh.kernel);
   if (!kernel.ok()) return fail(kernel.status());
@@ -379,9 +405,10 @@ int run_validate(const std::string& path, const std::string& surface_path, bool 
   return report.ok() ? kExitOk : kExitBadInput;
 }
 
-int run_convert(const std::string& in, const std::string& out, const std::string& vtu) {
+int run_convert(const std::string& in, const std::string& out, const std::string& vtu, const std::string& names) {
   auto mesh = read_volume(in);
   if (!mesh.ok()) return fail(mesh.status());
+  if (Status s = apply_names_file(names, mesh->boundary_ids, mesh->boundary_names); !s.ok()) return fail(s);
   VolumeWriteOptions options;
   options.vtu = vtu == "ascii" ? VtuEncoding::kAscii : vtu == "zlib" ? VtuEncoding::kCompressed : VtuEncoding::kBinary;
   if (Status s = write_volume(*mesh, out, options); !s.ok()) return fail(s);
@@ -421,13 +448,16 @@ void add_local_commands(CLI::App& app, int& exit_code) {
     cmd->add_flag("--no-refine", a->no_refine, "write the boundary-conforming initial mesh (TetGen) unrefined");
     cmd->add_flag("--no-optimize", a->no_optimize, "skip the final optimization");
     a->size.add_to(cmd);
+    add_names_option(cmd, a->names);
     add_time_limit(cmd, a->time_limit_s, "none");
     cmd->add_flag("-q,--quiet", a->quiet, "no progress or summary on stderr");
     cmd->add_flag("--json", a->json, json_help);
     cmd->add_flag("--no-validate", a->no_validate, "skip validating the result before writing it");
     cmd->footer(help_footer({{"pdrmesh mesh part.stl -o part.vtu", "mesh with the spacing the surface's triangles give"},
                              {"pdrmesh mesh part.stl -o part.msh --size 1% --time-limit 600",
-                              "edges about 1% of the bounding-box diagonal; stop after 10 minutes"}}));
+                              "edges about 1% of the bounding-box diagonal; stop after 10 minutes"},
+                             {"pdrmesh mesh part.ply -o part.su2 --names names.txt",
+                              "SU2 markers named by names.txt (lines like '1 inlet')"}}));
     cmd->callback([&exit_code, a, cmd] {
       a->size.check();
       refuse_together(*cmd, "--no-refine", {"--size", "--hmin", "--hmax", "--growth", "--no-optimize"},
@@ -496,6 +526,7 @@ void add_local_commands(CLI::App& app, int& exit_code) {
     auto in = std::make_shared<std::string>();
     auto out = std::make_shared<std::string>();
     auto vtu = std::make_shared<std::string>("binary");
+    auto names = std::make_shared<std::string>();
     cmd->add_option("IN", *in, "input volume mesh " + volume_formats)->required();
     cmd->add_option("OUT", *out, "output volume mesh " + volume_formats)
         ->required()
@@ -503,10 +534,13 @@ void add_local_commands(CLI::App& app, int& exit_code) {
     cmd->add_option("--vtu", *vtu, "how a .vtu output stores its data: raw binary, zlib-compressed binary, or ascii")
         ->check(CLI::IsMember({"binary", "zlib", "ascii"}))
         ->capture_default_str();
+    add_names_option(cmd, *names);
     cmd->footer(help_footer({{"pdrmesh convert part.meshb part.vtu", "for ParaView"},
                              {"pdrmesh convert part.vtu small.vtu --vtu zlib", "a compressed VTU"},
-                             {"pdrmesh convert part.meshb part.su2", "for SU2"}}));
-    cmd->callback([&exit_code, in, out, vtu] { exit_code = run_convert(*in, *out, *vtu); });
+                             {"pdrmesh convert part.meshb part.su2", "for SU2"},
+                             {"pdrmesh convert part.mesh part.ugrid --names names.txt",
+                              "for FUN3D, with part.mapbc naming the surface ids"}}));
+    cmd->callback([&exit_code, in, out, vtu, names] { exit_code = run_convert(*in, *out, *vtu, *names); });
   }
 }
 

@@ -122,6 +122,16 @@ CLI::Validator surface_input_check() {
       "");
 }
 
+CLI::Option* add_names_option(CLI::App* cmd, std::string& path) {
+  return cmd
+      ->add_option("--names", path,
+                   "boundary names for the surface's ids: a text file of 'ID NAME' lines ('#' starts a comment; "
+                   "a name is 1-32 letters, digits, '_', '-', '.', starting with a letter or '_'); over the names "
+                   "an STL solid or OBJ group gives")
+      ->check(CLI::Validator(CLI::ExistingFile).description(""))
+      ->type_name("FILE");
+}
+
 void usage_error(const std::string& message) { throw CLI::ValidationError(message); }
 
 void refuse_together(const CLI::App& cmd, const std::string& option, const std::vector<std::string>& others,

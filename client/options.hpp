@@ -75,6 +75,10 @@ CLI::Validator output_check(OutputKind kind);
 /// The check of an input surface's suffix (the file itself is read later).
 CLI::Validator surface_input_check();
 
+/// Adds --names FILE: boundary names for the surface's ids, one "ID NAME" per
+/// line (boundary_names_io.hpp); the file is read later, with the surface.
+CLI::Option* add_names_option(CLI::App* cmd, std::string& path);
+
 /// A usage error found after parsing (a combination of options): thrown from a
 /// command's checks, printed like any parse error, exit 64.
 [[noreturn]] void usage_error(const std::string& message);

@@ -89,6 +89,7 @@ void RunOptionArgs::add_to(CLI::App* cmd) {
   cmd->add_flag("--no-interface-round", no_interface_round, "with --kernel tetgen (leaf hulls frozen): skip the interface rounds over the grids shifted by half and a quarter leaf");
   cmd->add_flag("--no-optimize", no_optimize, "skip the final optimization");
   size.add_to(cmd);
+  add_names_option(cmd, names);
 }
 
 ParallelOptions RunOptionArgs::parallel_options(const SizingOptions& sizing) const {

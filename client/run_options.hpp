@@ -45,9 +45,10 @@ struct SizeArgs {
 /// Adds --time-limit: seconds the whole run may take (a deadline, exit 75 past it).
 CLI::Option* add_time_limit(CLI::App* cmd, double& seconds, const std::string& default_text);
 
-/// --depth --kernel --no-interface-round --no-optimize and the size options.
+/// --depth --kernel --no-interface-round --no-optimize --names and the size options.
 struct RunOptionArgs {
   SizeArgs size;
+  std::string names;  ///< --names FILE; empty: none (read by the command, not by mesh_options)
   int depth = -1;
   std::string kernel = "native";
   bool no_interface_round = false;

@@ -11,6 +11,8 @@
 #include <fstream>
 #include <iterator>
 
+#include "pdrmesh/volume_io.hpp"
+
 namespace pdrmesh::cli {
 namespace {
 
@@ -138,6 +140,15 @@ grpc::Status ServiceClient::fetch(std::string_view id, const std::filesystem::pa
             fmt::format("{}: unknown volume mesh suffix (.vtu .mesh .meshb .ugrid .lb8.ugrid .b8.ugrid .msh .su2)",
                         out.string())};
   }
+  // The .mapbc first: whoever sees the grid sees its names too.
+  if (format.ends_with("ugrid")) {
+    if (grpc::Status s = fetch_format(id, "mapbc", mapbc_path(out), nullptr); !s.ok()) return s;
+  }
+  return fetch_format(id, format, out, bytes);
+}
+
+grpc::Status ServiceClient::fetch_format(std::string_view id, const std::string& format,
+                                         const std::filesystem::path& out, std::uint64_t* bytes) {
   grpc::ClientContext context;
   prepare(context, config_.timeout_s);
   v1::FetchRequest request;

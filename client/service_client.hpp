@@ -46,10 +46,14 @@ class ServiceClient {
   /// DeleteJob: the record and files go; `job` is the job as it was.
   grpc::Status remove(std::string_view id, v1::Job& job);
   /// Writes the result in the format named by `out`'s suffix (via a temporary
-  /// file renamed into place).
+  /// file renamed into place); a UGRID result's .mapbc (its boundary names)
+  /// goes beside it (mapbc_path). `bytes`: the mesh file's size.
   grpc::Status fetch(std::string_view id, const std::filesystem::path& out, std::uint64_t* bytes = nullptr);
 
  private:
+  /// One FetchResult call: the result in `format` into `out`.
+  grpc::Status fetch_format(std::string_view id, const std::string& format, const std::filesystem::path& out,
+                            std::uint64_t* bytes);
   ServiceClient(ClientConfig config, std::shared_ptr<grpc::Channel> channel);
   void prepare(grpc::ClientContext& context, double timeout_s) const;
 

@@ -17,6 +17,7 @@
 #include <fstream>
 #include <functional>
 #include <iterator>
+#include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -25,6 +26,7 @@
 
 #include "exit_codes.hpp"
 #include "options.hpp"
+#include "pdrmesh/boundary_names_io.hpp"
 #include "pdrmesh/surface_io.hpp"
 #include "pdrmesh/volume_io.hpp"
 #include "progress_display.hpp"
@@ -114,6 +116,9 @@ nlohmann::json options_json(const v1::MeshOptions& o) {
   if (o.has_kernel()) j["kernel"] = o.kernel();
   if (o.has_interface_round()) j["interface_round"] = o.interface_round();
   if (o.has_optimize()) j["optimize"] = o.optimize();
+  // Ascending ids, so the output does not depend on the map's order.
+  const std::map<int, std::string> names(o.surface_names().begin(), o.surface_names().end());
+  for (const auto& [id, name] : names) j["surface_names"][std::to_string(id)] = name;
   return j;
 }
 
@@ -392,9 +397,21 @@ int run_submit(Common& c, const SubmitArgs& a) {
     if (s && !s->percent) line = fmt::format("size: {:.6g} (--size)", *sizing.size);
     fmt::print(stderr, "{}\n", line);
   }
+  // The names file's own mistakes (file:line) are found here; the
+  // coordinator checks its ids against the surface.
+  std::map<int, std::string> names;
+  if (!a.mesh.names.empty()) {
+    auto read = read_boundary_names(a.mesh.names);
+    if (!read.ok()) {
+      fmt::print(stderr, "pdrmesh: error: {}\n", read.status().to_string());
+      return cli::exit_code_for(read.status());
+    }
+    names = std::move(read).value();
+  }
   std::unique_ptr<ServiceClient> client;
   if (int code = connect(c, client); code != kExitOk) return code;
   v1::MeshOptions options = a.mesh.mesh_options(sizing);
+  for (const auto& [id, name] : names) (*options.mutable_surface_names())[id] = name;
   if (a.max_volume > 0) options.set_max_volume(a.max_volume);
   if (a.time_limit_s > 0) options.set_time_limit_s(a.time_limit_s);
   v1::Job job;

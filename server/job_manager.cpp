@@ -11,6 +11,8 @@
 #include <fstream>
 #include <random>
 
+#include "pdrmesh/boundary_names.hpp"
+#include "pdrmesh/boundary_names_io.hpp"
 #include "pdrmesh/surface_check.hpp"
 #include "pdrmesh/surface_io.hpp"
 #include "pdrmesh/volume_io.hpp"
@@ -29,13 +31,14 @@ std::string new_job_id() {
 }  // namespace
 
 Result<std::string> volume_suffix(std::string_view format) {
-  static constexpr std::array<std::string_view, 8> kKnown = {".mesh", ".meshb", ".vtu", ".ugrid",
-                                                             ".lb8.ugrid", ".b8.ugrid", ".msh", ".su2"};
+  static constexpr std::array<std::string_view, 9> kKnown = {".mesh",     ".meshb", ".vtu", ".ugrid", ".lb8.ugrid",
+                                                             ".b8.ugrid", ".msh",   ".su2", ".mapbc"};
   const std::string suffix = format.empty() ? std::string(".meshb") : "." + std::string(format);
   for (std::string_view k : kKnown) {
     if (suffix == k) return suffix;
   }
-  return unsupported(fmt::format("unknown volume format '{}'; supported: {}", format, volume_format_suffixes()));
+  return unsupported(fmt::format("unknown volume format '{}'; supported: {} (and .mapbc, a UGRID result's names)",
+                                 format, volume_format_suffixes()));
 }
 
 JobManager::JobManager(ManagerConfig config, std::unique_ptr<JobStore> store, std::unique_ptr<MeshEngine> engine)
@@ -114,7 +117,9 @@ Result<JobRecord> JobManager::submit(std::string_view user, std::string_view fil
   }
   PDR_TRY(admit(user, bytes.size()));
   // The whole check before anything is stored: a broken surface costs nothing else.
-  PDR_ASSIGN_OR_RETURN(const SurfaceMesh surface, parse_surface(bytes, format, name));
+  PDR_ASSIGN_OR_RETURN(SurfaceMesh surface, parse_surface(bytes, format, name));
+  PDR_TRY(merge_boundary_names(surface.surface_names, surface.surface_ids, options.surface_names,
+                               "job option surface_names"));
   PDR_TRY(require_meshable(check_surface(surface), name));
   // What meshing it would cost, before anything is stored (the initial mesh
   // alone, with max_volume, is TetGen's and bounded by its time limit).
@@ -229,11 +234,20 @@ Result<std::filesystem::path> JobManager::result_file(std::string_view user, std
   const auto meshb = JobPaths::result(config_.data_dir, job.id);
   const auto path = JobPaths::result(config_.data_dir, job.id, suffix);
   if (std::filesystem::exists(path)) return path;
-  PDR_ASSIGN_OR_RETURN(const VolumeMesh mesh, read_volume(meshb));
+  PDR_ASSIGN_OR_RETURN(VolumeMesh mesh, read_volume(meshb));
+  // The names the runner put beside the result (Medit holds none).
+  if (const auto names = JobPaths::result(config_.data_dir, job.id, ".names"); std::filesystem::exists(names)) {
+    PDR_ASSIGN_OR_RETURN(mesh.boundary_names, read_boundary_names(names));
+  }
   // A private temporary name (concurrent fetches of one format each convert), renamed into place.
   const auto tmp = JobPaths::dir(config_.data_dir, job.id) / fmt::format("tmp-{}{}", new_job_id(), suffix);
-  PDR_TRY(write_volume(mesh, tmp));
   std::error_code ec;
+  if (suffix == ".mapbc") {
+    PDR_TRY(write_file_atomically(tmp, {format_mapbc(mesh)}));
+  } else {
+    PDR_TRY(write_volume(mesh, tmp));
+    if (suffix.ends_with(".ugrid")) std::filesystem::remove(mapbc_path(tmp), ec);  // fetched as "mapbc"
+  }
   std::filesystem::rename(tmp, path, ec);
   if (ec) return io_error(fmt::format("{}: cannot store: {}", path.string(), ec.message()));
   return path;

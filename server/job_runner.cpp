@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <functional>
@@ -15,6 +16,8 @@
 #include <new>
 #include <nlohmann/json.hpp>
 
+#include "pdrmesh/boundary_names.hpp"
+#include "pdrmesh/boundary_names_io.hpp"
 #include "pdrmesh/digest.hpp"
 #include "pdrmesh/pipeline.hpp"
 #include "pdrmesh/surface_check.hpp"
@@ -41,7 +44,7 @@ Status JobOptions::validate() const {
   if (kernel != "native" && kernel != "tetgen") {
     return invalid_input(fmt::format("job option kernel must be 'native' or 'tetgen', got '{}'", kernel));
   }
-  return {};
+  return check_boundary_names(surface_names, "job option surface_names");
 }
 
 std::string JobOptions::to_json() const {
@@ -56,6 +59,8 @@ std::string JobOptions::to_json() const {
   j["kernel"] = kernel;
   j["interface_round"] = interface_round;
   j["optimize"] = optimize;
+  // Only when there are names, so that the options of a job without them read as before.
+  for (const auto& [id, name] : surface_names) j["surface_names"][std::to_string(id)] = name;
   return j.dump();
 }
 
@@ -92,6 +97,17 @@ Result<JobOptions> JobOptions::from_json(std::string_view json) {
     if (auto it = j.find(key); it != j.end()) {
       if (!it->is_boolean()) return invalid_input(fmt::format("job option {} must be true or false", key));
       *field = it->get<bool>();
+    }
+  }
+  if (auto it = j.find("surface_names"); it != j.end()) {
+    if (!it->is_object()) return invalid_input("job option surface_names must be an object of id: name");
+    for (const auto& [key, value] : it->items()) {
+      int id = 0;
+      const auto [p, ec] = std::from_chars(key.data(), key.data() + key.size(), id);
+      if (ec != std::errc() || p != key.data() + key.size() || !value.is_string())
+        return invalid_input(fmt::format("job option surface_names: expected \"<int id>\": \"<name>\", got {}: {}",
+                                         nlohmann::json(key).dump(), value.dump()));
+      o.surface_names[id] = value.get<std::string>();
     }
   }
   PDR_TRY(o.validate());
@@ -316,7 +332,9 @@ Status JobRunner::mesh_job(JobRecord& job, JobProgress& progress) {
   PDR_ASSIGN_OR_RETURN(const SurfaceFormat format, surface_format_from_path(job.input_name));
   if (!progress.report("reading", 0.05)) return internal_error("stopped");
   PDR_ASSIGN_OR_RETURN(const std::string bytes, read_file(JobPaths::input(data_dir_, job)));
-  PDR_ASSIGN_OR_RETURN(const SurfaceMesh surface, parse_surface(bytes, format, job.input_name));
+  PDR_ASSIGN_OR_RETURN(SurfaceMesh surface, parse_surface(bytes, format, job.input_name));
+  PDR_TRY(merge_boundary_names(surface.surface_names, surface.surface_ids, options.surface_names,
+                               "job option surface_names"));
   if (!progress.report("checking", 0.1)) return internal_error("stopped");
   PDR_TRY(require_meshable(check_surface(surface), job.input_name));
   // The result depends on the input, the options and the engine's build alone.
@@ -330,6 +348,10 @@ Status JobRunner::mesh_job(JobRecord& job, JobProgress& progress) {
   auto tmp = final_path;
   tmp += ".tmp";
   PDR_TRY(write_volume(mesh, tmp.string() + ".meshb"));
+  // Medit holds no names: they go beside the result, in place before it is.
+  if (!mesh.boundary_names.empty())
+    PDR_TRY(write_file_atomically(JobPaths::result(data_dir_, job.id, ".names"),
+                                  {format_boundary_names(mesh.boundary_names)}));
   std::error_code ec;
   std::filesystem::rename(tmp.string() + ".meshb", final_path, ec);
   if (ec) return io_error(fmt::format("{}: cannot store the result: {}", final_path.string(), ec.message()));

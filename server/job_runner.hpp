@@ -43,6 +43,8 @@ struct JobOptions {
   std::string kernel = "native";  ///< leaf kernel: native or tetgen
   bool interface_round = true;
   bool optimize = true;
+  /// Boundary names by surface id over the surface file's own (run --names).
+  std::map<int, std::string> surface_names;
 
   /// invalid_input naming the first option out of range.
   Status validate() const;

@@ -84,6 +84,7 @@ void to_proto(const JobOptions& o, v1::MeshOptions& out) {
   out.set_kernel(o.kernel);
   out.set_interface_round(o.interface_round);
   out.set_optimize(o.optimize);
+  for (const auto& [id, name] : o.surface_names) (*out.mutable_surface_names())[id] = name;
 }
 
 Result<JobOptions> from_proto(const v1::MeshOptions& in, JobOptions o) {
@@ -100,6 +101,7 @@ Result<JobOptions> from_proto(const v1::MeshOptions& in, JobOptions o) {
   if (in.has_kernel()) o.kernel = in.kernel();
   if (in.has_interface_round()) o.interface_round = in.interface_round();
   if (in.has_optimize()) o.optimize = in.optimize();
+  for (const auto& [id, name] : in.surface_names()) o.surface_names[id] = name;
   PDR_TRY(o.validate());
   return o;
 }

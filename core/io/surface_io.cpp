@@ -12,6 +12,7 @@
 #include <memory>
 #include <numeric>
 
+#include "pdrmesh/volume_mesh.hpp"
 #include "surface_io_internal.hpp"
 
 namespace pdrmesh {
@@ -104,7 +105,7 @@ void write_stl(const SurfaceMesh& s, Sink& out) {
   });
   for (std::size_t k = 0; k < order.size(); ++k) {
     const int id = s.surface_ids[order[k]];
-    if (k == 0 || s.surface_ids[order[k - 1]] != id) out.print("solid surface_{}\n", id);
+    if (k == 0 || s.surface_ids[order[k - 1]] != id) out.print("solid {}\n", boundary_name(s.surface_names, id));
     const Tri& t = s.triangles[order[k]];
     const Vec3& a = s.points[t[0]];
     const Vec3& b = s.points[t[1]];
@@ -116,7 +117,7 @@ void write_stl(const SurfaceMesh& s, Sink& out) {
     for (const Vec3* p : {&a, &b, &c}) out.print("   vertex {} {} {}\n", (*p)[0], (*p)[1], (*p)[2]);
     out.print("  endloop\n endfacet\n");
     if (k + 1 == order.size() || s.surface_ids[order[k + 1]] != id) {
-      out.print("endsolid surface_{}\n", id);
+      out.print("endsolid {}\n", boundary_name(s.surface_names, id));
     }
   }
 }
@@ -126,7 +127,7 @@ void write_obj(const SurfaceMesh& s, Sink& out) {
   for (const Vec3& p : s.points) out.print("v {} {} {}\n", p[0], p[1], p[2]);
   for (std::size_t i = 0; i < s.triangles.size(); ++i) {
     if (i == 0 || s.surface_ids[i] != s.surface_ids[i - 1])
-      out.print("g surface_{}\n", s.surface_ids[i]);
+      out.print("g {}\n", boundary_name(s.surface_names, s.surface_ids[i]));
     const Tri& t = s.triangles[i];
     out.print("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
   }

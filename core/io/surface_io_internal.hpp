@@ -13,6 +13,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <map>
 #include <span>
 #include <string>
 #include <string_view>
@@ -180,6 +181,26 @@ class SurfaceBuilder {
   std::string_view face_word_;
   std::uint64_t faces_ = 0;
   std::uint64_t section_start_ = 0;
+};
+
+/// Surface ids for the named groups of a file (STL solids, OBJ groups): each
+/// distinct raw name gets the next id 1, 2, ... when first asked for, and
+/// keeps it. names() gives their boundary names (sanitize_boundary_name; a
+/// raw name that is empty or "surface_<n>" gives none).
+class GroupIds {
+ public:
+  /// The id of the group named `raw` (the same for the same raw name).
+  int id_of(std::string_view raw);
+  /// A new id with no name.
+  int fresh() { return next_++; }
+  /// The boundary names of the groups; invalid_input naming both groups when
+  /// two raw names give the same boundary name. `group` names a group in
+  /// messages ("solid", "group").
+  Result<std::map<int, std::string>> names(std::string_view file, std::string_view group) const;
+
+ private:
+  std::map<std::string, int, std::less<>> ids_;
+  int next_ = 1;
 };
 
 /// A `where` callable for a text cursor: "name:line".

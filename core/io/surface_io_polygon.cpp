@@ -22,7 +22,7 @@ bool is_ignored_obj_statement(std::string_view s) {
 Result<SurfaceMesh> parse_obj(std::string_view bytes, std::string_view name) {
   TextCursor c(bytes, name, '#');
   SurfaceBuilder out(name, "face");
-  std::map<std::string, int, std::less<>> group_ids;
+  GroupIds group_ids;
   std::string group;  // faces before any g/o belong to the unnamed group ""
   int group_id = 0;   // 0: not yet looked up
   std::vector<std::int64_t> face;
@@ -52,19 +52,22 @@ Result<SurfaceMesh> parse_obj(std::string_view bytes, std::string_view name) {
         face.push_back(i);
       }
       if (group_id == 0) {
-        group_id =
-            group_ids.try_emplace(group, static_cast<int>(group_ids.size()) + 1).first->second;
+        group_id = group_ids.id_of(group);
       }
       PDR_TRY(out.add_face(face, 1, group_id, where_at(c)));
     } else if (tok == "g" || tok == "o") {
-      group = std::string(c.rest_of_line());
+      const std::string_view rest = c.rest_of_line();
+      group = std::string(rest.substr(0, rest.find('#')));
       group_id = 0;
     } else if (!is_ignored_obj_statement(tok)) {
       return c.error(fmt::format("unknown OBJ statement {}", quote_token(tok)));
     }
     c.next_line();
   }
-  return std::move(out).finish();
+  PDR_ASSIGN_OR_RETURN(auto names, group_ids.names(name, "group"));
+  PDR_ASSIGN_OR_RETURN(SurfaceMesh mesh, std::move(out).finish());
+  mesh.surface_names = std::move(names);
+  return mesh;
 }
 
 Result<SurfaceMesh> parse_off(std::string_view bytes, std::string_view name) {

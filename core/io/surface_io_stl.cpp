@@ -56,11 +56,14 @@ Result<SurfaceMesh> parse_ascii(std::string_view bytes, std::string_view name) {
   TextCursor c(bytes, name, '\0');
   SurfaceBuilder out(name, "facet");
   PointWelder welder;
-  int solid = 0;
+  GroupIds solids;
   while (!c.at_end()) {
     PDR_TRY(c.expect("solid"));
-    ++solid;
-    c.next_line();  // the rest of the line is the solid's name
+    // The rest of the line is the solid's name: solids of one name share an
+    // id, each unnamed solid has its own.
+    const std::string_view solid_name = c.rest_of_line();
+    const int solid = solid_name.empty() ? solids.fresh() : solids.id_of(solid_name);
+    c.next_line();
     for (;;) {
       const std::string_view tok = c.token();
       if (iequals(tok, "endsolid")) {
@@ -88,7 +91,10 @@ Result<SurfaceMesh> parse_ascii(std::string_view bytes, std::string_view name) {
       out.add_triangle(t, solid);
     }
   }
-  return std::move(out).finish();
+  PDR_ASSIGN_OR_RETURN(auto names, solids.names(name, "solid"));
+  PDR_ASSIGN_OR_RETURN(SurfaceMesh mesh, std::move(out).finish());
+  mesh.surface_names = std::move(names);
+  return mesh;
 }
 
 bool starts_with_solid(std::string_view bytes) {

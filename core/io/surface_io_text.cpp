@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 
+#include "pdrmesh/boundary_names.hpp"
 #include "surface_io_internal.hpp"
 
 namespace pdrmesh::surface_io_detail {
@@ -290,6 +291,33 @@ Index PointWelder::add(const Vec3& p, std::vector<Vec3>& points) {
     }
     if (weld_key(points[i]) == key) return i;
   }
+}
+
+int GroupIds::id_of(std::string_view raw) {
+  const auto it = ids_.find(raw);
+  if (it != ids_.end()) return it->second;
+  const int id = next_++;
+  ids_.emplace(std::string(raw), id);
+  return id;
+}
+
+Result<std::map<int, std::string>> GroupIds::names(std::string_view file, std::string_view group) const {
+  std::map<int, std::string> names;
+  std::map<std::string, std::string_view, std::less<>> raw_of;  // boundary name -> the raw name that gave it
+  for (const auto& [raw, id] : ids_) {
+    std::string name = sanitize_boundary_name(raw);
+    if (name.empty() || is_default_boundary_name(id, name)) continue;
+    // "surface_<n>" of another id (a file written from ids that were not 1..k) is no name either.
+    if (!check_boundary_name(id, name).ok()) continue;
+    const auto [it, fresh] = raw_of.try_emplace(name, raw);
+    if (!fresh)
+      return invalid_input(fmt::format("{}: the {}s {} and {} both give the boundary name '{}' (names keep letters, "
+                                       "digits, '_', '-', '.', at most {} characters); rename one",
+                                       file, group, quote_token(it->second), quote_token(raw), name,
+                                       kMaxBoundaryNameLength));
+    names.emplace(id, std::move(name));
+  }
+  return names;
 }
 
 }  // namespace pdrmesh::surface_io_detail

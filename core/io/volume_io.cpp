@@ -386,41 +386,69 @@ Status write_format(const VolumeMesh& mesh, VolumeFormat format, const std::file
 StagedVolume& StagedVolume::operator=(StagedVolume&& other) noexcept {
   if (this != &other) {
     discard();
-    staged_ = std::exchange(other.staged_, {});
-    destination_ = std::exchange(other.destination_, {});
+    files_ = std::exchange(other.files_, {});
   }
   return *this;
 }
 
 Status StagedVolume::commit() {
-  if (staged_.empty()) return internal_error("commit of a volume file that is not staged");
-  std::error_code ec;
-  std::filesystem::rename(staged_, destination_, ec);
-  if (ec) {
-    const std::string why = ec.message();
-    discard();
-    return io_error(fmt::format("{}: cannot put the written file in place: {}", destination_.string(), why));
+  if (files_.empty()) return internal_error("commit of a volume file that is not staged");
+  // The mesh file goes last, so that whoever sees it sees its .mapbc too.
+  while (!files_.empty()) {
+    const auto& [staged, destination] = files_.back();
+    std::error_code ec;
+    std::filesystem::rename(staged, destination, ec);
+    if (ec) {
+      const std::string why = ec.message();
+      const std::string where = destination.string();
+      discard();
+      return io_error(fmt::format("{}: cannot put the written file in place: {}", where, why));
+    }
+    files_.pop_back();
   }
-  staged_.clear();
   return {};
 }
 
 void StagedVolume::discard() noexcept {
-  if (staged_.empty()) return;
-  std::error_code ec;
-  std::filesystem::remove(staged_, ec);
-  staged_.clear();
+  for (const auto& [staged, destination] : files_) {
+    std::error_code ec;
+    std::filesystem::remove(staged, ec);
+  }
+  files_.clear();
 }
+
+namespace {
+
+/// A hidden file beside `path` for writing it: ".NAME.PID.partial".
+std::filesystem::path partial_path(const std::filesystem::path& path) {
+  return path.parent_path() / fmt::format(".{}.{}.partial", path.filename().string(), ::getpid());
+}
+
+bool is_ugrid(VolumeFormat f) {
+  return f == VolumeFormat::kUgridAscii || f == VolumeFormat::kUgridLittle || f == VolumeFormat::kUgridBig;
+}
+
+}  // namespace
 
 Result<StagedVolume> stage_volume(const VolumeMesh& mesh, const std::filesystem::path& path,
                                   const VolumeWriteOptions& options) {
   PDR_ASSIGN_OR_RETURN(const VolumeFormat format, volume_format_from_path(path));
   PDR_TRY(volio::check_writable(mesh));
-  const std::filesystem::path partial =
-      path.parent_path() / fmt::format(".{}.{}.partial", path.filename().string(), ::getpid());
-  StagedVolume staged(partial, path);  // removes the partial file if the write fails
+  StagedVolume staged;  // removes the partial files if a write fails
+  const std::filesystem::path partial = partial_path(path);
+  staged.add(partial, path);
   if (Status s = write_format(mesh, format, partial, options); !s.ok())
     return Status(s.code(), fmt::format("{} (writing {})", s.message(), path.string()));
+  if (is_ugrid(format) && !mesh.boundary.empty()) {
+    const std::filesystem::path mapbc = mapbc_path(path);
+    const std::filesystem::path mapbc_partial = partial_path(mapbc);
+    staged.add(mapbc_partial, mapbc);
+    volio::OutputFile out(mapbc_partial);
+    PDR_TRY(out.open());
+    const std::string text = format_mapbc(mesh);
+    out.buf().append(text.data(), text.data() + text.size());
+    PDR_TRY(out.close());
+  }
   return staged;
 }
 
@@ -437,9 +465,15 @@ Result<VolumeMesh> read_volume(const std::filesystem::path& path) {
     case VolumeFormat::kMedit: return volio::read_medit(data, name);
     case VolumeFormat::kMeditBinary: return volio::read_meshb(data, name);
     case VolumeFormat::kVtu: return volio::read_vtu(data, name);
-    case VolumeFormat::kUgridAscii: return volio::read_ugrid_ascii(data, name);
-    case VolumeFormat::kUgridLittle: return volio::read_ugrid_binary(data, name, true);
-    case VolumeFormat::kUgridBig: return volio::read_ugrid_binary(data, name, false);
+    case VolumeFormat::kUgridAscii:
+    case VolumeFormat::kUgridLittle:
+    case VolumeFormat::kUgridBig: {
+      PDR_ASSIGN_OR_RETURN(VolumeMesh mesh, format == VolumeFormat::kUgridAscii
+                                                ? volio::read_ugrid_ascii(data, name)
+                                                : volio::read_ugrid_binary(data, name, format == VolumeFormat::kUgridLittle));
+      PDR_TRY(volio::read_mapbc_beside(mesh, path));
+      return mesh;
+    }
     case VolumeFormat::kGmsh: return volio::read_gmsh(data, name);
     case VolumeFormat::kSu2: return volio::read_su2(data, name);
   }

@@ -204,6 +204,8 @@ Status write_ugrid_ascii(const VolumeMesh& mesh, const std::filesystem::path& pa
 Result<VolumeMesh> read_ugrid_ascii(std::string_view text, const std::string& name);
 Status write_ugrid_binary(const VolumeMesh& mesh, const std::filesystem::path& path, bool little);
 Result<VolumeMesh> read_ugrid_binary(std::string_view data, const std::string& name, bool little);
+/// Puts the names of the .mapbc beside `ugrid` (mapbc_path) into `mesh`, when there is one.
+Status read_mapbc_beside(VolumeMesh& mesh, const std::filesystem::path& ugrid);
 
 Status write_gmsh(const VolumeMesh& mesh, const std::filesystem::path& path);
 Result<VolumeMesh> read_gmsh(std::string_view text, const std::string& name);

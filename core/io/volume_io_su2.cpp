@@ -4,19 +4,25 @@
 //   NDIME= 3
 //   NELEM= <tets>        then "10 a b c d <element index>" (0-based points)
 //   NPOIN= <points>      then "x y z <point index>"
-//   NMARK= <markers>     then per marker "MARKER_TAG= surface_<id>",
+//   NMARK= <markers>     then per marker "MARKER_TAG= <name>",
 //                        "MARKER_ELEMS= <n>" and "5 a b c" per triangle
 // SU2 tets use the VTK orientation. Markers are written in ascending surface
-// id; reading maps "surface_<id>" back to <id> and gives any other tag the
-// next unused id 1, 2, ... in file order. The boundary comes back grouped by
-// marker, so only a boundary already sorted by id round-trips in order.
+// id, tagged with the id's boundary name ("surface_<id>" when it has none).
+// Reading maps "surface_<id>" back to <id> with no name, and gives any other
+// tag the next unused id 1, 2, ... in order of first appearance, named by the
+// tag (sanitize_boundary_name; markers of one tag share the id). So a named
+// id keeps its name but may come back as another number. The boundary comes
+// back grouped by marker, so only a boundary already sorted by id
+// round-trips in order.
 // SU2 holds no regions. '%' starts a comment.
 #include <fmt/compile.h>
 
 #include <algorithm>
 #include <limits>
+#include <map>
 #include <set>
 
+#include "pdrmesh/boundary_names.hpp"
 #include "volume_io_detail.hpp"
 
 namespace pdrmesh::volio {
@@ -54,7 +60,7 @@ Status write_su2(const VolumeMesh& mesh, const std::filesystem::path& path) {
   for (int id : ids) {
     const std::size_t begin = k;
     while (k < order.size() && mesh.boundary_ids[order[k]] == id) ++k;
-    fmt::format_to(it, "MARKER_TAG= surface_{}\nMARKER_ELEMS= {}\n", id, k - begin);
+    fmt::format_to(it, "MARKER_TAG= {}\nMARKER_ELEMS= {}\n", boundary_name(mesh.boundary_names, id), k - begin);
     for (std::size_t j = begin; j < k; ++j) {
       const Tri& t = mesh.boundary[order[j]];
       fmt::format_to(it, FMT_COMPILE("{} {} {} {}\n"), kSu2Triangle, t[0], t[1], t[2]);
@@ -209,6 +215,7 @@ Result<VolumeMesh> Su2Reader::read() {
     return in_.error_at(max_index_pos_, fmt::format("point index {} is out of range: {} points numbered from 0",
                                                     max_index_, mesh.points.size()));
   // Marker tags to ids: "surface_<id>" -> id, others the next unused 1, 2, ...
+  // (one per distinct tag), named by the tag.
   std::vector<int> marker_id(markers.size(), 0);
   std::vector<bool> parsed(markers.size(), false);
   std::set<int> used;
@@ -217,10 +224,25 @@ Result<VolumeMesh> Su2Reader::read() {
     if (parsed[m]) used.insert(marker_id[m]);
   }
   int next = 1;
+  std::map<std::string_view, int> tag_id;
+  std::map<std::string, std::string_view> tag_of_name;  // boundary name -> the tag that gave it
   for (std::size_t m = 0; m < markers.size(); ++m) {
     if (parsed[m]) continue;
+    const std::string& tag = markers[m].tag;
+    if (const auto known = tag_id.find(tag); known != tag_id.end()) {
+      marker_id[m] = known->second;
+      continue;
+    }
     while (used.count(next) != 0) ++next;
     marker_id[m] = next++;
+    tag_id.emplace(tag, marker_id[m]);
+    std::string name = sanitize_boundary_name(tag);
+    if (!check_boundary_name(marker_id[m], name).ok()) continue;  // "surface_-3" and the like: no name
+    const auto [first, fresh] = tag_of_name.try_emplace(name, tag);
+    if (!fresh)
+      return invalid_input(fmt::format("{}: the marker tags {} and {} both give the boundary name '{}'", in_.name(),
+                                       show(first->second), show(tag), name));
+    mesh.boundary_names.emplace(marker_id[m], std::move(name));
   }
   mesh.boundary_ids.resize(mesh.boundary.size());
   for (std::size_t m = 0; m < markers.size(); ++m)

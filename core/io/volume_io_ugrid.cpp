@@ -19,8 +19,16 @@
 // Input/Output Grids"); refine's own fixtures use inward normals. We write the
 // mesh's outward triangles unchanged so that a round trip is exact.
 // UGRID holds no regions.
+//
+// Boundary names go into FUN3D's .mapbc beside the grid (volume_io.hpp,
+// mapbc_path): "N" on the first line, then "ID BC NAME" per surface id.
 #include <fmt/compile.h>
 
+#include <cctype>
+#include <set>
+
+#include "pdrmesh/boundary_names.hpp"
+#include "pdrmesh/volume_io.hpp"
 #include "volume_io_detail.hpp"
 
 namespace pdrmesh::volio {
@@ -159,4 +167,58 @@ Result<VolumeMesh> read_ugrid_binary(std::string_view data, const std::string& n
   return mesh;
 }
 
+Status read_mapbc_beside(VolumeMesh& mesh, const std::filesystem::path& ugrid) {
+  const std::filesystem::path path = mapbc_path(ugrid);
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) return {};
+  PDR_ASSIGN_OR_RETURN(const std::string text, read_file(path));
+  PDR_ASSIGN_OR_RETURN(const auto names, parse_mapbc(text, path.string()));
+  return merge_boundary_names(mesh.boundary_names, mesh.boundary_ids, names,
+                              fmt::format("{} (beside {})", path.string(), ugrid.filename().string()));
+}
+
 }  // namespace pdrmesh::volio
+
+namespace pdrmesh {
+
+std::filesystem::path mapbc_path(const std::filesystem::path& ugrid) {
+  std::string name = ugrid.filename().string();
+  std::string lower = name;
+  for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  for (std::string_view suffix : {".lb8.ugrid", ".b8.ugrid", ".ugrid"}) {
+    if (lower.size() > suffix.size() && lower.compare(lower.size() - suffix.size(), suffix.size(), suffix) == 0) {
+      name.resize(name.size() - suffix.size());
+      break;
+    }
+  }
+  return ugrid.parent_path() / (name + ".mapbc");
+}
+
+std::string format_mapbc(const VolumeMesh& mesh) {
+  const std::vector<int> ids = volio::distinct(mesh.boundary_ids);
+  std::string out = fmt::format("{}\n", ids.size());
+  for (int id : ids) out += fmt::format("{} {} {}\n", id, kMapbcDefaultBc, boundary_name(mesh.boundary_names, id));
+  return out;
+}
+
+Result<std::map<int, std::string>> parse_mapbc(std::string_view text, const std::string& name) {
+  volio::TextScanner in(text, name, '#');
+  std::size_t n = 0;
+  PDR_TRY(in.count(n, 2, "number of boundary patches"));
+  std::map<int, std::string> names;
+  std::set<int> seen;
+  for (std::size_t k = 0; k < n; ++k) {
+    int id = 0, bc = 0;
+    PDR_TRY(in.integer(id, "patch id"));
+    PDR_TRY(in.integer(bc, "boundary condition"));
+    const std::string_view raw = in.next_in_line();
+    in.skip_line();
+    if (!seen.insert(id).second) return in.error(fmt::format("patch id {} is listed twice", id));
+    std::string patch = sanitize_boundary_name(raw);
+    if (patch.empty() || is_default_boundary_name(id, patch) || !check_boundary_name(id, patch).ok()) continue;
+    names.emplace(id, std::move(patch));
+  }
+  return names;
+}
+
+}  // namespace pdrmesh

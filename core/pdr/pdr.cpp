@@ -823,6 +823,7 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
   prof.final_tets = cur.tets.size();
   prof.total = initial_s + seconds_since(t_total);
   ids.to_user(cur.boundary_ids);
+  cur.boundary_names = surface.surface_names;  // keyed by the user's ids, as the boundary now is
   return cur;
 }
 

@@ -86,6 +86,7 @@ Result<SerialResult> mesh_serial(const SurfaceMesh& surface, const SerialOptions
   }
   out.mesh = mesh.to_volume_mesh();
   ids.to_user(out.mesh.boundary_ids);
+  out.mesh.boundary_names = surface.surface_names;  // keyed by the user's ids, as the boundary now is
   return out;
 }
 

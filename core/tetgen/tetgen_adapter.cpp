@@ -386,6 +386,7 @@ Result<VolumeMesh> build_volume_mesh(RawMesh m, const SurfaceMesh& surface) {
   vm.boundary = surface.triangles;
   vm.boundary_ids = surface.surface_ids;
   if (vm.boundary_ids.empty()) vm.boundary_ids.assign(vm.boundary.size(), 1);
+  vm.boundary_names = surface.surface_names;
   return vm;
 }
 

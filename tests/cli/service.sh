@@ -36,6 +36,20 @@ for suffix in vtu mesh ugrid lb8.ugrid b8.ugrid msh su2; do
 done
 echo "ok: every format fetched validates against the surface"
 
+# Boundary names (--names): the job's SU2 markers and .mapbc carry them, as pdrmesh run's do.
+printf '1 body\n' > "$tmp/names.txt"
+named_id=$("$pdrmesh" submit "$surface" "${options[@]}" --names "$tmp/names.txt" --wait -o "$tmp/named.su2" 2>/dev/null)
+"$pdrmesh" run -q "$surface" "${options[@]}" --names "$tmp/names.txt" -o "$tmp/run-named.su2"
+cmp "$tmp/named.su2" "$tmp/run-named.su2"
+grep -qx 'MARKER_TAG= body' "$tmp/named.su2"
+"$pdrmesh" fetch "$named_id" -o "$tmp/named.ugrid" > /dev/null 2>&1
+[[ $(cat "$tmp/named.mapbc") == $'1\n1 3000 body' ]]
+printf '1 two words\n' > "$tmp/bad-names.txt"
+expect_exit 65 "$pdrmesh" submit "$surface" --names "$tmp/bad-names.txt"
+grep -q 'bad-names.txt:1:' "$tmp/err"
+"$pdrmesh" delete "$named_id" > /dev/null
+echo "ok: names reach the job's SU2 markers and .mapbc"
+
 "$pdrmesh" status "$id" --json | json_field leaves_total > /dev/null
 "$pdrmesh" list --json | python3 -c 'import json,sys; j=json.load(sys.stdin); assert len(j["jobs"])==1, j'
 

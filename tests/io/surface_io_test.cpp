@@ -247,6 +247,50 @@ TEST(StlReader, EachSolidGetsItsOwnId) {
   EXPECT_EQ(r->triangles, c.triangles);
   const std::vector<int> ids{1, 1, 1, 1, 2, 2, 2, 2, 3, 3, 3, 3};
   EXPECT_EQ(r->surface_ids, ids);
+  EXPECT_EQ(r->surface_names, (std::map<int, std::string>{{1, "patch_0"}, {2, "patch_1"}, {3, "patch_2"}}));
+}
+
+/// The cube's 12 triangles as ASCII STL solids: `solids[k]` is the header
+/// line's name of solid k (empty: "solid" alone), each solid taking the next
+/// 12 / solids.size() triangles.
+std::string cube_stl(const std::vector<std::string>& solids) {
+  const SurfaceMesh c = cube();
+  const std::size_t per = 12 / solids.size();
+  std::string text;
+  for (std::size_t s = 0; s < solids.size(); ++s) {
+    text += solids[s].empty() ? "solid\n" : fmt::format("solid {}\n", solids[s]);
+    for (std::size_t i = per * s; i < per * (s + 1); ++i) {
+      text += "facet normal 0 0 0\nouter loop\n";
+      for (Index v : c.triangles[i]) text += fmt::format("vertex {} {} {}\n", c.points[v][0], c.points[v][1], c.points[v][2]);
+      text += "endloop\nendfacet\n";
+    }
+    text += "endsolid\n";
+  }
+  return text;
+}
+
+TEST(StlReader, SolidsOfOneNameShareAnIdAndUnnamedSolidsHaveTheirOwn) {
+  const auto r = parse(cube_stl({"inlet", "", "wall", "inlet", "", "wall"}), SurfaceFormat::kStl);
+  ASSERT_TRUE(r.ok()) << r.status().to_string();
+  EXPECT_EQ(r->surface_ids, (std::vector<int>{1, 1, 2, 2, 3, 3, 1, 1, 4, 4, 3, 3}));
+  EXPECT_EQ(r->surface_names, (std::map<int, std::string>{{1, "inlet"}, {3, "wall"}}));
+}
+
+TEST(StlReader, NamesAreMadeSafeIdentifiersAndTheDefaultNamesAreNoNames) {
+  // An exporter's header text, a leading digit, a very long name, pdrmesh's own "surface_<id>".
+  const auto r = parse(cube_stl({"Exported from Blender-2.93 (v1)", "3d part", std::string(40, 'x'), "surface_4",
+                                 "surface_9", "ok.name-1"}),
+                       SurfaceFormat::kStl);
+  ASSERT_TRUE(r.ok()) << r.status().to_string();
+  EXPECT_EQ(r->surface_names, (std::map<int, std::string>{{1, "Exported_from_Blender-2.93__v1_"},
+                                                          {2, "_3d_part"},
+                                                          {3, std::string(32, 'x')},
+                                                          {6, "ok.name-1"}}));
+}
+
+TEST(StlReader, TwoNamesThatBecomeOneAreAnErrorNamingBoth) {
+  EXPECT_ERROR_HAS(parse(cube_stl({"front wall", "front_wall"}), SurfaceFormat::kStl),
+                   "t: the solids 'front wall' and 'front_wall' both give the boundary name 'front_wall'");
 }
 
 TEST(StlReader, WeldsBinaryCube) {
@@ -370,6 +414,22 @@ TEST(ObjReader, GroupsGetIdsInOrderOfFirstUse) {
   const auto r = parse(text, SurfaceFormat::kObj);
   ASSERT_TRUE(r.ok()) << r.status().to_string();
   EXPECT_EQ(r->surface_ids, (std::vector<int>{1, 2, 1, 3}));
+  EXPECT_EQ(r->surface_names, (std::map<int, std::string>{{1, "wall"}, {2, "inlet"}, {3, "outlet"}}));
+}
+
+TEST(ObjReader, FacesBeforeAnyGroupAreUnnamedAndCommentsAreNotPartOfAName) {
+  const std::string text =
+      "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n"
+      "f 1 3 2\n"
+      "g nose cone # the front\nf 1 2 4\n"
+      "g\nf 1 4 3\n"
+      "o tail\nf 2 3 4\n";
+  const auto r = parse(text, SurfaceFormat::kObj);
+  ASSERT_TRUE(r.ok()) << r.status().to_string();
+  EXPECT_EQ(r->surface_ids, (std::vector<int>{1, 2, 1, 3}));
+  EXPECT_EQ(r->surface_names, (std::map<int, std::string>{{2, "nose_cone"}, {3, "tail"}}));
+  EXPECT_ERROR_HAS(parse("v 0 0 0\nv 1 0 0\nv 0 1 0\ng a/b\nf 1 2 3\ng a_b\nf 1 3 2\n", SurfaceFormat::kObj),
+                   "the groups 'a/b' and 'a_b' both give the boundary name 'a_b'");
 }
 
 TEST(ObjReader, NumbersBeyondDoubleRangeUnderflowToZeroOrAreRejected) {
@@ -686,6 +746,21 @@ TEST(SurfaceWriter, KeepsUnusedPointsAndArbitraryIdsWhereTheFormatCan) {
   ASSERT_TRUE(stl.ok());
   EXPECT_EQ(stl->surface_ids, (std::vector<int>{1, 1, 1, 1, 1, 1, 2, 2, 2, 2, 2, 2}));
   EXPECT_EQ(stl->points.size(), 8u);
+}
+
+TEST(SurfaceWriter, StlSolidsAndObjGroupsCarryTheNames) {
+  SurfaceMesh s = awkward_cube();
+  for (std::size_t i = 0; i < s.surface_ids.size(); ++i) s.surface_ids[i] = i < 4 ? 7 : (i < 8 ? 9 : 12);
+  s.surface_names = {{7, "inlet"}, {12, "far.field"}};  // 9 unnamed
+  for (SurfaceFormat f : {SurfaceFormat::kStl, SurfaceFormat::kObj}) {
+    const auto text = format_surface(s, f);
+    ASSERT_TRUE(text.ok());
+    const auto r = parse_surface(*text, f, "x");
+    ASSERT_TRUE(r.ok()) << r.status().to_string();
+    // Ids come back as 1..k (ascending for STL, first use for OBJ: the same here), with their names.
+    EXPECT_EQ(r->surface_ids, (std::vector<int>{1, 1, 1, 1, 2, 2, 2, 2, 3, 3, 3, 3}));
+    EXPECT_EQ(r->surface_names, (std::map<int, std::string>{{1, "inlet"}, {3, "far.field"}}));
+  }
 }
 
 TEST(SurfaceWriter, RejectsInvalidSurfaces) {

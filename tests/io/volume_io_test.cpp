@@ -12,6 +12,7 @@
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <sstream>
 
 #include "pdrmesh/quality.hpp"
@@ -409,6 +410,112 @@ TEST_F(VolumeIo, Su2MapsMarkerTagsToIds) {
   ASSERT_TRUE(r.ok()) << r.status().to_string();
   EXPECT_EQ(r->boundary_ids, (std::vector<int>{2, 1, 3}));  // surface_1 keeps 1; others the next unused
   EXPECT_EQ(r->tets, (std::vector<Tet>{{0, 1, 2, 3}}));
+}
+
+// ---------------------------------------------------------------- boundary names
+
+/// The cube with names on some of its ids (1..6 by face).
+VolumeMesh named_cube() {
+  VolumeMesh m = grid_mesh(1);
+  m.boundary_names = {{1, "inlet"}, {2, "outlet"}, {4, "sides"}};
+  return m;
+}
+
+TEST_F(VolumeIo, Su2MarkerTagsAreTheNamesAndComeBackAsNames) {
+  const VolumeMesh m = named_cube();
+  ASSERT_TRUE(write_volume(m, path("m.su2")).ok());
+  const std::string text = slurp(path("m.su2"));
+  for (const char* tag : {"inlet", "outlet", "surface_3", "sides", "surface_5", "surface_6"})
+    EXPECT_NE(text.find(fmt::format("MARKER_TAG= {}\n", tag)), std::string::npos) << tag;
+  const auto r = read_volume(path("m.su2"));
+  ASSERT_TRUE(r.ok()) << r.status().to_string();
+  // The unnamed keep their ids; the named take the next unused ids in file (= id) order: here their own.
+  expect_same_mesh(m, *r, false);
+  EXPECT_EQ(r->boundary_names, m.boundary_names);
+
+  // Markers of one tag share an id; a tag that is no boundary name is made one.
+  const std::string two =
+      "NDIME=3\nNELEM= 1\n10 0 1 2 3\nNPOIN= 4\n0 0 0\n1 0 0\n0 1 0\n0 0 1\nNMARK= 3\n"
+      "MARKER_TAG= wall\nMARKER_ELEMS= 1\n5 0 2 1\nMARKER_TAG= Body:1\nMARKER_ELEMS= 1\n5 0 1 3\n"
+      "MARKER_TAG= wall\nMARKER_ELEMS= 2\n5 0 3 2\n5 1 2 3\n";
+  const auto w = read_volume(write_text("two.su2", two));
+  ASSERT_TRUE(w.ok()) << w.status().to_string();
+  EXPECT_EQ(w->boundary_ids, (std::vector<int>{1, 2, 1, 1}));
+  EXPECT_EQ(w->boundary_names, (std::map<int, std::string>{{1, "wall"}, {2, "Body_1"}}));
+}
+
+TEST_F(VolumeIo, UgridWritesItsNamesIntoAMapbcBesideAndReadsThemBack) {
+  const VolumeMesh m = named_cube();
+  for (const char* suffix : {".ugrid", ".lb8.ugrid", ".b8.ugrid"}) {
+    SCOPED_TRACE(suffix);
+    const fs::path grid = path(std::string("wing") + suffix);
+    ASSERT_TRUE(write_volume(m, grid).ok());
+    EXPECT_EQ(slurp(path("wing.mapbc")),
+              "6\n1 3000 inlet\n2 3000 outlet\n3 3000 surface_3\n4 3000 sides\n5 3000 surface_5\n"
+              "6 3000 surface_6\n");
+    const auto r = read_volume(grid);
+    ASSERT_TRUE(r.ok()) << r.status().to_string();
+    expect_same_mesh(m, *r, false);
+    EXPECT_EQ(r->boundary_names, m.boundary_names);
+    fs::remove(path("wing.mapbc"));
+    const auto bare = read_volume(grid);  // no .mapbc: no names, ids as before
+    ASSERT_TRUE(bare.ok()) << bare.status().to_string();
+    EXPECT_TRUE(bare->boundary_names.empty());
+    EXPECT_EQ(bare->boundary_ids, m.boundary_ids);
+  }
+  EXPECT_EQ(mapbc_path("runs/Wing.LB8.UGRID"), fs::path("runs/Wing.mapbc"));
+  EXPECT_EQ(mapbc_path("wing.b8.ugrid"), fs::path("wing.mapbc"));
+  EXPECT_EQ(mapbc_path("a.ugrid"), fs::path("a.mapbc"));
+
+  // Medit holds no names, and writes no file beside.
+  ASSERT_TRUE(write_volume(m, path("m.mesh")).ok());
+  EXPECT_FALSE(fs::exists(path("m.mapbc")));
+  EXPECT_TRUE(read_volume(path("m.mesh"))->boundary_names.empty());
+}
+
+TEST_F(VolumeIo, MapbcFromOtherToolsIsReadAndABadOneIsAnErrorNamingIt) {
+  ASSERT_TRUE(write_volume(grid_mesh(1), path("g.ugrid")).ok());
+  // FUN3D's own: other bc codes, a name with a character we do not take, a line without a name.
+  write_text("g.mapbc", "6\n1 5000 farfield\n2 4000 wing/upper\n3 3000\n4 3000 surface_4\n5 3000 a\n6 3000 b\n");
+  const auto r = read_volume(path("g.ugrid"));
+  ASSERT_TRUE(r.ok()) << r.status().to_string();
+  EXPECT_EQ(r->boundary_names,
+            (std::map<int, std::string>{{1, "farfield"}, {2, "wing_upper"}, {5, "a"}, {6, "b"}}));
+
+  write_text("g.mapbc", "2\n1 3000 a\n7 3000 b\n");
+  const auto unknown = read_volume(path("g.ugrid"));
+  ASSERT_FALSE(unknown.ok());
+  EXPECT_NE(unknown.status().message().find("g.mapbc"), std::string::npos) << unknown.status().to_string();
+  EXPECT_NE(unknown.status().message().find("id 7"), std::string::npos) << unknown.status().to_string();
+  write_text("g.mapbc", "2\n1 3000 a\n2 wall b\n");
+  const auto malformed = read_volume(path("g.ugrid"));
+  ASSERT_FALSE(malformed.ok());
+  EXPECT_NE(malformed.status().message().find("g.mapbc:3:"), std::string::npos) << malformed.status().to_string();
+  write_text("g.mapbc", "2\n1 3000 a\n2 3000 a\n");
+  const auto twice = read_volume(path("g.ugrid"));
+  ASSERT_FALSE(twice.ok());
+  EXPECT_NE(twice.status().message().find("ids 1 and 2 are both named 'a'"), std::string::npos)
+      << twice.status().to_string();
+}
+
+TEST_F(VolumeIo, AStagedUgridHoldsItsMapbcTooUntilCommitted) {
+  const auto entries = [&] {
+    std::vector<std::string> names;
+    for (const auto& e : fs::directory_iterator(dir_)) names.push_back(e.path().filename().string());
+    std::sort(names.begin(), names.end());
+    return names;
+  };
+  {
+    auto staged = stage_volume(named_cube(), path("w.ugrid"));
+    ASSERT_TRUE(staged.ok()) << staged.status().to_string();
+    EXPECT_EQ(entries().size(), 2u);
+    for (const std::string& n : entries()) EXPECT_TRUE(n.ends_with(".partial")) << n;
+  }
+  EXPECT_TRUE(entries().empty());  // discarded: both gone
+  auto staged = stage_volume(named_cube(), path("w.ugrid"));
+  ASSERT_TRUE(staged.ok());
+  ASSERT_TRUE(staged->commit().ok());
+  EXPECT_EQ(entries(), (std::vector<std::string>{"w.mapbc", "w.ugrid"}));
 }
 
 // ---------------------------------------------------------------- suffixes and writer checks

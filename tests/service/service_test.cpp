@@ -2,13 +2,17 @@
 // End-to-end tests of the service: an in-process coordinator on 127.0.0.1 with
 // a temporary data directory, driven through the real client (ServiceClient
 // over the generated stub).
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <atomic>
 #include <condition_variable>
 #include <new>
 #include <fstream>
+#include <iterator>
+#include <map>
 #include <mutex>
 #include <memory>
 #include <string>
@@ -115,6 +119,80 @@ TEST_F(Service, SubmitWatchFetchGivesAValidMeshOfTheSurface) {
   ASSERT_TRUE(again.ok()) << again.status().to_string();
   EXPECT_EQ(again->tets, mesh.tets);
   EXPECT_EQ(again->points, mesh.points);
+}
+
+/// Reads a whole file (empty when missing).
+std::string slurp(const std::filesystem::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
+}
+
+TEST_F(Service, BoundaryNamesFromTheSolidsAndTheOptionsReachEveryFetchedFormat) {
+  // The sphere as three named STL solids by the height of each triangle's first point.
+  auto sphere = read_surface(kSphere);
+  ASSERT_TRUE(sphere.ok());
+  for (std::size_t t = 0; t < sphere->triangles.size(); ++t) {
+    const double z = sphere->points[sphere->triangles[t][0]][2];
+    sphere->surface_ids[t] = z > 3 ? 1 : (z < -3 ? 2 : 3);  // radius 10
+  }
+  sphere->surface_names = {{1, "top"}, {2, "bottom"}};  // 3: unnamed
+  const auto stl = dir_.path() / "named.stl";
+  ASSERT_TRUE(write_surface(*sphere, stl).ok());
+
+  start(1);
+  auto alice = client("tok-alice");
+  v1::MeshOptions options;
+  (*options.mutable_surface_names())[2] = "base";  // over the solid's own name
+  v1::Job job;
+  ASSERT_TRUE(alice->submit(stl, options, job).ok());
+  EXPECT_EQ(job.options().surface_names().at(2), "base");
+  const v1::Job done = watch(*alice, job.id());
+  ASSERT_EQ(done.state(), v1::JOB_STATE_SUCCEEDED) << done.error();
+
+  const std::map<int, std::string> want{{1, "top"}, {2, "base"}};
+  const auto su2 = dir_.path() / "out.su2";
+  ASSERT_TRUE(alice->fetch(job.id(), su2).ok());
+  const std::string text = slurp(su2);
+  for (const char* tag : {"top", "base", "surface_3"})
+    EXPECT_NE(text.find(fmt::format("MARKER_TAG= {}\n", tag)), std::string::npos) << tag;
+  auto mesh = read_volume(su2);
+  ASSERT_TRUE(mesh.ok()) << mesh.status().to_string();
+  EXPECT_EQ(mesh->boundary_names, want);
+  auto surface = read_surface(stl);
+  ASSERT_TRUE(surface.ok());
+  const ValidationReport report = validate_mesh(*mesh, &*surface);
+  EXPECT_TRUE(report.ok()) << format_validation(report);
+
+  // UGRID: the client fetches its .mapbc beside it.
+  const auto ugrid = dir_.path() / "out.lb8.ugrid";
+  ASSERT_TRUE(alice->fetch(job.id(), ugrid).ok());
+  EXPECT_EQ(slurp(dir_.path() / "out.mapbc"), "3\n1 3000 top\n2 3000 base\n3 3000 surface_3\n");
+  auto grid = read_volume(ugrid);
+  ASSERT_TRUE(grid.ok()) << grid.status().to_string();
+  EXPECT_EQ(grid->boundary_names, want);
+  std::vector<int> got = grid->boundary_ids, given = surface->surface_ids;
+  std::sort(got.begin(), got.end());
+  std::sort(given.begin(), given.end());
+  EXPECT_EQ(got, given) << "the boundary carries the surface's ids";
+}
+
+TEST_F(Service, NamesForIdsTheSurfaceLacksOrBadNamesAreInvalidArgument) {
+  start(1);
+  auto alice = client("tok-alice");
+  const std::pair<std::pair<int, std::string>, const char*> bad[] = {
+      {{7, "inlet"}, "id 7 ('inlet') is not a surface id here (the ids are 1)"},
+      {{1, "two words"}, "'two words' has the character ' '"}};
+  for (const auto& [entry, why] : bad) {
+    v1::MeshOptions options;
+    (*options.mutable_surface_names())[entry.first] = entry.second;
+    v1::Job job;
+    const grpc::Status s = alice->submit(kSphere, options, job);
+    EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << s.error_message();
+    EXPECT_NE(s.error_message().find(why), std::string::npos) << s.error_message();
+  }
+  v1::ListJobsResponse jobs;
+  ASSERT_TRUE(alice->list(jobs).ok());
+  EXPECT_EQ(jobs.jobs_size(), 0);
 }
 
 TEST_F(Service, DefectiveSurfaceIsInvalidArgumentNamingTheDefectAndCreatesNoJob) {

@@ -15,11 +15,16 @@
 //   header; otherwise ASCII if it starts with "solid" and has no NUL byte in its
 //   first 4 KiB; otherwise binary (reported as truncated or too long). Points with identical coordinates (exact; +0.0 == -0.0) are welded
 //   and numbered in order of first appearance. Facet normals are ignored. In
-//   ASCII files each `solid ... endsolid` block gets the surface id 1, 2, 3, ...
-//   in file order; binary files get id 1.
+//   ASCII files each `solid NAME ... endsolid` block gets the surface id 1, 2,
+//   3, ... in file order, named NAME (blocks of one NAME share its id; a block
+//   without a NAME has an id of its own and no name); binary files get id 1.
 // - OBJ: `v`, `f` (i, i/t, i//n, i/t/n, negative relative indices; a vertex must
 //   be defined before a face uses it), `g`/`o` names: each distinct name that
-//   carries faces gets the id 1, 2, ... in order of first use (no names: all 1).
+//   carries faces gets the id 1, 2, ... in order of first use, named by it
+//   (faces before any g/o: an unnamed id; no names at all: all 1).
+//   STL and OBJ names become SurfaceMesh::surface_names through
+//   sanitize_boundary_name (boundary_names.hpp); "surface_<n>" is no name, and
+//   two names that become one are an error naming both.
 //   vt, vn, vp, usemtl, mtllib, s, l, p and comments are ignored.
 // - OFF: optional OFF/COFF/NOFF/CNOFF header, `nv nf ne`, vertices (extra
 //   values on a vertex line are ignored), faces `k i0 .. ik-1` (extra values such
@@ -45,6 +50,8 @@
 // order of first appearance. .off loses ids (all 1). .stl (ASCII, one solid per
 // distinct id, ascending) keeps triangles and coordinates; points come back
 // welded and numbered in order of first use, ids as 1..k in ascending id order.
+// .stl solids and .obj groups are named by boundary_name (surface_names, else
+// "surface_<id>"), so names come back; the other formats keep none.
 #pragma once
 
 #include <filesystem>

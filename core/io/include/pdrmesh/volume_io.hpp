@@ -12,10 +12,17 @@
 //    already sorted that way round-trips exactly.
 //  - Medit stores "no regions" as tet ref 0: a mesh whose regions are all 0
 //    reads back with empty tet_regions.
+// Boundary names (VolumeMesh::boundary_names) travel where the format holds
+// them: SU2 marker tags (a named id may come back as another number), and a
+// FUN3D .mapbc file written beside a UGRID file (see mapbc_path) and read
+// back with it. Medit holds none.
 #pragma once
 
 #include <filesystem>
+#include <map>
+#include <string>
 #include <string_view>
+#include <vector>
 #include <utility>
 
 #include "pdrmesh/status.hpp"
@@ -77,19 +84,22 @@ class StagedVolume {
   StagedVolume& operator=(const StagedVolume&) = delete;
   ~StagedVolume() { discard(); }
 
-  /// Puts the file in place; afterwards this object holds nothing.
+  /// Puts the file (and a UGRID file's .mapbc) in place; afterwards this
+  /// object holds nothing.
   Status commit();
-  /// Removes the staged file (no-op once committed or discarded).
+  /// Removes the staged files (no-op once committed or discarded).
   void discard() noexcept;
 
  private:
   friend Result<StagedVolume> stage_volume(const VolumeMesh& mesh, const std::filesystem::path& path,
                                            const VolumeWriteOptions& options);
-  StagedVolume(std::filesystem::path staged, std::filesystem::path destination)
-      : staged_(std::move(staged)), destination_(std::move(destination)) {}
 
-  std::filesystem::path staged_;
-  std::filesystem::path destination_;
+  void add(std::filesystem::path staged, std::filesystem::path destination) {
+    files_.emplace_back(std::move(staged), std::move(destination));
+  }
+
+  /// Each staged file and its destination (a UGRID file has its .mapbc beside it).
+  std::vector<std::pair<std::filesystem::path, std::filesystem::path>> files_;
 };
 
 /// write_volume without the final rename: for a caller that decides later
@@ -98,10 +108,29 @@ class StagedVolume {
 Result<StagedVolume> stage_volume(const VolumeMesh& mesh, const std::filesystem::path& path,
                                   const VolumeWriteOptions& options = {});
 
+/// The FUN3D boundary condition file of a UGRID file: the name without its
+/// UGRID suffix, + ".mapbc" ("wing.lb8.ugrid" -> "wing.mapbc").
+std::filesystem::path mapbc_path(const std::filesystem::path& ugrid);
+
+/// The .mapbc of `mesh`: the number of surface ids on the first line, then
+/// "ID BC NAME" per id in ascending order, NAME its boundary name
+/// ("surface_<id>" unnamed) and BC kMapbcDefaultBc. write_volume writes it
+/// beside every UGRID file of a mesh with a boundary.
+std::string format_mapbc(const VolumeMesh& mesh);
+
+/// FUN3D's boundary condition 3000, tangency (an inviscid wall): what pdrmesh
+/// writes for every id, for the user to change per patch.
+inline constexpr int kMapbcDefaultBc = 3000;
+
+/// Parses a .mapbc: the names by id (a NAME "surface_<id>", or none, is no
+/// name; others go through sanitize_boundary_name). BC codes are not kept.
+Result<std::map<int, std::string>> parse_mapbc(std::string_view text, const std::string& name);
+
 /// Reads a volume mesh in the format named by the suffix of `path`. Malformed
 /// files give `invalid_input` naming file:line (text) or the byte offset
 /// (binary); meshes with other element kinds (hexahedra, prisms, quads, ...)
-/// give `unsupported`.
+/// give `unsupported`. A UGRID file's names come from its .mapbc when there
+/// is one (an id there that the mesh lacks is an error).
 Result<VolumeMesh> read_volume(const std::filesystem::path& path);
 
 }  // namespace pdrmesh

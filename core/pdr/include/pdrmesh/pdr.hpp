@@ -262,7 +262,7 @@ struct PdrProfile {
 /// surface_check) with `kernel` refining each leaf towards `sizing` (built from
 /// this surface and any background mesh of it). The result validates against
 /// the surface (validate_mesh), its boundary with the surface's ids (any int:
-/// inside, they are engine ids >= 1, surface_ids.hpp); tet_regions holds the
+/// inside, they are engine ids >= 1, surface_ids.hpp) and names; tet_regions holds the
 /// grid id of the leaf that last produced each tet. `profile` may be null.
 Result<VolumeMesh> run_pdr(const SurfaceMesh& checked_surface, const SizingField& sizing,
                            const LeafKernel& kernel, const PdrOptions& options, PdrProfile* profile);

@@ -34,7 +34,7 @@ struct SerialOptions {
 };
 
 struct SerialResult {
-  VolumeMesh mesh;  ///< boundary = the surface's triangles and ids; tet_regions empty
+  VolumeMesh mesh;  ///< boundary = the surface's triangles, ids and names; tet_regions empty
   RefineStats refine;
   OptimizeStats optimize;  ///< zero when the optimization did not run
   double seconds_initial = 0, seconds_sizing = 0, seconds_refine = 0, seconds_optimize = 0;

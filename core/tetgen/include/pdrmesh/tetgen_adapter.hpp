@@ -67,7 +67,7 @@ struct TetgenOptions {
 /// interior points: TetGen's Steiner points and, with max_volume, the seed
 /// lattice's (seed_points), in TetGen's order, not the lattice's; every tet positively oriented
 /// (exact::orient3d > 0); boundary = the input triangles in input order with
-/// boundary_ids = surface.surface_ids; tet_regions empty.
+/// boundary_ids = surface.surface_ids, boundary_names = surface.surface_names; tet_regions empty.
 ///
 /// Errors: invalid_input for input TetGen rejects (self-intersections, ...),
 /// deadline_exceeded past time_limit_s, resource_exhausted past
