@@ -77,6 +77,9 @@ class Service(unittest.TestCase):
         with self.assertRaises(ValueError) as cm:
             client.submit(points, triangles[1:])
         self.assertIn("open edge", str(cm.exception))
+        with self.assertRaises(ValueError) as cm:  # the client's own limit, from the surface's estimate
+            client.submit(points, triangles, size="0.5%", max_tets=1000)
+        self.assertIn("would make about", str(cm.exception))
         self.assertRaises(LookupError, client.status, "no-such-job")
         self.assertRaises(FileNotFoundError, client.submit, "/nonexistent/wing.stl")
         self.assertRaises(PermissionError, pdrmesh.Client(self.address, token="wrong").list)
