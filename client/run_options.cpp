@@ -9,6 +9,7 @@
 #include <limits>
 
 #include "pdrmesh/estimate.hpp"
+#include "pdrmesh/surface_io.hpp"
 
 namespace pdrmesh::cli {
 
@@ -34,6 +35,19 @@ Status SizeArgs::check_tet_limit(const SurfaceMesh& surface, const SizingOptions
   PDR_ASSIGN_OR_RETURN(const MeshEstimate e, estimate_mesh(surface, options));
   if (max_tets > 0) return pdrmesh::check_tet_limit(e, options, max_tets, "--max-tets");
   return pdrmesh::check_tet_limit(e, options, default_max_tets(), "--max-tets, from this machine's memory");
+}
+
+Result<SizingOptions> SizeArgs::job_sizing(const std::filesystem::path& path, std::string& line) const {
+  SizingOptions sizing = options(0);
+  line = "size: from the surface (the coordinator derives it)";
+  const std::optional<SizeValue> s = size_value();
+  if ((s && s->percent) || max_tets > 0) {
+    PDR_ASSIGN_OR_RETURN(const SurfaceMesh surface, read_surface(path));
+    if (s && s->percent) sizing = resolve(surface, line, /*surface_h=*/false);
+    PDR_TRY(check_tet_limit(surface, sizing, false));
+  }
+  if (s && !s->percent) line = fmt::format("size: {:.6g} (--size)", *sizing.size);
+  return sizing;
 }
 
 void SizeArgs::check() const {

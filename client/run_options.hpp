@@ -7,6 +7,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include <filesystem>
 #include <optional>
 #include <string>
 
@@ -40,6 +41,12 @@ struct SizeArgs {
   /// --max-tets, or over this machine's memory when --max-tets is not given
   /// and `machine_default` is set.
   Status check_tet_limit(const SurfaceMesh& surface, const SizingOptions& options, bool machine_default) const;
+  /// The sizing options of a job on the surface file `path`: a percentage
+  /// becomes a length from the surface's bounding box (the coordinator takes
+  /// lengths) and --max-tets is checked against the estimate (the coordinator
+  /// checks its own limits in any case); the file is read only for those.
+  /// `line` says which size the job asks for.
+  Result<SizingOptions> job_sizing(const std::filesystem::path& path, std::string& line) const;
 };
 
 /// Adds --time-limit: seconds the whole run may take (a deadline, exit 75 past it).

@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "exit_codes.hpp"
+#include "job_json.hpp"
 #include "options.hpp"
 #include "pdrmesh/boundary_names_io.hpp"
 #include "pdrmesh/surface_io.hpp"
@@ -63,25 +64,6 @@ int exit_code_for(const grpc::Status& s) {
   }
 }
 
-std::string code_name(grpc::StatusCode c) {
-  switch (c) {
-    case grpc::StatusCode::OK: return "OK";
-    case grpc::StatusCode::CANCELLED: return "CANCELLED";
-    case grpc::StatusCode::INVALID_ARGUMENT: return "INVALID_ARGUMENT";
-    case grpc::StatusCode::DEADLINE_EXCEEDED: return "DEADLINE_EXCEEDED";
-    case grpc::StatusCode::NOT_FOUND: return "NOT_FOUND";
-    case grpc::StatusCode::ALREADY_EXISTS: return "ALREADY_EXISTS";
-    case grpc::StatusCode::PERMISSION_DENIED: return "PERMISSION_DENIED";
-    case grpc::StatusCode::UNAUTHENTICATED: return "UNAUTHENTICATED";
-    case grpc::StatusCode::RESOURCE_EXHAUSTED: return "RESOURCE_EXHAUSTED";
-    case grpc::StatusCode::FAILED_PRECONDITION: return "FAILED_PRECONDITION";
-    case grpc::StatusCode::ABORTED: return "ABORTED";
-    case grpc::StatusCode::UNAVAILABLE: return "UNAVAILABLE";
-    case grpc::StatusCode::DATA_LOSS: return "DATA_LOSS";
-    default: return fmt::format("CODE_{}", static_cast<int>(c));
-  }
-}
-
 /// Prints the error on stderr (and, with --json, as {"error": ...} on stdout).
 int fail(const Common& c, const grpc::Status& s, std::string_view what) {
   fmt::print(stderr, "pdrmesh: {}: {} ({})\n", what, s.error_message(), code_name(s.error_code()));
@@ -93,55 +75,6 @@ int fail(const Common& c, const grpc::Status& s, std::string_view what) {
     fmt::print("{}\n", j.dump());
   }
   return code;
-}
-
-std::string state_name(v1::JobState s) {
-  std::string name = v1::JobState_Name(s);
-  constexpr std::string_view kPrefix = "JOB_STATE_";
-  if (name.rfind(kPrefix, 0) == 0) name = name.substr(kPrefix.size());
-  for (char& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return name;
-}
-
-/// The options a job was submitted with: the ones set.
-nlohmann::json options_json(const v1::MeshOptions& o) {
-  nlohmann::json j = nlohmann::json::object();
-  if (o.has_max_volume()) j["max_volume"] = o.max_volume();
-  if (o.has_time_limit_s()) j["time_limit_s"] = o.time_limit_s();
-  if (o.has_size()) j["size"] = o.size();
-  if (o.has_hmin()) j["hmin"] = o.hmin();
-  if (o.has_hmax()) j["hmax"] = o.hmax();
-  if (o.has_growth()) j["growth"] = o.growth();
-  if (o.has_depth()) j["depth"] = o.depth();
-  if (o.has_kernel()) j["kernel"] = o.kernel();
-  if (o.has_interface_round()) j["interface_round"] = o.interface_round();
-  if (o.has_optimize()) j["optimize"] = o.optimize();
-  // Ascending ids, so the output does not depend on the map's order.
-  const std::map<int, std::string> names(o.surface_names().begin(), o.surface_names().end());
-  for (const auto& [id, name] : names) j["surface_names"][std::to_string(id)] = name;
-  return j;
-}
-
-/// A job as JSON: the proto's field names, numbers as numbers (not the strings
-/// of protobuf's JSON mapping of 64-bit integers), the state as the text output
-/// names it ("succeeded").
-nlohmann::json job_json(const v1::Job& j) {
-  return {{"id", j.id()},
-          {"user", j.user()},
-          {"state", state_name(j.state())},
-          {"phase", j.phase()},
-          {"progress", j.progress()},
-          {"options", options_json(j.options())},
-          {"input_name", j.input_name()},
-          {"input_bytes", j.input_bytes()},
-          {"created_unix_ms", j.created_unix_ms()},
-          {"started_unix_ms", j.started_unix_ms()},
-          {"finished_unix_ms", j.finished_unix_ms()},
-          {"error", j.error()},
-          {"tets", j.tets()},
-          {"points", j.points()},
-          {"leaves_done", j.leaves_done()},
-          {"leaves_total", j.leaves_total()}};
 }
 
 /// How long ago, as kubectl says it: 5s, 3m, 2h, 4d.
@@ -379,22 +312,13 @@ int run_submit(Common& c, const SubmitArgs& a) {
   // coordinator takes lengths.
   SizingOptions sizing = a.mesh.size.options(0);
   if (a.max_volume == 0) {
-    std::string line = "size: from the surface (the coordinator derives it)";
-    const auto s = a.mesh.size.size_value();
-    if ((s && s->percent) || a.mesh.size.max_tets > 0) {
-      auto surface = read_surface(a.surface);
-      if (!surface.ok()) {
-        fmt::print(stderr, "pdrmesh: error: {}\n", surface.status().to_string());
-        return cli::exit_code_for(surface.status());
-      }
-      if (s && s->percent) sizing = a.mesh.size.resolve(*surface, line, /*surface_h=*/false);
-      // The coordinator checks its own limits in any case; --max-tets is the user's own, checked here.
-      if (Status st = a.mesh.size.check_tet_limit(*surface, sizing, false); !st.ok()) {
-        fmt::print(stderr, "pdrmesh: error: {}\n", st.to_string());
-        return cli::exit_code_for(st);
-      }
+    std::string line;
+    auto job_sizing = a.mesh.size.job_sizing(a.surface, line);
+    if (!job_sizing.ok()) {
+      fmt::print(stderr, "pdrmesh: error: {}\n", job_sizing.status().to_string());
+      return cli::exit_code_for(job_sizing.status());
     }
-    if (s && !s->percent) line = fmt::format("size: {:.6g} (--size)", *sizing.size);
+    sizing = *job_sizing;
     fmt::print(stderr, "{}\n", line);
   }
   // The names file's own mistakes (file:line) are found here; the

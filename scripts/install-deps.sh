@@ -16,6 +16,8 @@ packages=(
   libpng-dev                                  # pdrmesh view: PNG pictures
   libgtest-dev libgmock-dev
   python3-yaml                                # tests/deploy: the manifest check
+  pybind11-dev python3-dev python3-numpy      # python/: the Python module pdrmesh
+  python3-meshio                              # tests/python: Mesh.to_meshio
   clang-14 libclang-rt-14-dev                 # scripts/sanitize.sh: ASan/UBSan/TSan builds, libFuzzer
   curl dpkg-dev xz-utils                      # scripts/tsan-tbb.sh: oneTBB's Debian source, built with TSan
 )
