@@ -16,6 +16,22 @@
 
 namespace pdrmesh {
 
+std::string outcome_summary(const OptimizeStats& stats) {
+  static constexpr std::array<const char*, OptimizeStats::kOperationKinds> kKinds{"flips", "insertions", "removals",
+                                                                                "collapses", "moves"};
+  std::string out;
+  for (std::size_t k = 0; k < kKinds.size(); ++k) {
+    const auto& row = stats.tried[k];
+    std::size_t total = 0;
+    for (std::size_t n : row) total += n;
+    if (total == 0) continue;
+    out += fmt::format("{}{} {} done", out.empty() ? "" : "; ", kKinds[k], row[0]);
+    for (std::size_t o = 1; o < kOutcomeCount; ++o)
+      if (row[o] > 0) out += fmt::format(", {} {}", row[o], to_string(static_cast<Outcome>(o)));
+  }
+  return out.empty() ? "no operations tried" : out;
+}
+
 Status validate(const OptimizeOptions& o) {
   const auto bad = [](const char* name, double v) {
     return invalid_input(fmt::format("optimize option {} = {} is out of range", name, v));
@@ -80,9 +96,7 @@ Result<OptimizeStats> optimize(TetMesh& mesh, const SizingField* sizing,
   if (options.smooth && st.sweeps_run > 0 && !settled) {
     while_interior_falls(kPolishRounds, st.polish_rounds, [&] {
       opt.reconnect(opt.interior(bad));
-      opt.set_interior_only(true, options.polish_pins_fixed);
-      opt.smooth();
-      opt.set_interior_only(false);
+      opt.smooth({.interior_only = true, .pin_fixed = options.polish_pins_fixed});
     });
   }
   // Interior repair: flips judged by the full measure, then smoothing of the
@@ -91,14 +105,11 @@ Result<OptimizeStats> optimize(TetMesh& mesh, const SizingField* sizing,
   const bool repair = options.interior_repair && st.sweeps_run > 0;
   const auto repair_rounds = [&] {
     opt.find_fixed();
-    opt.start_repair();
+    const double floor = opt.repair_floor();
+    Optimizer::RepairCriterion criterion(opt, floor);
     while_interior_falls(kRepairRounds, st.repair_rounds, [&] {
-      opt.repair_flips(opt.interior(bad));
-      if (options.smooth) {
-        opt.set_interior_only(true, true, opt.repair_floor());
-        opt.smooth();
-        opt.set_interior_only(false);
-      }
+      opt.repair_flips(opt.interior(bad), criterion, {.insert = true});
+      if (options.smooth) opt.smooth({.interior_only = true, .pin_fixed = true, .pin_floor = floor});
     });
   };
   if (repair) repair_rounds();
@@ -154,7 +165,7 @@ Result<OptimizeStats> optimize(TetMesh& mesh, const SizingField* sizing,
   if (options.repair_caps && options.late_caps && opt.repair_caps(true) > 0) bad = opt.bad_tets();
   // Size polish (optimize.hpp, 9.): the free points of the edges off the
   // surface out of the size band, moved back towards it where no tet gets worse.
-  if (options.smooth && options.polish_sizes && sizing != nullptr && opt.polish_sizes() > 0) bad = opt.bad_tets();
+  if (options.smooth && options.polish_sizes && sizing != nullptr && opt.polish_sizes(options.surface_room) > 0) bad = opt.bad_tets();
   st.bad_after = bad.size();
   if (st.points_removed + st.edges_collapsed > 0 && !options.keep_point_indices) mesh.remove_unused_points();
   const AngleRange after = opt.angles();
