@@ -1223,5 +1223,27 @@ TEST(OptimizeStats, OutcomeSummaryNamesTheReasons) {
   EXPECT_EQ(outcome_summary(st), "flips 3 done, 5 not better; insertions 0 done, 2 too close");
 }
 
+TEST(Schedule, LeafTaskScheduleDropsWhatALeafsSwitchesTurnOff) {
+  // The leaf-task schedule (no absorption, no late caps, no room in the size
+  // polish) gives the mesh that the whole-mesh schedule gives with those
+  // switches off, bit for bit.
+  const VolumeMesh v = jittered_grid(4, 0.45);
+  const SizingField h = uniform_sizing(v, 1.0);
+  OptimizeOptions off;
+  off.surface_room = false;
+  off.late_caps = false;
+  OptimizeOptions leaf;
+  leaf.schedule = OptimizeOptions::Schedule::kLeafTask;
+  TetMesh a = fixtures::build(v), b = fixtures::build(v);
+  auto sa = optimize(a, &h, off);
+  auto sb = optimize(b, &h, leaf);
+  ASSERT_TRUE(sa.ok() && sb.ok());
+  EXPECT_GT(sa->points_moved, 0u);
+  EXPECT_EQ(sb->absorb_cycles, 0);
+  EXPECT_EQ(a.points(), b.points());
+  EXPECT_EQ(a.to_volume_mesh().tets, b.to_volume_mesh().tets);
+  expect_valid(b, nullptr);
+}
+
 }  // namespace
 }  // namespace pdrmesh
