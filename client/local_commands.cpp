@@ -247,6 +247,7 @@ int run_mesh(const MeshArgs& a) {
                "optimization {:.2f} s)",
                result->mesh.tets.size(), result->mesh.points.size(), result->seconds_initial,
                result->seconds_sizing, result->seconds_refine, result->seconds_optimize);
+  if (options.optimize) progress.say("optimization: {}", outcome_summary(result->optimize));
   return finish(result->mesh, surface, outcome, !a.no_validate, progress, a.quiet);
 }
 

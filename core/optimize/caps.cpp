@@ -12,7 +12,6 @@ namespace pdrmesh::optimize_detail {
 /// surface points (whatever its surface triangles), and a star is judged by
 /// kRelaxedCapAngles (cap_angles_rise). Returns the points inserted.
 std::size_t Optimizer::repair_caps(bool relaxed) {
-  relaxed_caps_ = relaxed;
   if (sizing_ == nullptr || !o_.insert_points) return 0;
   // The surface triangles (TetMesh::boundary() with a non-zero id, or all
   // when there are no ids; not a leaf's interface), as sorted keys.
@@ -43,24 +42,24 @@ std::size_t Optimizer::repair_caps(bool relaxed) {
   }
   if (caps.empty()) return 0;
   std::sort(caps.begin(), caps.end());
-  cap_max_angle_ = angles().max;
+  const CapRule rule{.relaxed = relaxed, .max_angle = angles().max};
   std::size_t done = 0;
   for (const auto& [worst, t] : caps)
-    if (eligible(t) && insert_cap(t)) ++done;
+    if (eligible(t) && tally(LocalOperation::kInsertion, insert_cap(t, rule)) == Outcome::kDone) ++done;
   st_.points_inserted += done;
   st_.caps_repaired += done;
   return done;
 }
 
-/// The new tets over link_ with the free point x and no surface point (repair
-/// classes 0 and 2) meet their class's floor (repair_floors of the tets they
-/// replace): a cap repair may not trade the cap for a bad tet away from the
-/// surface.
-bool Optimizer::off_surface_floors_hold(const Vec3& x, const std::array<double, 3>& floors) const {
+/// The new tets over link_ with the free point x and no surface point
+/// (kInterior, kFrozen) meet their class's floor (repair_floors of the tets
+/// they replace): a cap repair may not trade the cap for a bad tet away from
+/// the surface.
+bool Optimizer::off_surface_floors_hold(const Vec3& x, const ClassFloors& floors) const {
   for (const Tri& f : link_) {
-    const int c = repair_class({f[0], f[1], f[2], kNoIndex});  // x: not yet a point, free
-    if (c == 1) continue;
-    if (measure({m_.point(f[0]), m_.point(f[1]), m_.point(f[2]), x}) < floors[static_cast<std::size_t>(c)]) return false;
+    const TetClass c = tet_class({f[0], f[1], f[2], kNoIndex});  // x: not yet a point, free
+    if (c == TetClass::kSurface) continue;
+    if (measure({m_.point(f[0]), m_.point(f[1]), m_.point(f[2]), x}) < floors[c]) return false;
   }
   return true;
 }
@@ -158,20 +157,20 @@ std::vector<Index> Optimizer::cap_seed(Index t) const {
 }
 
 /// Whether the star of x over link_ beats the cavity's tets by their
-/// dihedral angles: the smallest rises, and in the relaxed pass every new
-/// tet lies within kRelaxedCapAngles; otherwise, with two or three kept
-/// faces the largest does not rise. With one (a flat tet on the surface,
-/// whose best star may need a larger angle than the cavity had), the smaller
-/// of the smallest and 180 - the largest rises, and the largest stays within
-/// kCapMaxAngleSlack of the mesh's largest before the cap repair.
-bool Optimizer::cap_angles_rise(const Vec3& x, std::span<const Index> cavity, int kept) const {
+/// dihedral angles (the cap repair's criterion): the smallest rises, and in
+/// the relaxed pass every new tet lies within kRelaxedCapAngles; otherwise,
+/// with two or three kept faces the largest does not rise. With one (a flat
+/// tet on the surface, whose best star may need a larger angle than the
+/// cavity had), the smaller of the smallest and 180 - the largest rises, and
+/// the largest stays within kCapMaxAngleSlack of rule.max_angle.
+bool Optimizer::cap_angles_rise(const Vec3& x, std::span<const Index> cavity, int kept, const CapRule& rule) const {
   const AngleRange old_range = angle_range(nullptr, cavity);
   const AngleRange new_range = angle_range(&x, {});
   if (!(new_range.min > old_range.min)) return false;
-  if (relaxed_caps_) return new_range.min >= kRelaxedCapAngles[0] && new_range.max <= kRelaxedCapAngles[1];
+  if (rule.relaxed) return new_range.min >= kRelaxedCapAngles[0] && new_range.max <= kRelaxedCapAngles[1];
   if (kept == 1)
     return std::min(new_range.min, 180.0 - new_range.max) > std::min(old_range.min, 180.0 - old_range.max) &&
-           new_range.max <= cap_max_angle_ + kCapMaxAngleSlack;
+           new_range.max <= rule.max_angle + kCapMaxAngleSlack;
   return new_range.max <= old_range.max;
 }
 
@@ -193,25 +192,26 @@ bool Optimizer::cap_spaced(const Vec3& x) const {
 /// from cap_seed, and x above the mean centroid of the kept faces, along
 /// their mean inward normal, at kCapHeights times h there (with no kept
 /// face: at t's centroid and beside each of its faces); insert_star does
-/// the rest.
-bool Optimizer::insert_cap(Index t) {
+/// the rest. kDone; kConstrained when t has four kept faces or its cavity
+/// cannot start; else kNotBetter.
+Outcome Optimizer::insert_cap(Index t, const CapRule& rule) {
   const Tet kt = m_.tet(t);
   Vec3 mid{0, 0, 0}, inward{0, 0, 0};
   int kept = 0, kf = 0;  // kf: a kept face (the only one when kept == 1)
   for (int f = 0; f < 4; ++f) {
     if (!kept_face(t, f)) continue;
     Vec3 n;
-    if (!kept_face_normal(t, f, n)) return false;
+    if (!kept_face_normal(t, f, n)) return Outcome::kNotApplicable;
     const Tri k = topo::face_of(kt, f);
     mid = mid + (1.0 / 3.0) * (m_.point(k[0]) + m_.point(k[2]) + m_.point(k[1]));
     inward = inward + n;
     kf = f;
     ++kept;
   }
-  if (kept == 4) return false;
-  if (kept == 1 && free_point(t) && insert_over_fans(t, kf)) return true;
+  if (kept == 4) return Outcome::kConstrained;
+  if (kept == 1 && free_point(t) && insert_over_fans(t, kf, rule)) return Outcome::kDone;
   const std::vector<Index> seed = cap_seed(t);
-  if (seed.empty()) return false;
+  if (seed.empty()) return Outcome::kConstrained;
   std::vector<Vec3> starts;
   if (kept == 0) {
     // Four surface points and no kept face: from the centroid, and off each
@@ -228,12 +228,12 @@ bool Optimizer::insert_cap(Index t) {
   } else {
     mid = (1.0 / static_cast<double>(kept)) * mid;
     const double ln = norm(inward);
-    if (!(ln > 0.0)) return false;
+    if (!(ln > 0.0)) return Outcome::kNotApplicable;
     inward = (1.0 / ln) * inward;
     const double h = sizing_->at(mid);
     for (double height : kCapHeights) starts.push_back(mid + (height * h) * inward);
   }
-  return insert_star(seed, starts, kept);
+  return insert_star(seed, starts, kept, rule) ? Outcome::kDone : Outcome::kNotBetter;
 }
 
 /// For a free-apex cap t (cap_kind) with kept face kf: for each point s of
@@ -244,7 +244,7 @@ bool Optimizer::insert_cap(Index t) {
 /// starting above s along the fan's mean inward normal at kCapHeights times
 /// h(s)), until one is inserted. Frees a to move for the tets left
 /// (polish_angles).
-bool Optimizer::insert_over_fans(Index t, int kf) {
+bool Optimizer::insert_over_fans(Index t, int kf, const CapRule& rule) {
   const Tet kt = m_.tet(t);
   const Index apex = kt[static_cast<std::size_t>(kf)];
   std::vector<Index> star;
@@ -272,7 +272,7 @@ bool Optimizer::insert_over_fans(Index t, int kf) {
     const double h = sizing_->at(x);
     starts.clear();
     for (double height : kCapHeights) starts.push_back(x + (height * h / ln) * inward);
-    if (insert_star(star, starts, 1)) return true;
+    if (insert_star(star, starts, 1, rule)) return true;
   }
   return false;
 }
@@ -281,8 +281,9 @@ bool Optimizer::insert_over_fans(Index t, int kf) {
 /// `seed` (grow_cavity) and x moves as in best_position; the best x by the
 /// worst measure of its star is taken when that beats the cavity's worst
 /// measure, the new tets off the surface hold their floors, the angles rise
-/// (cap_angles_rise with `kept` kept faces) and x is spaced (cap_spaced).
-bool Optimizer::insert_star(const std::vector<Index>& seed, const std::vector<Vec3>& starts, int kept) {
+/// (cap_angles_rise with `kept` kept faces and `rule`) and x is spaced (cap_spaced).
+bool Optimizer::insert_star(const std::vector<Index>& seed, const std::vector<Vec3>& starts, int kept,
+                            const CapRule& rule) {
   // The best candidate: its point, cavity and worst new measure.
   double best_q = -std::numeric_limits<double>::infinity();
   Vec3 best_x{0, 0, 0};
@@ -301,8 +302,8 @@ bool Optimizer::insert_star(const std::vector<Index>& seed, const std::vector<Ve
     double q_old = std::numeric_limits<double>::infinity();
     for (Index u : cavity) q_old = std::min(q_old, measure(corners(m_, m_.tet(u))));
     if (!(q > q_old)) continue;
-    if (!off_surface_floors_hold(x, repair_floors(cavity))) continue;
-    if (!cap_angles_rise(x, cavity, kept) || !cap_spaced(x)) continue;
+    if (!off_surface_floors_hold(x, repair_floors(cavity, kRepairFloor))) continue;
+    if (!cap_angles_rise(x, cavity, kept, rule) || !cap_spaced(x)) continue;
     best_q = q;
     best_x = x;
     best_cavity = cavity;

@@ -32,6 +32,47 @@ namespace pdrmesh::optimize_detail {
 
 enum class Badness { kGood, kBad, kSliver };
 
+/// A tet's class by its points (optimize.hpp, Points): interior (no fixed
+/// point), on the surface (a surface point), or on a frozen face only (fixed
+/// points, none on the surface: a leaf's interface or a region interface,
+/// inside the final mesh, so held like the interior ones).
+enum class TetClass : unsigned char { kInterior, kSurface, kFrozen };
+
+/// A value per TetClass (the repair's floors).
+struct ClassFloors {
+  std::array<double, 3> v{};
+  double& operator[](TetClass c) { return v[static_cast<std::size_t>(c)]; }
+  double operator[](TetClass c) const { return v[static_cast<std::size_t>(c)]; }
+};
+
+/// The smoothing's rule (smooth): which points move and how a move is judged.
+/// Sweeps move every free point of a bad tet and compare whole stars; the
+/// polishing and repair rounds move the points of the interior bad tets only,
+/// and pin the tets with a fixed point (they must not fall below min(their
+/// measure, pin_floor) where they hold a surface point, their measure else).
+struct SmoothRule {
+  bool interior_only = false;
+  bool pin_fixed = false;
+  double pin_floor = 1.0;
+};
+
+/// The cap repair's rule (repair_caps, cap_angles_rise): strict, or the
+/// relaxed pass; and the mesh's largest dihedral angle before the pass
+/// (degrees), which a one-kept-face cap's star may pass by kCapMaxAngleSlack only.
+struct CapRule {
+  bool relaxed = false;
+  double max_angle = 180.0;
+};
+
+/// The bounds of the size polish (polish_sizes): the mesh's extremes as it
+/// began, and the limits its tets with a surface point keep (surface_bounds)
+/// where they have the room; without it they are held as the others are.
+struct SizeBounds {
+  AngleRange mesh{};
+  AngleRange limits{};
+  bool room = true;
+};
+
 /// The cap repair's view of a bad tet (Optimizer::cap_kind).
 enum class CapKind { kNone, kCap, kFreeApex };
 
@@ -220,7 +261,13 @@ class Optimizer {
   /// targets (>= 1 for a good tet).
   double measure(const std::array<Vec3, 4>& p) const { return min_sine(p, acute_, obtuse_); }
 
-  double repair_floor() const { return repair_floor_; }
+  class RepairCriterion;
+  class AbsorbCriterion;
+  /// Which operations repair_tet tries after its flips.
+  struct RepairMoves {
+    bool insert = false;    ///< a point into the tet's cavity (insert_into)
+    bool collapse = false;  ///< an edge collapse, last (collapse_edge)
+  };
 
   // state.cpp
   Badness badness(Index t) const;
@@ -233,21 +280,21 @@ class Optimizer {
   Index first_tet(Index v);
   void find_fixed();
   std::vector<Index> interior(const std::vector<Index>& tets) const;
-  void set_interior_only(bool on, bool pin = false, double pin_floor = 1.0);
   void start_sweep();
 
   // reconnect.cpp
   std::size_t reconnect(std::vector<Index> seeds);
-  std::size_t repair_flips(std::vector<Index> seeds);
 
   // slivers.cpp
   std::size_t insert_into_slivers();
 
   // smooth.cpp
-  std::size_t smooth();
+  std::size_t smooth(const SmoothRule& rule = {});
 
   // repair.cpp
-  void start_repair();
+  double repair_floor();
+  template <class Criterion>
+  std::size_t repair_flips(std::vector<Index> seeds, Criterion& criterion, RepairMoves moves);
   std::size_t absorb(std::vector<Index> seeds);
 
   // caps.cpp
@@ -258,7 +305,7 @@ class Optimizer {
   std::size_t polish_margins(double end = kSearchEnd, bool extremes = false, int layers = 1);
 
   // size_polish.cpp
-  std::size_t polish_sizes();
+  std::size_t polish_sizes(bool room);
 
  private:
   /// An edge off the surface that polish_sizes found long.
@@ -285,8 +332,6 @@ class Optimizer {
   /// none and is within the targets and must stay so, or none and is judged
   /// (outside the targets; or any, for a ring point).
   enum class MarginKind : unsigned char { kSurface, kGood, kBad };
-  /// How the repair's operations judge their new tets (judged, beat).
-  enum class Judge { kRepair, kAbsorb };
 
   /// The star of v: (tet, local index of v), by a walk from `start` across the
   /// faces through v; with kCrossKept false (insert_over_fans) only across
@@ -414,16 +459,24 @@ class Optimizer {
   bool all_on_surface(Index t) const;
   bool free_point(Index t) const;
 
+  class SizeCriterion;
+
+  /// Counts the outcome of an operation of kind `op` in st_.tried; returns it.
+  Outcome tally(LocalOperation op, Outcome o) {
+    ++st_.tried[static_cast<std::size_t>(op)][static_cast<std::size_t>(o)];
+    return o;
+  }
+
   // reconnect.cpp
-  bool try_flips(Index t);
+  Outcome try_flips(Index t);
 
   // slivers.cpp
   void fill_cavity(std::span<const Index> cavity, const Vec3& x);
-  bool insert_into(Index t, bool guard_free = false);
+  Outcome insert_into(Index t, RepairCriterion* guard = nullptr);
 
   // smooth.cpp
   double star_quality(const Vec3& x) const;
-  double best_position(const Vec3& old, double q0, Vec3& best, bool profile = false);
+  double best_position(const Vec3& old, double q0, Vec3& best, const SmoothRule* profile = nullptr);
   bool star_measures(const Vec3& x, std::vector<double>& out,
                      double floor = -std::numeric_limits<double>::infinity()) const;
   void to_profile(const std::vector<double>& measures, std::vector<double>& out) const;
@@ -431,50 +484,48 @@ class Optimizer {
   bool smoothing_accepts(const Vec3& x);
   std::optional<double> link_measure(std::size_t i, const Vec3& x) const;
   void bound_edge_sizes(const Vec3& old);
-  bool smooth_vertex(Index v, Index start);
+  Outcome smooth_vertex(Index v, Index start, const SmoothRule& rule);
 
   // repair.cpp
   double measured(const Tet& k) const;
-  bool fresh_holds(const std::array<double, 3>& floors) const;
-  int repair_class(const Tet& k) const;
-  std::array<double, 3> repair_floors(std::span<const Index> tets, double* worst = nullptr) const;
-  double judged(const Tet& k) const;
-  double judged(const std::array<Vec3, 4>& p, bool surface, double q) const;
-  double beat(std::span<const Index> tets, double worst) const;
-  bool repair_tet(Index t);
-  bool remove_edge_measured(Index t, int e);
-  bool remove_point(Index t);
-  bool collapse_edge(Index t);
+  TetClass tet_class(const Tet& k) const;
+  ClassFloors repair_floors(std::span<const Index> tets, double surface_floor, double* worst = nullptr) const;
+  template <class Criterion>
+  Outcome repair_tet(Index t, Criterion& criterion, RepairMoves moves);
+  template <class Criterion>
+  Outcome remove_point(Index t, Criterion& criterion);
+  template <class Criterion>
+  Outcome collapse_edge(Index t, Criterion& criterion);
   void replace_with_point(std::span<const Index> old, const Vec3& x);
   std::optional<Tet> cone_tet(Index s, int lv, Index w) const;
-  double cone_quality(Index w, double beat) const;
-  bool flip23_measured(Index t, int f);
+  template <class Criterion>
+  double cone_quality(Index w, double beat, Criterion& criterion) const;
 
   // caps.cpp
-  bool off_surface_floors_hold(const Vec3& x, const std::array<double, 3>& floors) const;
+  bool off_surface_floors_hold(const Vec3& x, const ClassFloors& floors) const;
   bool grow_cavity(std::vector<Index>& cavity, const Vec3& x);
   CapKind cap_kind(Index t, const std::vector<Tri>& surface) const;
   std::vector<Index> cap_seed(Index t) const;
-  bool cap_angles_rise(const Vec3& x, std::span<const Index> cavity, int kept) const;
+  bool cap_angles_rise(const Vec3& x, std::span<const Index> cavity, int kept, const CapRule& rule) const;
   bool cap_spaced(const Vec3& x) const;
-  bool insert_cap(Index t);
-  bool insert_over_fans(Index t, int kf);
-  bool insert_star(const std::vector<Index>& seed, const std::vector<Vec3>& starts, int kept);
+  Outcome insert_cap(Index t, const CapRule& rule);
+  bool insert_over_fans(Index t, int kf, const CapRule& rule);
+  bool insert_star(const std::vector<Index>& seed, const std::vector<Vec3>& starts, int kept, const CapRule& rule);
 
   // polish.cpp
   bool polish_point(Index v, Index start);
   AngleRange target_bounds(const AngleRange& r) const;
   double margin(const AngleRange& r) const;
-  AngleRange surface_bounds(const AngleRange& old, const AngleRange& limits) const;
-  bool margin_point(Index v, Index start, double end, bool ring, bool extremes);
+  static AngleRange surface_bounds(const AngleRange& old, const AngleRange& limits, const AngleRange& mesh);
+  bool margin_point(Index v, Index start, double end, bool ring, bool extremes, const AngleRange& mesh);
 
   // size_polish.cpp
   std::pair<std::size_t, double> size_excess(const Vec3& x) const;
-  bool ring_of(const LongEdge& le, EdgeRing& r) const;
-  AngleRange size_bounds(const Tet& t) const;
-  std::size_t size_flips();
-  std::size_t size_splits();
-  bool size_point(Index v, Index start);
+  bool ring_of(const LongEdge& le) const;
+  AngleRange size_bounds(const Tet& t, const SizeBounds& bounds) const;
+  std::size_t size_flips(const SizeBounds& bounds);
+  std::size_t size_splits(const SizeBounds& bounds);
+  bool size_point(Index v, Index start, const SizeBounds& bounds);
 
   TetMesh& m_;
   const SizingField* sizing_;
@@ -485,17 +536,11 @@ class Optimizer {
   std::vector<std::pair<Index, int>> star_;
   std::vector<Tri> link_;  ///< faces of the star being optimised, turned towards its apex
   std::vector<Index> link_points_;
-  double cap_max_angle_ = 180.0;  ///< cap repair: the mesh's largest dihedral angle before it (degrees)
-  bool relaxed_caps_ = false;     ///< cap repair: in the relaxed pass (repair_caps)
   std::vector<double> measures_old_, measures_new_;  ///< smoothing scratch
   std::vector<char> fixed_;     ///< per point, set by find_fixed(): on a frozen, hull or region face
   std::vector<char> surface_;   ///< per point, set by find_fixed(): on a surface triangle
   bool fixed_known_ = false;    ///< find_fixed() has run once
-  bool interior_only_ = false;  ///< see set_interior_only
-  bool pin_fixed_ = false;      ///< smoothing: tets with a fixed point are pinned
-  double pin_floor_ = 1.0;      ///< smoothing: a pinned tet may fall to min(its measure, this)
-  double repair_floor_ = kRepairFloor;  ///< see start_repair
-  std::vector<Tet> fresh_;      ///< repair flips' scratch
+  std::vector<Tet> fresh_;      ///< scratch: the new tets of a removal, collapse or split
   std::vector<Index> removal_star_;     ///< remove_point: the star of the point
   std::vector<Index> removal_targets_;  ///< remove_point: its link points
   std::vector<Index> parent_;
@@ -516,11 +561,6 @@ class Optimizer {
   /// (the margin polish reads them for the tets with a surface point only).
   std::vector<AngleRange> polish_bounds_;
   std::vector<MarginKind> margin_kind_;
-  /// The mesh's extreme dihedral angles when a margin polish round, or the
-  /// size polish, began.
-  AngleRange mesh_angles_{};
-  Judge judge_ = Judge::kRepair;
-  AngleRange size_limits_{};  ///< polish_sizes' surface_bounds limits
   std::vector<LongEdge> long_edges_;  ///< polish_sizes' long edges off the surface
   std::size_t flips_this_sweep_ = 0;
   std::size_t flip_budget_ = 0;
@@ -543,6 +583,67 @@ class Optimizer {
   std::vector<Index> moved_list_;    ///< the points of moved_, in the order first moved
   std::vector<Tri> surface_keys_;    ///< repair_caps: the surface triangles, sorted keys
   bool surface_keys_known_ = false;
+};
+
+/// The interior repair's criterion (repair rounds): a new tet scores its
+/// measure(); the new tets must beat the worst replaced tet's measure, and
+/// each must hold the floor of its class (repair_floors): no interior tet is
+/// traded for a worse one, and no tet with a surface point falls under the
+/// repair floor where the replaced ones with a surface point did not.
+class Optimizer::RepairCriterion final {
+ public:
+  /// `surface_floor`: the repair floor (repair_floor) for tets with a surface point.
+  RepairCriterion(const Optimizer& o, double surface_floor) : o_(o), surface_floor_(surface_floor) {}
+  double bar(std::span<const Index> old) {
+    double worst = 0.0;
+    floors_ = o_.repair_floors(old, surface_floor_, &worst);
+    return worst;
+  }
+  double score(const Tet& k) const { return o_.measure(corners(o_.m_, k)); }
+  double score(const std::array<Vec3, 4>& p, bool /*surface*/) const { return o_.measure(p); }
+  bool accepts(std::span<const Tet> fresh) const {
+    for (const Tet& k : fresh)
+      if (o_.measure(corners(o_.m_, k)) < floors_[o_.tet_class(k)]) return false;
+    return true;
+  }
+  void done(std::span<const Index>, std::span<const double>) const {}
+  /// The floors bar() found, per class.
+  const ClassFloors& floors() const { return floors_; }
+  double surface_floor() const { return surface_floor_; }
+
+ private:
+  const Optimizer& o_;
+  double surface_floor_;
+  ClassFloors floors_{};
+};
+
+/// The absorption's criterion: a new tet with no surface point scores its
+/// measure(); one with a surface point scores +inf when it lies within the
+/// mesh's extremes as the absorption began, else -inf. So an operation is
+/// judged by the tets off the surface (they must beat the worst replaced
+/// one with no surface point), and no extreme of the mesh gets worse.
+class Optimizer::AbsorbCriterion final {
+ public:
+  AbsorbCriterion(const Optimizer& o, const AngleRange& extremes) : o_(o), extremes_(extremes) {}
+  double bar(std::span<const Index> old) const {
+    double q = kInfinity;
+    for (Index t : old)
+      if (o_.tet_class(o_.m_.tet(t)) != TetClass::kSurface) q = std::min(q, o_.measure(corners(o_.m_, o_.m_.tet(t))));
+    return q;
+  }
+  double score(const Tet& k) const {
+    return score(corners(o_.m_, k), o_.tet_class(k) == TetClass::kSurface);
+  }
+  double score(const std::array<Vec3, 4>& p, bool surface) const {
+    if (!surface) return o_.measure(p);
+    return within(dihedral_range(p[0], p[1], p[2], p[3]), extremes_) ? kInfinity : -kInfinity;
+  }
+  bool accepts(std::span<const Tet>) const { return true; }
+  void done(std::span<const Index>, std::span<const double>) const {}
+
+ private:
+  const Optimizer& o_;
+  AngleRange extremes_;
 };
 
 }  // namespace pdrmesh::optimize_detail

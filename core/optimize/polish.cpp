@@ -44,14 +44,14 @@ std::size_t Optimizer::polish_margins(double end, bool extremes, int layers) {
   for (int round = 0; round < kMarginRounds; ++round) {
     std::vector<Index> wanted;
     for (Index t : bad_tets()) {
-      if (repair_class(m_.tet(t)) == 1) continue;
+      if (tet_class(m_.tet(t)) == TetClass::kSurface) continue;
       for (Index v : m_.tet(t)) wanted.push_back(v);
     }
     if (wanted.empty()) break;  // most meshes: no star walks
     std::sort(wanted.begin(), wanted.end());
     wanted.erase(std::unique(wanted.begin(), wanted.end()), wanted.end());
     for (Index v : wanted) marks_[v] = 1;
-    mesh_angles_ = angles();
+    const AngleRange mesh = angles();  // the extremes as the round begins
     // The ring: the free points of the links of the free wanted points that
     // are not wanted themselves; each deeper layer, those of the links of the
     // last layer's points not taken yet. Sets: the walks' order does not matter.
@@ -77,9 +77,9 @@ std::size_t Optimizer::polish_margins(double end, bool extremes, int layers) {
     std::sort(ring.begin(), ring.end());
     std::size_t now = 0;
     for (Index v : ring)
-      if (margin_point(v, first_tet(v), end, /*ring=*/true, extremes)) ++now;
+      if (margin_point(v, first_tet(v), end, /*ring=*/true, extremes, mesh)) ++now;
     for (Index v : wanted)
-      if (!fixed_[v] && margin_point(v, first_tet(v), end, /*ring=*/false, extremes)) ++now;
+      if (!fixed_[v] && margin_point(v, first_tet(v), end, /*ring=*/false, extremes, mesh)) ++now;
     for (Index v : wanted) marks_[v] = 0;
     for (Index v : ring) marks_[v] = 0;
     moved += now;
@@ -133,14 +133,14 @@ double Optimizer::margin(const AngleRange& r) const {
 /// The angles a tet with a surface point may reach from `old` in the margin
 /// and size polish: a side within `limits` stays within them, a side already
 /// past them may go as far as the mesh's extreme on that side when the round
-/// began (mesh_angles_), so neither extreme of the mesh gets worse, nor the
+/// began (`mesh`), so neither extreme of the mesh gets worse, nor the
 /// share of tets past the limits. The margin polish's limits are
 /// kRelaxedCapAngles (no tet crosses 10 or 165 degrees). Next to needle
 /// triangles the tets on the surface are that bad anyway, and letting them
 /// move within that range gives the tets off the surface room.
-AngleRange Optimizer::surface_bounds(const AngleRange& old, const AngleRange& limits) const {
-  return {old.min < limits.min ? std::min(mesh_angles_.min, old.min) : limits.min,
-          old.max > limits.max ? std::max(mesh_angles_.max, old.max) : limits.max};
+AngleRange Optimizer::surface_bounds(const AngleRange& old, const AngleRange& limits, const AngleRange& mesh) {
+  return {old.min < limits.min ? std::min(mesh.min, old.min) : limits.min,
+          old.max > limits.max ? std::max(mesh.max, old.max) : limits.max};
 }
 
 /// Margin polish of v (polish_margins): a compass search for the position
@@ -148,13 +148,13 @@ AngleRange Optimizer::surface_bounds(const AngleRange& old, const AngleRange& li
 /// point, every tet positive (exact); such a tet within the targets stays
 /// within them, and a tet with a surface point keeps its angles within
 /// surface_bounds(its old angles, kRelaxedCapAngles), or with `extremes`
-/// (the absorption's pass) within the mesh's extremes. With `ring`, v is next to a bad tet's
+/// (the absorption's pass) within the mesh's extremes `mesh`. With `ring`, v is next to a bad tet's
 /// point but on none (polish_margins' ring): every tet of its star with no
 /// surface point is judged (all within the targets, and they stay within),
 /// so that the bad tets' points find room next, and with keep_edge_sizes no
 /// edge to a point off the surface is made short (bound_edge_sizes). True
 /// when v moved.
-bool Optimizer::margin_point(Index v, Index start, double end, bool ring, bool extremes) {
+bool Optimizer::margin_point(Index v, Index start, double end, bool ring, bool extremes, const AngleRange& mesh) {
   gather_link(v, start);
   const Vec3 old = m_.point(v);
   double worst = kInfinity;
@@ -165,7 +165,7 @@ bool Optimizer::margin_point(Index v, Index start, double end, bool ring, bool e
     if (on_surface(f)) {
       margin_kind_.push_back(MarginKind::kSurface);
       polish_bounds_.push_back(
-          surface_bounds(r, extremes ? mesh_angles_ : AngleRange{kRelaxedCapAngles[0], kRelaxedCapAngles[1]}));
+          surface_bounds(r, extremes ? mesh : AngleRange{kRelaxedCapAngles[0], kRelaxedCapAngles[1]}, mesh));
       continue;
     }
     const double q = margin(r);

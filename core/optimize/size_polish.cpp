@@ -14,7 +14,7 @@ namespace pdrmesh::optimize_detail {
 /// (size_flips) or split (size_splits) where that holds, then the free
 /// points of all of them and the new points, ascending, are moved by
 /// size_point. Returns the moves.
-std::size_t Optimizer::polish_sizes() {
+std::size_t Optimizer::polish_sizes(bool room) {
   const auto touched = [this](Index v) { return v >= first_new_point_ || (v < moved_.size() && moved_[v] != 0); };
   std::vector<double> h(m_.num_points(), -1.0);
   const auto h_at = [&](Index v) {
@@ -22,9 +22,10 @@ std::size_t Optimizer::polish_sizes() {
     return h[v];
   };
   std::size_t moved = 0;
-  mesh_angles_ = angles();
-  size_limits_ = {std::max(kRelaxedCapAngles[0], mesh_angles_.min),
-                  std::min(kRelaxedCapAngles[1], mesh_angles_.max)};
+  SizeBounds bounds;
+  bounds.room = room;
+  bounds.mesh = angles();
+  bounds.limits = {std::max(kRelaxedCapAngles[0], bounds.mesh.min), std::min(kRelaxedCapAngles[1], bounds.mesh.max)};
   for (int round = 0; round < kSizeRounds; ++round) {
     find_fixed();  // also sized for the points the last round's splits added
     h.resize(m_.num_points(), -1.0);
@@ -58,10 +59,10 @@ std::size_t Optimizer::polish_sizes() {
     long_edges_.erase(std::unique(long_edges_.begin(), long_edges_.end(),
                                   [](const LongEdge& x, const LongEdge& y) { return x.a == y.a && x.b == y.b; }),
                       long_edges_.end());
-    const std::size_t flipped = o_.reconnect ? size_flips() : 0;
+    const std::size_t flipped = o_.reconnect ? size_flips(bounds) : 0;
     st_.flips += flipped;
     st_.size_flips += flipped;
-    const std::size_t split = o_.insert_points ? size_splits() : 0;
+    const std::size_t split = o_.insert_points ? size_splits(bounds) : 0;
     st_.points_inserted += split;
     st_.size_splits += split;
     find_fixed();
@@ -70,7 +71,7 @@ std::size_t Optimizer::polish_sizes() {
     wanted.erase(std::unique(wanted.begin(), wanted.end()), wanted.end());
     std::size_t now = 0;
     for (Index v : wanted)
-      if (fixed_[v] == 0 && size_point(v, first_tet(v))) ++now;
+      if (fixed_[v] == 0 && size_point(v, first_tet(v), bounds)) ++now;
     moved += now;
     if (now + flipped + split == 0) break;
   }
@@ -95,43 +96,60 @@ std::pair<std::size_t, double> Optimizer::size_excess(const Vec3& x) const {
 }
 
 /// Whether the long edge le is still where polish_sizes found it (its tet
-/// alive and holding it: the slot may hold another tet now) and has a
-/// removable ring (flips.hpp), then in r.
-bool Optimizer::ring_of(const LongEdge& le, EdgeRing& r) const {
+/// alive and holding it: the slot may hold another tet now).
+bool Optimizer::ring_of(const LongEdge& le) const {
   if (!m_.alive(le.t)) return false;
   const Tet& k = m_.tet(le.t);
   const Index u = k[topo::kEdgeVertex[le.e][0]], w = k[topo::kEdgeVertex[le.e][1]];
-  if (std::min(u, w) != le.a || std::max(u, w) != le.b) return false;
-  return removable_edge_ring(m_, le.t, le.e, 0, r) == FlipOutcome::kDone;
+  return std::min(u, w) == le.a && std::max(u, w) == le.b;
 }
 
 /// The angles a new tet of the size flips and splits must lie within: the
-/// targets, or size_limits_ for a tet with a surface point with the room.
-AngleRange Optimizer::size_bounds(const Tet& t) const {
-  if (o_.surface_room && repair_class(t) == 1) return size_limits_;
+/// targets, or bounds.limits for a tet with a surface point with the room.
+AngleRange Optimizer::size_bounds(const Tet& t, const SizeBounds& bounds) const {
+  if (bounds.room && tet_class(t) == TetClass::kSurface) return bounds.limits;
   return {o_.target_min_dihedral, o_.target_max_dihedral};
 }
+
+/// The size flips' criterion: a new tet scores its measure() when it lies
+/// within its size_bounds, else -inf; any such triangulation is taken (no
+/// bar: the flip removes an edge out of the band, and the bounds keep the
+/// angles).
+class Optimizer::SizeCriterion final {
+ public:
+  SizeCriterion(const Optimizer& o, const SizeBounds& bounds) : o_(o), bounds_(bounds) {}
+  double bar(std::span<const Index>) const { return -kInfinity; }
+  double score(const Tet& k) const {
+    const auto p = corners(o_.m_, k);
+    return within(dihedral_range(p[0], p[1], p[2], p[3]), o_.size_bounds(k, bounds_)) ? o_.measure(p) : -kInfinity;
+  }
+  bool accepts(std::span<const Tet>) const { return true; }
+  void done(std::span<const Index>, std::span<const double>) const {}
+
+ private:
+  const Optimizer& o_;
+  const SizeBounds& bounds_;
+};
 
 /// Size flips (before each round's moves): each long edge of long_edges_
 /// (in the order of its ends, from the first tet in slot order that held it
 /// when the round began, if that tet still does) is removed where a triangulation of its
 /// ring exists whose new tets are positive (exact), those with no surface
-/// point within the targets and those with one within size_limits_, and
+/// point within the targets and those with one within bounds.limits, and
 /// whose new edges are all shorter than the removed one and, between two
 /// points off the surface, within [kShortEdge, kLongEdge] h at their
 /// midpoint: one edge fewer out of the band, none added. The triangulation
 /// with the best smallest measure wins. Returns the flips.
-std::size_t Optimizer::size_flips() {
+std::size_t Optimizer::size_flips(const SizeBounds& bounds) {
   std::size_t flips = 0;
+  SizeCriterion criterion(*this, bounds);
   for (const LongEdge& le : long_edges_) {
-    EdgeRing r;
-    if (!ring_of(le, r)) continue;
-    const Vec3 d = m_.point(r.a) - m_.point(r.b);
+    if (!ring_of(le)) continue;
+    const Vec3 d = m_.point(le.a) - m_.point(le.b);
     const double removed2 = dot(d, d);
-    const int n = r.size;
     // A diagonal (ring[i], ring[j]) that is not a side of the ring polygon is a new edge.
-    const auto refused = [&](int i, int j) {
-      if (j - i < 2 || (i == 0 && j == n - 1)) return false;
+    const auto refused = [&](const EdgeRing& r, int i, int j) {
+      if (j - i < 2 || (i == 0 && j == r.size - 1)) return false;
       const Vec3 &x = m_.point(r.ring[i]), &y = m_.point(r.ring[j]);
       const double l2 = dot(x - y, x - y);
       if (l2 >= removed2) return true;
@@ -139,18 +157,10 @@ std::size_t Optimizer::size_flips() {
       const double h = sizing_->at(0.5 * (x + y));
       return l2 < kShortEdge * kShortEdge * h * h || l2 > kLongEdge * kLongEdge * h * h;
     };
-    const auto quality = [&](const Tet& t) {
-      const double q = measured(t);
-      if (q == -kInfinity) return q;
-      const auto p = corners(m_, t);
-      return within(dihedral_range(p[0], p[1], p[2], p[3]), size_bounds(t)) ? q : -kInfinity;
+    const auto excluded = [&](const EdgeRing& r, int i, int m, int j) {
+      return refused(r, i, m) || refused(r, m, j) || refused(r, i, j);
     };
-    RingTriangulation best;
-    const auto excluded = [&](int i, int m, int j) { return refused(i, m) || refused(m, j) || refused(i, j); };
-    if (!best_ring_triangulation(r, -kInfinity, quality, excluded, best)) continue;
-    fresh_.assign(best.tets.begin(), best.tets.begin() + best.count);
-    parent_.assign(fresh_.size(), 0);
-    m_.replace_cavity(std::span<const Index>(r.tets.data(), static_cast<std::size_t>(n)), fresh_, parent_);
+    if (tally(LocalOperation::kFlip, remove_edge(m_, le.t, le.e, criterion, excluded)) != Outcome::kDone) continue;
     forget_created();
     ++flips;
   }
@@ -164,11 +174,11 @@ std::size_t Optimizer::size_flips() {
 /// off the surface lies out of [kShortEdge, kLongEdge] h (x moves next, with
 /// the polish's moves). x is tried at kSplitAt along the edge, the first
 /// that holds taken. Returns the points added.
-std::size_t Optimizer::size_splits() {
+std::size_t Optimizer::size_splits(const SizeBounds& bounds) {
   std::size_t splits = 0;
   for (const LongEdge& le : long_edges_) {
     EdgeRing r;
-    if (!ring_of(le, r)) continue;
+    if (!ring_of(le) || removable_edge_ring(m_, le.t, le.e, 0, r) != Outcome::kDone) continue;
     // Whether the new tets of a split at x hold (fresh_ gets them, with
     // kNoIndex for the new point).
     const auto holds = [&](const Vec3& x) {
@@ -184,7 +194,7 @@ std::size_t Optimizer::size_splits() {
       fresh_.clear();
       for (int i = 0; i < r.size; ++i) {
         const Tet& t = m_.tet(r.tets[i]);
-        const AngleRange bounds = size_bounds(t);  // the two halves hold t's points
+        const AngleRange limits = size_bounds(t, bounds);  // the two halves hold t's points
         for (const Index replaced : {r.a, r.b}) {
           Tet n = t;
           std::array<Vec3, 4> p = corners(m_, t);
@@ -193,7 +203,7 @@ std::size_t Optimizer::size_splits() {
               p[j] = x;
               n[j] = kNoIndex;
             }
-          if (exact::orient3d(p[0], p[1], p[2], p[3]) <= 0 || !within(dihedral_range(p[0], p[1], p[2], p[3]), bounds))
+          if (exact::orient3d(p[0], p[1], p[2], p[3]) <= 0 || !within(dihedral_range(p[0], p[1], p[2], p[3]), limits))
             return false;
           fresh_.push_back(n);
         }
@@ -219,8 +229,8 @@ std::size_t Optimizer::size_splits() {
 /// every tet of the star positive (exact); one with no surface point within
 /// the targets or, where it was outside, no worse on either side than it
 /// was; one with a surface point within surface_bounds(its old angles,
-/// size_limits_). True when v moved.
-bool Optimizer::size_point(Index v, Index start) {
+/// bounds.limits, bounds.mesh). True when v moved.
+bool Optimizer::size_point(Index v, Index start, const SizeBounds& bounds) {
   gather_link(v, start);
   gather_link_points();
   const Vec3 old = m_.point(v);
@@ -233,8 +243,8 @@ bool Optimizer::size_point(Index v, Index start) {
   polish_bounds_.clear();
   for (const Tri& f : link_) {
     const AngleRange r = dihedral_range(m_.point(f[0]), m_.point(f[1]), m_.point(f[2]), old);
-    const bool room = o_.surface_room && on_surface(f);
-    polish_bounds_.push_back(room ? surface_bounds(r, size_limits_) : target_bounds(r));
+    const bool room = bounds.room && on_surface(f);
+    polish_bounds_.push_back(room ? surface_bounds(r, bounds.limits, bounds.mesh) : target_bounds(r));
   }
   const Vec3 to = compass_search(old, [&](const Vec3& y) {
     const std::pair<std::size_t, double> excess = size_excess(y);

@@ -15,7 +15,7 @@ std::size_t Optimizer::insert_into_slivers() {
   std::size_t inserted = 0;
   for (Index t : slivers) {
     if (!m_.alive(t) || badness(t) != Badness::kSliver) continue;  // a flip took the slot
-    if (!insert_into(t)) continue;
+    if (tally(LocalOperation::kInsertion, insert_into(t)) != Outcome::kDone) continue;
     ++inserted;
     ++st_.slivers_removed;
     const auto created = m_.last_created();
@@ -38,13 +38,15 @@ void Optimizer::fill_cavity(std::span<const Index> cavity, const Vec3& x) {
 
 /// Replaces the sliver t and its four face neighbours by the star of a new
 /// point over the cavity's boundary, when the new tets are all positive, beat
-/// the cavity's worst measure, and the point keeps its distance.
-bool Optimizer::insert_into(Index t, bool guard_free) {
-  if ((m_.flags(t) & TetMesh::kFrozenMask) != 0) return false;
+/// the cavity's worst measure, and the point keeps its distance; with a
+/// `guard` (the interior repair), also when the guard accepts the new tets
+/// (RepairCriterion: each holds its class's floor). kDone, or why not.
+Outcome Optimizer::insert_into(Index t, RepairCriterion* guard) {
+  if ((m_.flags(t) & TetMesh::kFrozenMask) != 0) return Outcome::kConstrained;
   std::array<Index, 5> cavity{t, 0, 0, 0, 0};
   for (int f = 0; f < 4; ++f) {
     const Index n = m_.neighbour(t, f);
-    if (n == kNoIndex || m_.region(face_tet(n)) != m_.region(t)) return false;
+    if (n == kNoIndex || m_.region(face_tet(n)) != m_.region(t)) return Outcome::kConstrained;
     cavity[static_cast<std::size_t>(f + 1)] = face_tet(n);
   }
   double q_old = std::numeric_limits<double>::infinity();
@@ -70,7 +72,7 @@ bool Optimizer::insert_into(Index t, bool guard_free) {
     if (same == 1) {
       outer.push_back(link_[i]);
     } else if (faces[i].second) {
-      return false;  // a frozen face inside the cavity
+      return Outcome::kConstrained;  // a frozen face inside the cavity
     }
   }
   // Every vertex of the cavity must stay a vertex of the refill: one whose
@@ -80,7 +82,7 @@ bool Optimizer::insert_into(Index t, bool guard_free) {
     for (Index v : m_.tet(u))
       if (std::none_of(outer.begin(), outer.end(),
                        [v](const Tri& f) { return f[0] == v || f[1] == v || f[2] == v; }))
-        return false;
+        return Outcome::kNotApplicable;
   link_ = outer;
   const Tet& k = m_.tet(t);
   const Vec3 centroid =
@@ -90,20 +92,20 @@ bool Optimizer::insert_into(Index t, bool guard_free) {
   double q = best_position(centroid, q_centroid, x);
   if (!(q > q_centroid)) x = centroid;
   q = std::max(q, q_centroid);
-  if (!(q > q_old)) return false;
+  if (!(q > q_old)) return Outcome::kNotBetter;
   const double h = sizing_->at(x);
   for (Index u : link_points_)
-    if (norm(m_.point(u) - x) < o_.insert_min_distance * h) return false;
-  if (guard_free) {  // the repair: the new tets hold the old ones' floors (fresh_holds)
-    const auto floors = repair_floors(cavity);
+    if (norm(m_.point(u) - x) < o_.insert_min_distance * h) return Outcome::kTooClose;
+  if (guard != nullptr) {  // the repair: the new tets hold the old ones' floors
+    guard->bar(cavity);
+    const ClassFloors& floors = guard->floors();
     for (const Tri& f : link_) {
-      const int c = repair_class({f[0], f[1], f[2], kNoIndex});  // the new point is free
-      if (measure({m_.point(f[0]), m_.point(f[1]), m_.point(f[2]), x}) < floors[static_cast<std::size_t>(c)])
-        return false;
+      const TetClass c = tet_class({f[0], f[1], f[2], kNoIndex});  // the new point is free
+      if (measure({m_.point(f[0]), m_.point(f[1]), m_.point(f[2]), x}) < floors[c]) return Outcome::kNotBetter;
     }
   }
   fill_cavity(cavity, x);
-  return true;
+  return Outcome::kDone;
 }
 
 }  // namespace pdrmesh::optimize_detail

@@ -6,12 +6,13 @@
 
 namespace pdrmesh::optimize_detail {
 
-/// One smoothing pass over the free vertices of bad tets, ascending.
-std::size_t Optimizer::smooth() {
+/// One smoothing pass over the free vertices of bad tets (with
+/// rule.interior_only, of the bad tets with no fixed point), ascending.
+std::size_t Optimizer::smooth(const SmoothRule& rule) {
   find_fixed();
   const std::vector<char>& fixed = fixed_;
   std::vector<Index> bad = bad_tets();
-  if (interior_only_) bad = interior(bad);
+  if (rule.interior_only) bad = interior(bad);
   std::vector<Index> todo, next;
   for (Index t : bad)
     for (Index v : m_.tet(t))
@@ -35,7 +36,7 @@ std::size_t Optimizer::smooth() {
         if (retries == 0) break;
         --retries;
       }
-      if (!smooth_vertex(v, first_tet(v))) continue;
+      if (tally(LocalOperation::kMove, smooth_vertex(v, first_tet(v), rule)) != Outcome::kDone) continue;
       ++moved_now;
       for (const auto& s : star_)
         if (badness(s.first) != Badness::kGood)
@@ -69,11 +70,11 @@ double Optimizer::star_quality(const Vec3& x) const {
 /// (kLineSteps steps 1, 1/2, 1/4, ...; the first step that beats q0 is taken
 /// per target).
 /// Returns the best quality found, > q0 only when `best` improves.
-/// With `profile`, a position counts as better when its star_profile is
-/// lexicographically greater (the first differing quality higher) than the
-/// one in profile_old_ (and than the best so far); the return value is then
-/// the best profile's worst quality.
-double Optimizer::best_position(const Vec3& old, double q0, Vec3& best, bool profile) {
+/// With `profile` (the smoothing's rule), a position counts as better when
+/// its star_profile is lexicographically greater (the first differing quality
+/// higher) than the one in profile_old_ (and than the best so far); the
+/// return value is then the best profile's worst quality.
+double Optimizer::best_position(const Vec3& old, double q0, Vec3& best, const SmoothRule* profile) {
   // Target 1: the mean of the link's vertices (each once).
   gather_link_points();
   Vec3 laplace{0, 0, 0};
@@ -90,7 +91,7 @@ double Optimizer::best_position(const Vec3& old, double q0, Vec3& best, bool pro
   for (std::size_t i = 0; i < link_.size(); ++i) {
     // The repair's smoothing aims at the worst judged tet (a pinned one
     // only leads when all are).
-    if (profile && pin_floor_ < 1.0 && pinned_[i] && !all_pinned_) continue;
+    if (profile != nullptr && profile->pin_floor < 1.0 && pinned_[i] && !all_pinned_) continue;
     const Tri& f = link_[i];
     const Vec3 &a = m_.point(f[0]), &b = m_.point(f[1]), &c = m_.point(f[2]);
     const double q = measure({a, b, c, old});
@@ -101,12 +102,12 @@ double Optimizer::best_position(const Vec3& old, double q0, Vec3& best, bool pro
 
   double best_q = q0;
   best = old;
-  if (profile) profile_best_ = profile_old_;
+  if (profile != nullptr) profile_best_ = profile_old_;
   for (const Vec3& target : {laplace, ideal, worst_ideal}) {
     double step = 1.0;
     for (int i = 0; i < kLineSteps; ++i, step *= 0.5) {
       const Vec3 x = old + step * (target - old);
-      if (profile) {
+      if (profile != nullptr) {
         if (!smoothing_accepts(x)) continue;
         if (profile_best_ < profile_new_) {
           std::swap(profile_best_, profile_new_);
@@ -212,34 +213,37 @@ void Optimizer::bound_edge_sizes(const Vec3& old) {
   }
 }
 
-bool Optimizer::smooth_vertex(Index v, Index start) {
+/// Smoothing of the free point v (smooth): kDone when it moved, kWouldInvert
+/// when its star holds a tet that is not positive already, else kNotBetter.
+Outcome Optimizer::smooth_vertex(Index v, Index start, const SmoothRule& rule) {
   gather_link(v, start);
   const Vec3 old = m_.point(v);
   Vec3 best;
-  if (!star_measures(old, measures_old_)) return false;
+  if (!star_measures(old, measures_old_)) return Outcome::kWouldInvert;
   // In the polishing rounds, a tet with a fixed point is pinned: it only
   // must not get worse, and the move is judged by the other tets' profile.
+  const bool pin = rule.interior_only && rule.pin_fixed;
   pinned_.assign(link_.size(), 0);
   all_pinned_ = true;
   for (std::size_t i = 0; i < link_.size(); ++i) {
     bool pinned = false;
-    for (Index u : link_[i]) pinned = pinned || (pin_fixed_ && u < fixed_.size() && fixed_[u] != 0);
+    for (Index u : link_[i]) pinned = pinned || (pin && u < fixed_.size() && fixed_[u] != 0);
     pinned_[i] = pinned ? 1 : 0;
     all_pinned_ = all_pinned_ && pinned;
   }
   to_profile(measures_old_, profile_old_);
-  if (profile_old_.front() >= 1.0) return false;  // the star is good already
+  if (profile_old_.front() >= 1.0) return Outcome::kNotBetter;  // the star is good already
   bound_edge_sizes(old);
   lower_.resize(link_.size());
   for (std::size_t i = 0; i < link_.size(); ++i)
-    lower_[i] = pinned_[i] && !all_pinned_ ? std::min(measures_old_[i], on_surface(link_[i]) ? pin_floor_ : 1.0)
+    lower_[i] = pinned_[i] && !all_pinned_ ? std::min(measures_old_[i], on_surface(link_[i]) ? rule.pin_floor : 1.0)
                                            : profile_old_.front();
   // Targets and line search as best_position, but compared by the star's
   // profile (smoothing_accepts): a move may improve a bad tet while the
   // star's worst tet, which v cannot help (e.g. a tet on the boundary), stays
   // as it is; tets within the targets count as equal.
   const double q0 = profile_old_.front();
-  (void)best_position(old, q0, best, /*profile=*/true);
+  (void)best_position(old, q0, best, &rule);
   if (best == old) {
     // Steps that smoothing_accepts and whose profile beats profile_best_
     // (the old profile: no target helped).
@@ -249,9 +253,9 @@ bool Optimizer::smooth_vertex(Index v, Index start) {
       return true;
     });
   }
-  if (best == old) return false;
+  if (best == old) return Outcome::kNotBetter;
   move_point(v, best);
-  return true;
+  return Outcome::kDone;
 }
 
 }  // namespace pdrmesh::optimize_detail

@@ -159,15 +159,6 @@ std::vector<Index> Optimizer::interior(const std::vector<Index>& tets) const {
   return out;
 }
 
-/// Restricts smooth() to the vertices of bad tets with no fixed point.
-/// With `pin` (the polishing rounds' polish_pins_fixed), smoothing also pins
-/// the tets with a fixed point (see optimize.hpp).
-void Optimizer::set_interior_only(bool on, bool pin, double pin_floor) {
-  interior_only_ = on;
-  pin_fixed_ = on && pin;
-  pin_floor_ = pin_floor;
-}
-
 void Optimizer::start_sweep() {
   flips_this_sweep_ = 0;
   flip_budget_ = static_cast<std::size_t>(o_.max_flips_per_tet * m_.num_tets()) + 1;

@@ -13,13 +13,6 @@
 namespace pdrmesh {
 namespace {
 
-constexpr double kInvalid = -std::numeric_limits<double>::infinity();
-constexpr double kEmpty = std::numeric_limits<double>::infinity();
-
-bool positive(const TetMesh& m, const Tet& k) {
-  return exact::orient3d(m.point(k[0]), m.point(k[1]), m.point(k[2]), m.point(k[3])) > 0;
-}
-
 /// tet_quality of the alive tet t, through the mesh's cache.
 double quality_of(TetMesh& m, Index t) {
   double q = m.cached_quality(t);
@@ -30,63 +23,49 @@ double quality_of(TetMesh& m, Index t) {
   return q;
 }
 
-/// Edge removal (ring size `required`, 0: any). The new tets must all beat the
-/// old ones' worst quality, or, when `floor` is not NaN, beat min(floor, that
-/// worst) and create no edge as long as the removed one (remove_long_edge).
-FlipOutcome remove_edge_of_size(TetMesh& m, Index t, int e, int required,
-                                double floor = std::numeric_limits<double>::quiet_NaN()) {
-  EdgeRing r;
-  if (const FlipOutcome why = removable_edge_ring(m, t, e, required, r); why != FlipOutcome::kDone) return why;
-  const int n = r.size;
-  double old_quality = kEmpty;
-  for (int i = 0; i < n; ++i) old_quality = std::min(old_quality, quality_of(m, r.tets[i]));
-  const bool shorten = !std::isnan(floor);
-  double edge2 = std::numeric_limits<double>::infinity();
-  if (shorten) {
-    old_quality = std::min(old_quality, floor);
-    const Vec3 d = m.point(r.a) - m.point(r.b);
-    edge2 = dot(d, d);
-  }
-  // A diagonal (ring[i], ring[j]) that is not a side of the ring polygon is a new edge.
-  const auto too_long = [&](int i, int j) {
-    if (j - i < 2 || (i == 0 && j == n - 1)) return false;
+/// The triangulations of remove_long_edge: every new edge (a diagonal of the
+/// ring polygon that is not one of its sides) strictly shorter than the removed one.
+struct ShorterEdges {
+  const TetMesh& m;
+  double edge2;  ///< the removed edge's squared length
+  bool too_long(const EdgeRing& r, int i, int j) const {
+    if (j - i < 2 || (i == 0 && j == r.size - 1)) return false;
     const Vec3 d = m.point(r.ring[i]) - m.point(r.ring[j]);
     return dot(d, d) >= edge2;
-  };
-  const auto quality = [&m](const Tet& k) { return positive(m, k) ? tet_quality(m, k) : kInvalid; };
-  RingTriangulation best;
-  const bool found =
-      shorten ? best_ring_triangulation(
-                    r, old_quality, quality,
-                    [&](int i, int k, int j) { return too_long(i, k) || too_long(k, j) || too_long(i, j); }, best)
-              : best_ring_triangulation(r, old_quality, quality, [](int, int, int) { return false; }, best);
-  // No candidate survived: some tet was merely not better, or every one inverted.
-  if (!found) return best.pruned ? FlipOutcome::kNotBetter : FlipOutcome::kWouldInvert;
-
-  std::array<Index, RingTriangulation::kMaxTets> parent{};
-  const auto c = static_cast<std::size_t>(best.count);
-  m.replace_cavity(std::span<const Index>(r.tets.data(), static_cast<std::size_t>(n)),
-                   std::span<const Tet>(best.tets.data(), c), std::span<const Index>(parent.data(), c));
-  for (std::size_t j = 0; j < c; ++j) m.set_cached_quality(m.last_created()[j], best.quality[j]);
-  return FlipOutcome::kDone;
-}
+  }
+  bool operator()(const EdgeRing& r, int i, int k, int j) const {
+    return too_long(r, i, k) || too_long(r, k, j) || too_long(r, i, j);
+  }
+};
 
 }  // namespace
 
-std::string_view to_string(FlipOutcome o) {
+std::string_view to_string(Outcome o) {
   switch (o) {
-    case FlipOutcome::kDone:
+    case Outcome::kDone:
       return "done";
-    case FlipOutcome::kNotBetter:
+    case Outcome::kNotBetter:
       return "not better";
-    case FlipOutcome::kConstrained:
+    case Outcome::kConstrained:
       return "constrained";
-    case FlipOutcome::kWouldInvert:
+    case Outcome::kWouldInvert:
       return "would invert";
-    case FlipOutcome::kNotApplicable:
+    case Outcome::kNotApplicable:
       return "not applicable";
+    case Outcome::kTooClose:
+      return "too close";
   }
   return "?";
+}
+
+double MaxDihedral::bar(std::span<const Index> old) const {
+  double worst = std::numeric_limits<double>::infinity();
+  for (Index t : old) worst = std::min(worst, quality_of(mesh_, t));
+  return std::min(worst, floor_);
+}
+
+void MaxDihedral::done(std::span<const Index> created, std::span<const double> scores) const {
+  for (std::size_t j = 0; j < created.size(); ++j) mesh_.set_cached_quality(created[j], scores[j]);
 }
 
 double max_dihedral_cosine(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
@@ -143,46 +122,32 @@ FlipOutcome removable_edge_ring(const TetMesh& m, Index t, int e, int required, 
 }
 
 FlipOutcome flip23(TetMesh& mesh, Index t, int f) {
-  if (t >= mesh.num_slots() || !mesh.alive(t)) return FlipOutcome::kNotApplicable;
-  const Index n = mesh.neighbour(t, f);
-  if (n == kNoIndex) return FlipOutcome::kNotApplicable;
-  if (mesh.frozen(t, f)) return FlipOutcome::kConstrained;
-  const Index u = face_tet(n);
-  if (mesh.region(t) != mesh.region(u)) return FlipOutcome::kConstrained;
-  // Face (a, b, c) is outward from t: its apex d lies below it and u's apex e above.
-  const Tet& kt = mesh.tet(t);
-  const Index a = kt[topo::kFaceVertex[f][0]];
-  const Index b = kt[topo::kFaceVertex[f][1]];
-  const Index c = kt[topo::kFaceVertex[f][2]];
-  const Index d = kt[f];
-  const Index e = mesh.tet(u)[face_local(n)];
-  const std::array<Tet, 3> fresh{Tet{a, b, d, e}, Tet{b, c, d, e}, Tet{c, a, d, e}};
-  for (const Tet& k : fresh)
-    if (!positive(mesh, k)) return FlipOutcome::kWouldInvert;
-  const double old_quality = std::min(quality_of(mesh, t), quality_of(mesh, u));
-  std::array<double, 3> quality{};
-  for (std::size_t j = 0; j < 3; ++j) {
-    quality[j] = tet_quality(mesh, fresh[j]);
-    if (!(quality[j] > old_quality)) return FlipOutcome::kNotBetter;
-  }
-  const std::array<Index, 2> old{t, u};
-  const std::array<Index, 3> parent{0, 0, 0};
-  mesh.replace_cavity(old, fresh, parent);
-  for (std::size_t j = 0; j < 3; ++j) mesh.set_cached_quality(mesh.last_created()[j], quality[j]);
-  return FlipOutcome::kDone;
+  MaxDihedral criterion(mesh);
+  return flip23(mesh, t, f, criterion);
 }
 
-FlipOutcome flip32(TetMesh& mesh, Index t, int e) { return remove_edge_of_size(mesh, t, e, 3); }
+FlipOutcome flip32(TetMesh& mesh, Index t, int e) {
+  MaxDihedral criterion(mesh);
+  return remove_edge(mesh, t, e, criterion, AnyTriangulation{}, 3);
+}
 
-FlipOutcome flip44(TetMesh& mesh, Index t, int e) { return remove_edge_of_size(mesh, t, e, 4); }
+FlipOutcome flip44(TetMesh& mesh, Index t, int e) {
+  MaxDihedral criterion(mesh);
+  return remove_edge(mesh, t, e, criterion, AnyTriangulation{}, 4);
+}
 
 FlipOutcome remove_edge(TetMesh& mesh, Index t, int e) {
-  return remove_edge_of_size(mesh, t, e, 0);
+  MaxDihedral criterion(mesh);
+  return remove_edge(mesh, t, e, criterion);
 }
 
 FlipOutcome remove_long_edge(TetMesh& mesh, Index t, int e, double floor) {
   if (std::isnan(floor)) return FlipOutcome::kNotApplicable;
-  return remove_edge_of_size(mesh, t, e, 0, floor);
+  if (t >= mesh.num_slots() || !mesh.alive(t)) return FlipOutcome::kNotApplicable;
+  const Tet& k = mesh.tet(t);
+  const Vec3 d = mesh.point(k[topo::kEdgeVertex[e][0]]) - mesh.point(k[topo::kEdgeVertex[e][1]]);
+  MaxDihedral criterion(mesh, floor);
+  return remove_edge(mesh, t, e, criterion, ShorterEdges{mesh, dot(d, d)});
 }
 
 }  // namespace pdrmesh

@@ -1115,5 +1115,135 @@ TEST(Optimize, ImprovesTetgenSphereInterior) {
   expect_valid(m, &*surface);
 }
 
+// Per pass, on the named fixtures above: the outcome each local operation
+// reports (OptimizeStats::tried), and a valid mesh.
+
+TEST(Reconnect, DeclinesEveryFlipAroundASliverBetweenHullEdges) {
+  // Every edge of the sliver is a hull edge and every face of it borders a
+  // cap: no flip applies, or it would remove a frozen face.
+  const VolumeMesh v = capped_sliver(0.02);
+  TetMesh m = fixtures::build(v);
+  OptimizeOptions o;
+  o.smooth = false;
+  auto st = optimize(m, nullptr, o);
+  ASSERT_TRUE(st.ok()) << st.status().to_string();
+  EXPECT_EQ(st->count(LocalOperation::kFlip, Outcome::kDone), 0u);
+  EXPECT_GT(st->count(LocalOperation::kFlip, Outcome::kNotApplicable) +
+                st->count(LocalOperation::kFlip, Outcome::kConstrained),
+            0u);
+  EXPECT_EQ(m.points(), v.points);
+  expect_valid(m, nullptr);
+}
+
+TEST(Reconnect, FlipsThePlantedSliverAway) {
+  const VolumeMesh v = grid_with_planted_sliver(0.05);
+  TetMesh m = fixtures::build(v);
+  OptimizeOptions o;
+  o.smooth = false;
+  auto st = optimize(m, nullptr, o);
+  ASSERT_TRUE(st.ok()) << st.status().to_string();
+  EXPECT_EQ(st->count(LocalOperation::kFlip, Outcome::kDone), st->flips);
+  EXPECT_GE(st->flips, 1u);
+  EXPECT_GT(st->min_dihedral_after, st->min_dihedral_before);
+  expect_valid(m, nullptr);
+}
+
+TEST(SliverInsertion, DeclinesAPointTooCloseToTheHullEdges) {
+  // Any point in the capped sliver's cavity lies within e of two of its hull
+  // edges: with a spacing of half of h = 1.5 every insertion is too close.
+  const VolumeMesh v = capped_sliver(0.02);
+  TetMesh m = fixtures::build(v);
+  const SizingField h = uniform_sizing(v, 1.5);
+  OptimizeOptions o;
+  o.smooth = false;
+  o.repair_caps = false;
+  auto st = optimize(m, &h, o);
+  ASSERT_TRUE(st.ok()) << st.status().to_string();
+  EXPECT_EQ(st->count(LocalOperation::kInsertion, Outcome::kDone), 0u);
+  EXPECT_GT(st->count(LocalOperation::kInsertion, Outcome::kTooClose) +
+                st->count(LocalOperation::kInsertion, Outcome::kNotBetter),
+            0u);
+  EXPECT_EQ(m.points(), v.points);
+  expect_valid(m, nullptr);
+}
+
+TEST(Smoothing, MovesTheMisplacedPointAndCountsTheMove) {
+  VolumeMesh v = kuhn_grid_with_hull(3);
+  v.points[1 + 4 * (1 + 4 * 1)] = {1.95, 1.92, 1.96};
+  TetMesh m = fixtures::build(v);
+  OptimizeOptions o;
+  o.reconnect = false;
+  auto st = optimize(m, nullptr, o);
+  ASSERT_TRUE(st.ok()) << st.status().to_string();
+  EXPECT_EQ(st->count(LocalOperation::kMove, Outcome::kDone), st->points_moved);
+  EXPECT_GE(st->points_moved, 1u);
+  expect_valid(m, nullptr);
+}
+
+TEST(Smoothing, DeclinesWhenTheStarsWorstTetCannotBeHelped) {
+  // A 2 x 2 x 2 Kuhn grid has one free point, the centre; with a smallest-angle
+  // target above 45 degrees every tet is bad, and the worst angles of its star
+  // lie at edges on the frozen hull, which no move of the centre changes for
+  // the better.
+  const VolumeMesh v = kuhn_grid_with_hull(2);
+  TetMesh m = fixtures::build(v);
+  OptimizeOptions o;
+  o.target_min_dihedral = 50;
+  o.reconnect = false;
+  auto st = optimize(m, nullptr, o);
+  ASSERT_TRUE(st.ok()) << st.status().to_string();
+  EXPECT_GT(st->bad_before, 0u);
+  EXPECT_EQ(st->count(LocalOperation::kMove, Outcome::kDone), 0u);
+  EXPECT_GT(st->count(LocalOperation::kMove, Outcome::kNotBetter), 0u);
+  EXPECT_GE(st->min_dihedral_after, st->min_dihedral_before);
+  EXPECT_EQ(m.points(), v.points);
+  expect_valid(m, nullptr);
+}
+
+TEST(CapRepair, ReplacesAFlatCapOverAPlaneAndCountsTheInsertion) {
+  const VolumeMesh v = grid_with_cap(0.04);
+  const SurfaceMesh surface = surface_of(v);
+  const SizingField h = uniform_sizing(v, 1.0);
+  TetMesh m = fixtures::build(v);
+  OptimizeOptions o;
+  o.reconnect = false;
+  auto st = optimize(m, &h, o);
+  ASSERT_TRUE(st.ok()) << st.status().to_string();
+  EXPECT_EQ(st->caps_repaired, 1u);
+  EXPECT_EQ(st->count(LocalOperation::kInsertion, Outcome::kDone), st->points_inserted);
+  expect_valid(m, &surface);
+}
+
+TEST(OptimizeStats, OutcomeSummaryNamesTheReasons) {
+  OptimizeStats st;
+  EXPECT_EQ(outcome_summary(st), "no operations tried");
+  st.tried[static_cast<std::size_t>(LocalOperation::kFlip)][static_cast<std::size_t>(Outcome::kDone)] = 3;
+  st.tried[static_cast<std::size_t>(LocalOperation::kFlip)][static_cast<std::size_t>(Outcome::kNotBetter)] = 5;
+  st.tried[static_cast<std::size_t>(LocalOperation::kInsertion)][static_cast<std::size_t>(Outcome::kTooClose)] = 2;
+  EXPECT_EQ(outcome_summary(st), "flips 3 done, 5 not better; insertions 0 done, 2 too close");
+}
+
+TEST(Schedule, LeafTaskScheduleDropsWhatALeafsSwitchesTurnOff) {
+  // The leaf-task schedule (no absorption, no late caps, no room in the size
+  // polish) gives the mesh that the whole-mesh schedule gives with those
+  // switches off, bit for bit.
+  const VolumeMesh v = jittered_grid(4, 0.45);
+  const SizingField h = uniform_sizing(v, 1.0);
+  OptimizeOptions off;
+  off.surface_room = false;
+  off.late_caps = false;
+  OptimizeOptions leaf;
+  leaf.schedule = OptimizeOptions::Schedule::kLeafTask;
+  TetMesh a = fixtures::build(v), b = fixtures::build(v);
+  auto sa = optimize(a, &h, off);
+  auto sb = optimize(b, &h, leaf);
+  ASSERT_TRUE(sa.ok() && sb.ok());
+  EXPECT_GT(sa->points_moved, 0u);
+  EXPECT_EQ(sb->absorb_cycles, 0);
+  EXPECT_EQ(a.points(), b.points());
+  EXPECT_EQ(a.to_volume_mesh().tets, b.to_volume_mesh().tets);
+  expect_valid(b, nullptr);
+}
+
 }  // namespace
 }  // namespace pdrmesh

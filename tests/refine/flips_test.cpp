@@ -7,6 +7,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
+#include <span>
 
 #include "pdrmesh/topology.hpp"
 #include "tet_fixtures.hpp"
@@ -259,6 +261,86 @@ TEST(FlipCriterion, QualityDependsOnTheVertexSetOnly) {
   // And it is the cosine of the largest dihedral angle.
   const double deg = dihedral_range(m.point(k[0]), m.point(k[1]), m.point(k[2]), m.point(k[3])).max;
   EXPECT_NEAR(std::acos(q) * 180.0 / 3.14159265358979323846, deg, 1e-9);
+}
+
+/// A criterion for the tests: MaxDihedral's scores, turned upside down when
+/// `inverted` (the flattest tets win), and the last word `verdict`.
+class TestCriterion final {
+ public:
+  TestCriterion(TetMesh& m, bool inverted, bool verdict) : m_(m), inverted_(inverted), verdict_(verdict) {}
+  double bar(std::span<const Index> old) {
+    double worst = std::numeric_limits<double>::infinity();
+    for (Index t : old) worst = std::min(worst, score(m_.tet(t)));
+    ++bars;
+    return worst;
+  }
+  double score(const Tet& k) const { return inverted_ ? -tet_quality(m_, k) : tet_quality(m_, k); }
+  bool accepts(std::span<const Tet> fresh) {
+    accepted_size = fresh.size();
+    return verdict_;
+  }
+  void done(std::span<const Index> created, std::span<const double>) { done_with = created.size(); }
+  int bars = 0;
+  std::size_t accepted_size = 0, done_with = 0;
+
+ private:
+  TetMesh& m_;
+  bool inverted_, verdict_;
+};
+static_assert(Criterion<TestCriterion>);
+static_assert(Criterion<MaxDihedral>);
+
+TEST(FlipCriterion, Flip23TakesTheCriterionItIsGiven) {
+  // The tall pair's 2-3 makes flatter tets: MaxDihedral declines it, a
+  // criterion that prefers flat tets takes it.
+  TetMesh m = build(tall_pair());
+  TestCriterion flat(m, /*inverted=*/true, /*verdict=*/true);
+  EXPECT_EQ(flip23(m, 0, 3, flat), Outcome::kDone);
+  EXPECT_EQ(flat.bars, 1);
+  EXPECT_EQ(flat.accepted_size, 3u);
+  EXPECT_EQ(flat.done_with, 3u);
+  EXPECT_EQ(m.num_tets(), 3u);
+  EXPECT_TRUE(m.check().ok()) << m.check().to_string();
+  EXPECT_NEAR(total_volume(m), total_volume(build(tall_pair())), 1e-12);
+}
+
+TEST(FlipCriterion, Flip23DeclinesWhenTheCriterionHasTheLastWordAgainst) {
+  TetMesh m = build(flat_pair());
+  TestCriterion refuses(m, /*inverted=*/false, /*verdict=*/false);
+  expect_declined(m, flip23(m, 0, 3, refuses), Outcome::kNotBetter, flat_pair());
+  EXPECT_EQ(refuses.accepted_size, 3u);  // asked only once the scores beat the bar
+  EXPECT_EQ(refuses.done_with, 0u);
+}
+
+TEST(FlipCriterion, Flip23ChecksOrientationBeforeAskingTheCriterion) {
+  TetMesh m = build(skew_pair());
+  TestCriterion flat(m, /*inverted=*/true, /*verdict=*/true);
+  expect_declined(m, flip23(m, 0, 3, flat), Outcome::kWouldInvert, skew_pair());
+  EXPECT_EQ(flat.bars, 0);
+}
+
+TEST(FlipCriterion, EdgeRemovalKeepsToTheTriangulationsItMayUse) {
+  // Five tets around a long edge: removable (EdgeRemoval above), unless every
+  // triangulation is excluded.
+  TetMesh m = build(ring_around(5, 1.0, -3, 3));
+  MaxDihedral criterion(m);
+  const auto none = [&m](const EdgeRing&, int, int, int) { return m.num_tets() > 0; };  // excludes every one
+  expect_declined(m, remove_edge(m, 0, kEdgeAB, criterion, none), Outcome::kNotBetter, ring_around(5, 1.0, -3, 3));
+  EXPECT_EQ(remove_edge(m, 0, kEdgeAB, criterion), Outcome::kDone);
+  EXPECT_EQ(m.num_tets(), 6u);
+  EXPECT_TRUE(m.check().ok());
+  // MaxDihedral caches its scores: each new tet's cached quality is its tet_quality.
+  for (Index t : m.last_created()) EXPECT_EQ(m.cached_quality(t), tet_quality(m, m.tet(t)));
+}
+
+TEST(FlipCriterion, EdgeRemovalTakesTheCriterionItIsGiven) {
+  // Five tets around a short edge: MaxDihedral declines (EdgeRemoval above);
+  // a criterion that prefers flat tets removes the edge.
+  TetMesh m = build(ring_around(5, 1.0, -0.1, 0.1));
+  TestCriterion flat(m, /*inverted=*/true, /*verdict=*/true);
+  EXPECT_EQ(remove_edge(m, 0, kEdgeAB, flat), Outcome::kDone);
+  EXPECT_EQ(flat.done_with, 6u);
+  EXPECT_TRUE(m.check().ok()) << m.check().to_string();
 }
 
 }  // namespace

@@ -102,8 +102,11 @@
 // point index, no hashing, no timing (the stats' seconds are measured, not used).
 #pragma once
 
+#include <array>
 #include <cstddef>
+#include <string>
 
+#include "pdrmesh/flips.hpp"
 #include "pdrmesh/sizing.hpp"
 #include "pdrmesh/status.hpp"
 #include "pdrmesh/tet_mesh.hpp"
@@ -175,10 +178,19 @@ struct OptimizeOptions {
   /// (leaf_optimize_options), where it adds points that the merged mesh does
   /// not need.
   bool late_caps = true;
+  /// The schedule of passes: the whole mesh's (above), or a parallel leaf
+  /// task's, fitted to a sub-mesh with frozen faces: no absorption (10.), no
+  /// late cap pass, and no room for the tets with a surface point in the size
+  /// polish (9.), whatever surface_room and late_caps say.
+  enum class Schedule { kWholeMesh, kLeafTask };
+  Schedule schedule = Schedule::kWholeMesh;
   /// Safety cap on successful flips per sweep, times the number of tets at the
   /// start of the sweep (the min-max rule already guarantees an end).
   double max_flips_per_tet = 20;
 };
+
+/// The kinds of local operation whose outcomes OptimizeStats::tried counts.
+enum class LocalOperation : unsigned char { kFlip, kInsertion, kRemoval, kCollapse, kMove };
 
 struct OptimizeStats {
   std::size_t flips = 0;            ///< successful flips (all kinds)
@@ -201,10 +213,21 @@ struct OptimizeStats {
   int absorb_cycles = 0;          ///< cycles of 10. run (their repair rounds count in repair_rounds)
   std::size_t absorbed = 0;       ///< operations of the absorption (counted in repair_flips and flips too)
   std::size_t edges_collapsed = 0;  ///< the absorption's edge collapses (counted in absorbed too)
+  /// Local operations tried, by kind (LocalOperation) and outcome (Outcome,
+  /// flips.hpp): why the operations that did not happen were declined.
+  static constexpr std::size_t kOperationKinds = static_cast<std::size_t>(LocalOperation::kMove) + 1;
+  std::array<std::array<std::size_t, kOutcomeCount>, kOperationKinds> tried{};
+  std::size_t count(LocalOperation op, Outcome o) const {
+    return tried[static_cast<std::size_t>(op)][static_cast<std::size_t>(o)];
+  }
   double min_dihedral_before = 0, min_dihedral_after = 0;  ///< degrees, over all alive tets
   double max_dihedral_before = 0, max_dihedral_after = 0;
   double seconds = 0;  ///< wall time, measured only for reporting
 };
+
+/// One line of OptimizeStats::tried for a reader: per kind of operation, how
+/// many were done and why the others were declined (kinds never tried left out).
+std::string outcome_summary(const OptimizeStats& stats);
 
 /// Validates the options: targets finite with 0 <= min < max <= 180, sweeps >= 0, repair_cycles >= 0,
 /// insert_min_distance >= 0, max_flips_per_tet > 0; invalid_input naming the option.
