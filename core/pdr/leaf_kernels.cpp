@@ -16,6 +16,7 @@ namespace pdrmesh {
 double regular_tet_volume(double h) { return h * h * h / (6.0 * std::sqrt(2.0)); }
 
 OptimizeOptions leaf_optimize_options(OptimizeOptions options) {
+  options.schedule = OptimizeOptions::Schedule::kLeafTask;
   options.keep_point_indices = true;
   options.surface_room = false;  // a sub-mesh's extremes are not the mesh's
   options.late_caps = false;     // OptimizeOptions::late_caps says why
