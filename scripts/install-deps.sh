@@ -12,6 +12,8 @@ packages=(
   libprotobuf-dev protobuf-compiler
   libtbb-dev libspdlog-dev libfmt-dev
   libcli11-dev nlohmann-json3-dev libsqlite3-dev
+  libcgns-dev                                 # .cgns output (find_package(CGNS), cmake/FindCGNS.cmake)
+  openfoam cgns-convert                       # tests/cli/openfoam_cgns.sh: checkMesh and cgnscheck
   libgtest-dev libgmock-dev
   python3-yaml                                # tests/deploy: the manifest check
   clang-14 libclang-rt-14-dev                 # scripts/sanitize.sh: ASan/UBSan/TSan builds, libFuzzer

@@ -330,7 +330,7 @@ struct SuffixEntry {
   VolumeFormat format;
 };
 // Longer suffixes first: ".lb8.ugrid" and ".b8.ugrid" before ".ugrid".
-constexpr std::array<SuffixEntry, 8> kSuffixes{{
+constexpr std::array<SuffixEntry, 9> kSuffixes{{
     {".lb8.ugrid", VolumeFormat::kUgridLittle},
     {".b8.ugrid", VolumeFormat::kUgridBig},
     {".ugrid", VolumeFormat::kUgridAscii},
@@ -339,7 +339,15 @@ constexpr std::array<SuffixEntry, 8> kSuffixes{{
     {".vtu", VolumeFormat::kVtu},
     {".msh", VolumeFormat::kGmsh},
     {".su2", VolumeFormat::kSu2},
+    {".cgns", VolumeFormat::kCgns},
 }};
+
+constexpr std::string_view kPolyMesh = "polyMesh";
+
+/// `path` without trailing separators ("case/constant/polyMesh/" names the directory polyMesh).
+std::filesystem::path without_trailing_slash(const std::filesystem::path& path) {
+  return path.has_filename() || !path.has_parent_path() ? path : path.parent_path();
+}
 
 bool ends_with(std::string_view s, std::string_view suffix) {
   return s.size() >= suffix.size() && s.substr(s.size() - suffix.size()) == suffix;
@@ -347,10 +355,13 @@ bool ends_with(std::string_view s, std::string_view suffix) {
 
 }  // namespace
 
-std::string_view volume_format_suffixes() { return ".mesh .meshb .vtu .ugrid .lb8.ugrid .b8.ugrid .msh .su2"; }
+std::string_view volume_format_suffixes() {
+  return ".mesh .meshb .vtu .ugrid .lb8.ugrid .b8.ugrid .msh .su2 .cgns polyMesh";
+}
 
 Result<VolumeFormat> volume_format_from_path(const std::filesystem::path& path) {
-  std::string name = path.filename().string();
+  std::string name = without_trailing_slash(path).filename().string();
+  if (name == kPolyMesh) return VolumeFormat::kFoam;
   for (char& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   // Other UGRID encodings (Fortran records, single precision) must not be
   // mistaken for ASCII ".ugrid".
@@ -376,8 +387,15 @@ Status write_format(const VolumeMesh& mesh, VolumeFormat format, const std::file
     case VolumeFormat::kUgridBig: return volio::write_ugrid_binary(mesh, path, false);
     case VolumeFormat::kGmsh: return volio::write_gmsh(mesh, path);
     case VolumeFormat::kSu2: return volio::write_su2(mesh, path);
+    case VolumeFormat::kCgns: return volio::write_cgns(mesh, path);
+    case VolumeFormat::kFoam: return volio::write_foam(mesh, path);
   }
   return internal_error("unhandled volume format");
+}
+
+void remove_quietly(const std::filesystem::path& path) noexcept {
+  std::error_code ec;
+  std::filesystem::remove_all(path, ec);
 }
 
 }  // namespace
@@ -394,28 +412,49 @@ StagedVolume& StagedVolume::operator=(StagedVolume&& other) noexcept {
 Status StagedVolume::commit() {
   if (staged_.empty()) return internal_error("commit of a volume file that is not staged");
   std::error_code ec;
+  // A directory (polyMesh) cannot be renamed onto a non-empty one: the old one
+  // is moved aside first and removed once the new one is in place.
+  std::filesystem::path old;
+  if (std::filesystem::is_directory(staged_, ec) && std::filesystem::is_directory(destination_, ec)) {
+    old = staged_;
+    old += ".old";
+    std::filesystem::rename(destination_, old, ec);
+    if (ec) {
+      const std::string why = ec.message();
+      discard();
+      return io_error(fmt::format("{}: cannot replace the directory: {}", destination_.string(), why));
+    }
+  }
   std::filesystem::rename(staged_, destination_, ec);
   if (ec) {
     const std::string why = ec.message();
     discard();
+    if (!old.empty()) std::filesystem::rename(old, destination_, ec);  // put the old one back
     return io_error(fmt::format("{}: cannot put the written file in place: {}", destination_.string(), why));
   }
+  if (!old.empty()) remove_quietly(old);
   staged_.clear();
   return {};
 }
 
 void StagedVolume::discard() noexcept {
   if (staged_.empty()) return;
-  std::error_code ec;
-  std::filesystem::remove(staged_, ec);
+  remove_quietly(staged_);
   staged_.clear();
 }
 
-Result<StagedVolume> stage_volume(const VolumeMesh& mesh, const std::filesystem::path& path) {
-  PDR_ASSIGN_OR_RETURN(const VolumeFormat format, volume_format_from_path(path));
+Result<StagedVolume> stage_volume(const VolumeMesh& mesh, const std::filesystem::path& given) {
+  PDR_ASSIGN_OR_RETURN(const VolumeFormat format, volume_format_from_path(given));
   PDR_TRY(volio::check_writable(mesh));
+  const std::filesystem::path path = without_trailing_slash(given);
+  if (format == VolumeFormat::kFoam && path.has_parent_path()) {
+    std::error_code ec;
+    std::filesystem::create_directories(path.parent_path(), ec);
+    if (ec) return io_error(fmt::format("{}: cannot create the directory: {}", path.parent_path().string(), ec.message()));
+  }
   const std::filesystem::path partial =
       path.parent_path() / fmt::format(".{}.{}.partial", path.filename().string(), ::getpid());
+  if (format == VolumeFormat::kFoam) remove_quietly(partial);  // no stale files of an earlier run
   StagedVolume staged(partial, path);  // removes the partial file if the write fails
   if (Status s = write_format(mesh, format, partial); !s.ok())
     return Status(s.code(), fmt::format("{} (writing {})", s.message(), path.string()));
@@ -429,6 +468,10 @@ Status write_volume(const VolumeMesh& mesh, const std::filesystem::path& path) {
 
 Result<VolumeMesh> read_volume(const std::filesystem::path& path) {
   PDR_ASSIGN_OR_RETURN(const VolumeFormat format, volume_format_from_path(path));
+  if (format == VolumeFormat::kCgns || format == VolumeFormat::kFoam)
+    return unsupported(fmt::format("{}: pdrmesh writes {} but does not read it; volume mesh formats read: {}",
+                                   path.string(), format == VolumeFormat::kCgns ? "CGNS" : "OpenFOAM polyMesh",
+                                   ".mesh .meshb .vtu .ugrid .lb8.ugrid .b8.ugrid .msh .su2"));
   PDR_ASSIGN_OR_RETURN(const std::string data, volio::read_file(path));
   const std::string name = path.string();  // errors name the path as given
   switch (format) {
@@ -440,6 +483,8 @@ Result<VolumeMesh> read_volume(const std::filesystem::path& path) {
     case VolumeFormat::kUgridBig: return volio::read_ugrid_binary(data, name, false);
     case VolumeFormat::kGmsh: return volio::read_gmsh(data, name);
     case VolumeFormat::kSu2: return volio::read_su2(data, name);
+    case VolumeFormat::kCgns:
+    case VolumeFormat::kFoam: break;
   }
   return internal_error("unhandled volume format");
 }
