@@ -27,6 +27,7 @@
 #include "pdrmesh/optimize.hpp"
 #include "pdrmesh/pdr.hpp"
 #include "pdrmesh/pipeline.hpp"
+#include "pdrmesh/foam_quality.hpp"
 #include "pdrmesh/quality.hpp"
 #include "pdrmesh/refine.hpp"
 #include "pdrmesh/sizing.hpp"
@@ -367,10 +368,18 @@ int run_quality(const std::string& path, bool json, const std::string& svg) {
   auto mesh = read_volume(path);
   if (!mesh.ok()) return fail(mesh.status());
   const QualityReport q = measure_quality(*mesh, /*interior=*/true);
+  // checkMesh's figures need every face in one or two tets; on a mesh where
+  // that fails the rest of the report still prints, with the reason.
+  const auto foam = measure_foam_quality(*mesh);
   if (json) {
-    fmt::print("{}\n", quality_to_json(q));
+    auto j = nlohmann::json::parse(quality_to_json(q));
+    j["openfoam"] = foam.ok() ? nlohmann::json::parse(foam_quality_to_json(*foam))
+                              : nlohmann::json{{"error", foam.status().message()}};
+    fmt::print("{}\n", j.dump());
   } else {
     fmt::print("{}", format_quality(q));
+    fmt::print("{}", foam.ok() ? format_foam_quality(*foam)
+                               : fmt::format("OpenFOAM (checkMesh) figures not measured: {}\n", foam.status().message()));
   }
   if (!svg.empty()) {
     if (Status s = write_text(svg, quality_histogram_svg(q, path)); !s.ok()) return fail(s);
@@ -495,7 +504,8 @@ void add_local_commands(CLI::App& app, int& exit_code) {
     });
   }
   {
-    auto* cmd = app.add_subcommand("quality", "Quality statistics of a volume mesh.");
+    auto* cmd = app.add_subcommand("quality", "Quality statistics of a volume mesh, with the figures OpenFOAM's "
+                                              "checkMesh reports (face non-orthogonality and skewness).");
     auto path = std::make_shared<std::string>();
     auto json = std::make_shared<bool>(false);
     auto svg = std::make_shared<std::string>();
@@ -503,7 +513,8 @@ void add_local_commands(CLI::App& app, int& exit_code) {
     cmd->add_flag("--json", *json, "print the statistics as JSON");
     cmd->add_option("--svg", *svg, "also draw the dihedral-angle histogram into this SVG file")
         ->check(output_check(OutputKind::kFile));
-    cmd->footer(help_footer({{"pdrmesh quality part.vtu", "dihedral angles, radius ratios, edge lengths"},
+    cmd->footer(help_footer({{"pdrmesh quality part.vtu",
+                              "dihedral angles, shape measures, checkMesh's non-orthogonality and skewness"},
                              {"pdrmesh quality part.vtu --json --svg angles.svg", "as JSON, and the angle histogram"}}));
     cmd->callback([&exit_code, path, json, svg] { exit_code = run_quality(*path, *json, *svg); });
   }
@@ -539,6 +550,7 @@ void add_local_commands(CLI::App& app, int& exit_code) {
     cmd->footer(help_footer({{"pdrmesh convert part.meshb part.vtu", "for ParaView"},
                              {"pdrmesh convert part.vtu small.vtu --vtu zlib", "a compressed VTU"},
                              {"pdrmesh convert part.meshb part.su2", "for SU2"},
+                             {"pdrmesh convert part.meshb case/constant/polyMesh", "for OpenFOAM (checkMesh -case case)"},
                              {"pdrmesh convert part.mesh part.ugrid --names names.txt",
                               "for FUN3D, with part.mapbc naming the surface ids"}}));
     cmd->callback([&exit_code, in, out, vtu, names] { exit_code = run_convert(*in, *out, *vtu, *names); });

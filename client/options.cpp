@@ -92,16 +92,41 @@ CLI::Validator size_check() {
       "");
 }
 
+namespace {
+
+/// An OpenFOAM polyMesh output: a directory (replaced if there) whose missing
+/// parents are made, so the nearest existing one must be writable.
+std::string poly_mesh_output_problem(const std::string& path) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::path dir = fs::path(path);
+  if (!dir.has_filename()) dir = dir.parent_path();
+  if (fs::exists(dir, ec) && !fs::is_directory(dir, ec))
+    return fmt::format("cannot write '{}': it exists and is not a directory", path);
+  fs::path ancestor = dir.parent_path();
+  while (!ancestor.empty() && !fs::exists(ancestor, ec)) ancestor = ancestor.parent_path();
+  if (ancestor.empty()) ancestor = ".";
+  if (!fs::is_directory(ancestor, ec))
+    return fmt::format("cannot write '{}': '{}' is not a directory", path, ancestor.string());
+  if (::access(ancestor.c_str(), W_OK) != 0)
+    return fmt::format("cannot write '{}': the directory '{}' is not writable", path, ancestor.string());
+  return {};
+}
+
+}  // namespace
+
 CLI::Validator output_check(OutputKind kind) {
   return CLI::Validator(
       [kind](std::string& path) -> std::string {
         namespace fs = std::filesystem;
         if (path.empty()) return "must name a file, got ''";
         std::error_code ec;
-        if (fs::is_directory(path, ec)) return fmt::format("'{}' is a directory, not a file", path);
         if (kind == OutputKind::kVolumeMesh) {
-          if (auto f = volume_format_from_path(path); !f.ok()) return f.status().message();
+          const auto f = volume_format_from_path(path);
+          if (!f.ok()) return f.status().message();
+          if (*f == VolumeFormat::kFoam) return poly_mesh_output_problem(path);
         }
+        if (fs::is_directory(path, ec)) return fmt::format("'{}' is a directory, not a file", path);
         fs::path dir = fs::path(path).parent_path();
         if (dir.empty()) dir = ".";
         if (!fs::is_directory(dir, ec))

@@ -14,6 +14,8 @@ packages=(
   libcli11-dev nlohmann-json3-dev libsqlite3-dev
   zlib1g-dev                                  # compressed VTU (vtkZLibDataCompressor)
   libpng-dev                                  # pdrmesh view: PNG pictures
+  libcgns-dev                                 # .cgns output (find_package(CGNS), cmake/FindCGNS.cmake)
+  openfoam cgns-convert                       # tests/cli/openfoam_cgns.sh: checkMesh and cgnscheck
   libgtest-dev libgmock-dev
   python3-yaml                                # tests/deploy: the manifest check
   pybind11-dev python3-dev python3-numpy      # python/: the Python module pdrmesh

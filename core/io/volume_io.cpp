@@ -330,7 +330,7 @@ struct SuffixEntry {
   VolumeFormat format;
 };
 // Longer suffixes first: ".lb8.ugrid" and ".b8.ugrid" before ".ugrid".
-constexpr std::array<SuffixEntry, 8> kSuffixes{{
+constexpr std::array<SuffixEntry, 9> kSuffixes{{
     {".lb8.ugrid", VolumeFormat::kUgridLittle},
     {".b8.ugrid", VolumeFormat::kUgridBig},
     {".ugrid", VolumeFormat::kUgridAscii},
@@ -339,7 +339,15 @@ constexpr std::array<SuffixEntry, 8> kSuffixes{{
     {".vtu", VolumeFormat::kVtu},
     {".msh", VolumeFormat::kGmsh},
     {".su2", VolumeFormat::kSu2},
+    {".cgns", VolumeFormat::kCgns},
 }};
+
+constexpr std::string_view kPolyMesh = "polyMesh";
+
+/// `path` without trailing separators ("case/constant/polyMesh/" names the directory polyMesh).
+std::filesystem::path without_trailing_slash(const std::filesystem::path& path) {
+  return path.has_filename() || !path.has_parent_path() ? path : path.parent_path();
+}
 
 bool ends_with(std::string_view s, std::string_view suffix) {
   return s.size() >= suffix.size() && s.substr(s.size() - suffix.size()) == suffix;
@@ -347,10 +355,13 @@ bool ends_with(std::string_view s, std::string_view suffix) {
 
 }  // namespace
 
-std::string_view volume_format_suffixes() { return ".mesh .meshb .vtu .ugrid .lb8.ugrid .b8.ugrid .msh .su2"; }
+std::string_view volume_format_suffixes() {
+  return ".mesh .meshb .vtu .ugrid .lb8.ugrid .b8.ugrid .msh .su2 .cgns polyMesh";
+}
 
 Result<VolumeFormat> volume_format_from_path(const std::filesystem::path& path) {
-  std::string name = path.filename().string();
+  std::string name = without_trailing_slash(path).filename().string();
+  if (name == kPolyMesh) return VolumeFormat::kFoam;
   for (char& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   // Other UGRID encodings (Fortran records, single precision) must not be
   // mistaken for ASCII ".ugrid".
@@ -377,8 +388,15 @@ Status write_format(const VolumeMesh& mesh, VolumeFormat format, const std::file
     case VolumeFormat::kUgridBig: return volio::write_ugrid_binary(mesh, path, false);
     case VolumeFormat::kGmsh: return volio::write_gmsh(mesh, path);
     case VolumeFormat::kSu2: return volio::write_su2(mesh, path);
+    case VolumeFormat::kCgns: return volio::write_cgns(mesh, path);
+    case VolumeFormat::kFoam: return volio::write_foam(mesh, path);
   }
   return internal_error("unhandled volume format");
+}
+
+void remove_quietly(const std::filesystem::path& path) noexcept {
+  std::error_code ec;
+  std::filesystem::remove_all(path, ec);
 }
 
 }  // namespace
@@ -397,23 +415,36 @@ Status StagedVolume::commit() {
   while (!files_.empty()) {
     const auto& [staged, destination] = files_.back();
     std::error_code ec;
+    // A directory (polyMesh) cannot be renamed onto a non-empty one: the old one
+    // is moved aside first and removed once the new one is in place.
+    std::filesystem::path old;
+    if (std::filesystem::is_directory(staged, ec) && std::filesystem::is_directory(destination, ec)) {
+      old = staged;
+      old += ".old";
+      std::filesystem::rename(destination, old, ec);
+      if (ec) {
+        const std::string why = ec.message();
+        const std::string where = destination.string();
+        discard();
+        return io_error(fmt::format("{}: cannot replace the directory: {}", where, why));
+      }
+    }
     std::filesystem::rename(staged, destination, ec);
     if (ec) {
       const std::string why = ec.message();
-      const std::string where = destination.string();
+      const std::filesystem::path where = destination;
       discard();
-      return io_error(fmt::format("{}: cannot put the written file in place: {}", where, why));
+      if (!old.empty()) std::filesystem::rename(old, where, ec);  // put the old one back
+      return io_error(fmt::format("{}: cannot put the written file in place: {}", where.string(), why));
     }
+    if (!old.empty()) remove_quietly(old);
     files_.pop_back();
   }
   return {};
 }
 
 void StagedVolume::discard() noexcept {
-  for (const auto& [staged, destination] : files_) {
-    std::error_code ec;
-    std::filesystem::remove(staged, ec);
-  }
+  for (const auto& [staged, destination] : files_) remove_quietly(staged);
   files_.clear();
 }
 
@@ -430,12 +461,19 @@ bool is_ugrid(VolumeFormat f) {
 
 }  // namespace
 
-Result<StagedVolume> stage_volume(const VolumeMesh& mesh, const std::filesystem::path& path,
+Result<StagedVolume> stage_volume(const VolumeMesh& mesh, const std::filesystem::path& given,
                                   const VolumeWriteOptions& options) {
-  PDR_ASSIGN_OR_RETURN(const VolumeFormat format, volume_format_from_path(path));
+  PDR_ASSIGN_OR_RETURN(const VolumeFormat format, volume_format_from_path(given));
   PDR_TRY(volio::check_writable(mesh));
+  const std::filesystem::path path = without_trailing_slash(given);
+  if (format == VolumeFormat::kFoam && path.has_parent_path()) {
+    std::error_code ec;
+    std::filesystem::create_directories(path.parent_path(), ec);
+    if (ec) return io_error(fmt::format("{}: cannot create the directory: {}", path.parent_path().string(), ec.message()));
+  }
   StagedVolume staged;  // removes the partial files if a write fails
   const std::filesystem::path partial = partial_path(path);
+  if (format == VolumeFormat::kFoam) remove_quietly(partial);  // no stale files of an earlier run
   staged.add(partial, path);
   if (Status s = write_format(mesh, format, partial, options); !s.ok())
     return Status(s.code(), fmt::format("{} (writing {})", s.message(), path.string()));
@@ -459,6 +497,10 @@ Status write_volume(const VolumeMesh& mesh, const std::filesystem::path& path, c
 
 Result<VolumeMesh> read_volume(const std::filesystem::path& path) {
   PDR_ASSIGN_OR_RETURN(const VolumeFormat format, volume_format_from_path(path));
+  if (format == VolumeFormat::kCgns || format == VolumeFormat::kFoam)
+    return unsupported(fmt::format("{}: pdrmesh writes {} but does not read it; volume mesh formats read: {}",
+                                   path.string(), format == VolumeFormat::kCgns ? "CGNS" : "OpenFOAM polyMesh",
+                                   ".mesh .meshb .vtu .ugrid .lb8.ugrid .b8.ugrid .msh .su2"));
   PDR_ASSIGN_OR_RETURN(const std::string data, volio::read_file(path));
   const std::string name = path.string();  // errors name the path as given
   switch (format) {
@@ -476,6 +518,8 @@ Result<VolumeMesh> read_volume(const std::filesystem::path& path) {
     }
     case VolumeFormat::kGmsh: return volio::read_gmsh(data, name);
     case VolumeFormat::kSu2: return volio::read_su2(data, name);
+    case VolumeFormat::kCgns:
+    case VolumeFormat::kFoam: break;
   }
   return internal_error("unhandled volume format");
 }

@@ -213,4 +213,8 @@ Result<VolumeMesh> read_gmsh(std::string_view text, const std::string& name);
 Status write_su2(const VolumeMesh& mesh, const std::filesystem::path& path);
 Result<VolumeMesh> read_su2(std::string_view text, const std::string& name);
 
+Status write_cgns(const VolumeMesh& mesh, const std::filesystem::path& path);
+/// Writes the polyMesh files into directory `dir` (made if missing).
+Status write_foam(const VolumeMesh& mesh, const std::filesystem::path& dir);
+
 }  // namespace pdrmesh::volio

@@ -539,7 +539,7 @@ TEST_F(VolumeIo, DetectsFormatFromSuffix) {
     EXPECT_EQ(r.status().code(), StatusCode::kUnsupported);
     EXPECT_NE(r.status().message().find(".lb8.ugrid"), std::string::npos) << r.status().to_string();
   }
-  EXPECT_EQ(volume_format_suffixes(), ".mesh .meshb .vtu .ugrid .lb8.ugrid .b8.ugrid .msh .su2");
+  EXPECT_EQ(volume_format_suffixes(), ".mesh .meshb .vtu .ugrid .lb8.ugrid .b8.ugrid .msh .su2 .cgns polyMesh");
 }
 
 TEST_F(VolumeIo, WriteRefusesUnknownSuffixAndInconsistentMeshes) {

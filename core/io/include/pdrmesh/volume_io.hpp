@@ -1,9 +1,10 @@
 // SPDX-License-Identifier: AGPL-3.0-or-later
 // Writing and reading tetrahedral volume meshes in the file formats CFD
 // solvers and viewers take: Medit (.mesh/.meshb), VTK XML (.vtu), AFLR3/FUN3D
-// UGRID (ASCII and C-binary), Gmsh 4.1 (.msh) and SU2 (.su2).
+// UGRID (ASCII and C-binary), Gmsh 4.1 (.msh) and SU2 (.su2); and writing
+// CGNS (.cgns) and OpenFOAM polyMesh directories.
 //
-// Every format round-trips exactly: what write_volume writes, read_volume
+// Every format that is read round-trips exactly: what write_volume writes, read_volume
 // returns with bit-identical coordinates, the same tets and boundary triangles
 // in the same order and vertex order, and the same surface ids. Regions travel
 // where the format holds them (see VolumeFormat). Two documented exceptions:
@@ -41,6 +42,9 @@ enum class VolumeFormat {
   kGmsh,         ///< .msh    Gmsh 4.1 ASCII (reads 2.2 too); physical surface per surface id (named by
                  ///<         boundary_name), volume per region
   kSu2,          ///< .su2    SU2 ASCII; one marker "surface_<id>" per surface id (no regions)
+  kCgns,         ///< .cgns   CGNS (HDF5), written only; a TRI_3 section and BC per surface id (no regions)
+  kFoam,         ///< a directory named polyMesh: OpenFOAM, written only; a patch per surface id,
+                 ///< a cellZone per region
 };
 
 /// How a .vtu file stores its arrays. Reading takes all of these and what
@@ -56,11 +60,12 @@ struct VolumeWriteOptions {
   VtuEncoding vtu = VtuEncoding::kBinary;
 };
 
-/// The format named by a file's suffix (case-insensitive). Unknown suffix:
-/// `unsupported`, listing the supported suffixes.
+/// The format named by a file's suffix (case-insensitive), or kFoam for a
+/// path whose last component is "polyMesh" (exactly; a trailing '/' allowed).
+/// Unknown suffix: `unsupported`, listing the supported suffixes.
 Result<VolumeFormat> volume_format_from_path(const std::filesystem::path& path);
 
-/// ".mesh .meshb .vtu .ugrid .lb8.ugrid .b8.ugrid .msh .su2", for help texts.
+/// ".mesh .meshb .vtu .ugrid .lb8.ugrid .b8.ugrid .msh .su2 .cgns polyMesh", for help texts.
 std::string_view volume_format_suffixes();
 
 /// Writes `mesh` in the format named by the suffix of `path`, atomically: the
@@ -68,7 +73,9 @@ std::string_view volume_format_suffixes();
 /// renamed onto `path` once complete, so a failed or interrupted write never
 /// leaves a partial mesh under `path`. A mesh with inconsistent sizes,
 /// out-of-range indices or non-finite coordinates is refused with
-/// `invalid_input` before anything is written.
+/// `invalid_input` before anything is written. A polyMesh directory is written
+/// the same way (".polyMesh.PID.partial", then renamed), replacing a polyMesh
+/// directory already there; missing parent directories (case/constant) are made.
 Status write_volume(const VolumeMesh& mesh, const std::filesystem::path& path,
                     const VolumeWriteOptions& options = {});
 
@@ -129,8 +136,9 @@ Result<std::map<int, std::string>> parse_mapbc(std::string_view text, const std:
 /// Reads a volume mesh in the format named by the suffix of `path`. Malformed
 /// files give `invalid_input` naming file:line (text) or the byte offset
 /// (binary); meshes with other element kinds (hexahedra, prisms, quads, ...)
-/// give `unsupported`. A UGRID file's names come from its .mapbc when there
-/// is one (an id there that the mesh lacks is an error).
+/// and the written-only formats (CGNS, polyMesh) give `unsupported`. A UGRID
+/// file's names come from its .mapbc when there is one (an id there that the
+/// mesh lacks is an error).
 Result<VolumeMesh> read_volume(const std::filesystem::path& path);
 
 }  // namespace pdrmesh
