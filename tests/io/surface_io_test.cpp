@@ -62,7 +62,7 @@ SurfaceMesh renumber_by_first_use(const SurfaceMesh& in) {
 
 /// A cube [x0, x0 + h]^3 with outward triangles; the first six triangles get id
 /// 1, the other six id 2. Points are numbered by first use.
-SurfaceMesh cube(double x0 = 0.0, double h = 1.0) {
+SurfaceMesh box_surface(double x0 = 0.0, double h = 1.0) {
   SurfaceMesh s;
   for (int i = 0; i < 8; ++i) {
     s.points.push_back({x0 + h * (i & 1), x0 + h * ((i >> 1) & 1), x0 + h * ((i >> 2) & 1)});
@@ -189,7 +189,7 @@ TEST(SurfaceFormat, UnknownSuffixIsUnsupported) {
   TempDir dir;
   const auto r = read_surface(dir.file("a.step", kTetStl));
   EXPECT_EQ(r.status().code(), StatusCode::kUnsupported);
-  EXPECT_EQ(write_surface(cube(), dir / "a.step").code(), StatusCode::kUnsupported);
+  EXPECT_EQ(write_surface(box_surface(), dir / "a.step").code(), StatusCode::kUnsupported);
 }
 
 TEST(SurfaceReader, MissingFileIsNotFound) {
@@ -228,7 +228,7 @@ TEST(StlReader, ReadsAsciiTetrahedron) {
 
 TEST(StlReader, EachSolidGetsItsOwnId) {
   // The cube as three solids of 4 triangles each, with upper-case keywords in one.
-  const SurfaceMesh c = cube();
+  const SurfaceMesh c = box_surface();
   std::string text;
   for (int s = 0; s < 3; ++s) {
     text += fmt::format("{} patch_{}\n", s == 1 ? "SOLID" : "solid", s);
@@ -254,7 +254,7 @@ TEST(StlReader, EachSolidGetsItsOwnId) {
 /// line's name of solid k (empty: "solid" alone), each solid taking the next
 /// 12 / solids.size() triangles.
 std::string cube_stl(const std::vector<std::string>& solids) {
-  const SurfaceMesh c = cube();
+  const SurfaceMesh c = box_surface();
   const std::size_t per = 12 / solids.size();
   std::string text;
   for (std::size_t s = 0; s < solids.size(); ++s) {
@@ -295,7 +295,7 @@ TEST(StlReader, TwoNamesThatBecomeOneAreAnErrorNamingBoth) {
 
 TEST(StlReader, WeldsBinaryCube) {
   // Unwelded input: every facet carries its own three vertices.
-  const SurfaceMesh c = cube(-0.5, 1.0);
+  const SurfaceMesh c = box_surface(-0.5, 1.0);
   const std::string bin = binary_stl(c);
   ASSERT_EQ(bin.size(), 84u + 50u * 12u);
   const auto r = parse(bin, SurfaceFormat::kStl);
@@ -308,7 +308,7 @@ TEST(StlReader, WeldsBinaryCube) {
 }
 
 TEST(StlReader, BinaryWhoseHeaderStartsWithSolid) {
-  const auto r = parse(binary_stl(cube(), "solid but binary"), SurfaceFormat::kStl);
+  const auto r = parse(binary_stl(box_surface(), "solid but binary"), SurfaceFormat::kStl);
   ASSERT_TRUE(r.ok()) << r.status().to_string();
   EXPECT_EQ(r->points.size(), 8u);
 }
@@ -328,14 +328,14 @@ TEST(StlReader, WeldsPlusAndMinusZeroOnly) {
 }
 
 TEST(StlReader, RejectsTruncatedBinary) {
-  const std::string bin = binary_stl(cube());
+  const std::string bin = binary_stl(box_surface());
   const auto r = parse(std::string_view(bin).substr(0, bin.size() - 7), SurfaceFormat::kStl);
   EXPECT_ERROR_HAS(r,
                    "t: binary STL header announces 12 triangles (684 bytes) but the file has 677");
 }
 
 TEST(StlReader, RejectsHugeBinaryHeaderWithoutAllocating) {
-  std::string bin = binary_stl(cube());
+  std::string bin = binary_stl(box_surface());
   bin.resize(1000);
   const std::uint32_t huge = 4'000'000'000u;
   std::memcpy(bin.data() + 80, &huge, 4);
@@ -344,7 +344,7 @@ TEST(StlReader, RejectsHugeBinaryHeaderWithoutAllocating) {
 }
 
 TEST(StlReader, RejectsNonFiniteBinaryCoordinate) {
-  std::string bin = binary_stl(cube());
+  std::string bin = binary_stl(box_surface());
   const float nan = std::numeric_limits<float>::quiet_NaN();
   std::memcpy(bin.data() + 84 + 50 * 2 + 12 + 12 + 4, &nan, 4);  // facet 3, vertex 2, y
   EXPECT_ERROR_HAS(parse(bin, SurfaceFormat::kStl),
@@ -533,7 +533,7 @@ TEST(PlyReader, ReadsAsciiSkippingOtherProperties) {
 /// junk, int z; faces with an int8 count, uint indices and a surface_id; an
 /// extra element before the faces.
 std::string binary_ply_cube(bool big) {
-  const SurfaceMesh c = cube();
+  const SurfaceMesh c = box_surface();
   Bytes b(big);
   b.text(
        fmt::format("ply\r\nformat {} 1.0\r\n", big ? "binary_big_endian" : "binary_little_endian"))
@@ -561,7 +561,7 @@ TEST(PlyReader, ReadsBinaryLittleAndBigEndian) {
   for (bool big : {false, true}) {
     const auto r = parse(binary_ply_cube(big), SurfaceFormat::kPly);
     ASSERT_TRUE(r.ok()) << r.status().to_string();
-    expect_same(*r, cube());
+    expect_same(*r, box_surface());
   }
 }
 
@@ -708,7 +708,7 @@ TEST(Aflr3SurfReader, RejectsMalformedInput) {
 
 /// A cube with coordinates that print with many digits, ids 1, 2 in first-appearance order.
 SurfaceMesh awkward_cube() {
-  SurfaceMesh s = cube(0.1, 1.0 / 3.0);
+  SurfaceMesh s = box_surface(0.1, 1.0 / 3.0);
   s.points[3][0] = 1e-300;
   s.points[5][2] = 12345678.901234567;
   return s;
@@ -765,16 +765,16 @@ TEST(SurfaceWriter, StlSolidsAndObjGroupsCarryTheNames) {
 
 TEST(SurfaceWriter, RejectsInvalidSurfaces) {
   TempDir dir;
-  SurfaceMesh s = cube();
+  SurfaceMesh s = box_surface();
   s.points[2][1] = std::nan("");
   EXPECT_EQ(write_surface(s, dir / "x.stl").code(), StatusCode::kInvalidInput);
-  s = cube();
+  s = box_surface();
   s.triangles[4][2] = 8;
   EXPECT_EQ(write_surface(s, dir / "x.obj").code(), StatusCode::kInvalidInput);
-  s = cube();
+  s = box_surface();
   s.surface_ids.pop_back();
   EXPECT_EQ(write_surface(s, dir / "x.mesh").code(), StatusCode::kInvalidInput);
-  EXPECT_EQ(write_surface(cube(), "/nonexistent/dir/x.mesh").code(), StatusCode::kIoError);
+  EXPECT_EQ(write_surface(box_surface(), "/nonexistent/dir/x.mesh").code(), StatusCode::kIoError);
 }
 
 // ---------------------------------------------------------------- corpus
