@@ -123,8 +123,10 @@ CLI::Validator output_check(OutputKind kind) {
         std::error_code ec;
         if (kind == OutputKind::kVolumeMesh) {
           const auto f = volume_format_from_path(path);
+          if (f.ok() && *f == VolumeFormat::kFoam) return poly_mesh_output_problem(path);
+          if (fs::is_directory(path, ec))
+            return fmt::format("'{}' is a directory, not a file (only a polyMesh output is a directory)", path);
           if (!f.ok()) return f.status().message();
-          if (*f == VolumeFormat::kFoam) return poly_mesh_output_problem(path);
         }
         if (fs::is_directory(path, ec)) return fmt::format("'{}' is a directory, not a file", path);
         fs::path dir = fs::path(path).parent_path();
