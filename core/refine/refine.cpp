@@ -351,8 +351,7 @@ class Refiner {
     for (Index t = 0; t < m_.num_slots(); ++t) {
       if (t + kAhead < m_.num_slots() && m_.active(t + kAhead)) prefetch_points(t + kAhead);
       if (!m_.alive(t) || !m_.active(t)) continue;
-      const Tet& k = m_.tet(t);
-      if (o_.insert_within && !may_offer_inside(k)) continue;
+      const Tet& k = m_.tet(t);  // active: deactivate() has checked may_offer_inside this pass
       if (midpoints) {
         for (int e = 0; e < 6; ++e) {
           const Index a = k[topo::kEdgeVertex[e][0]], b = k[topo::kEdgeVertex[e][1]];
