@@ -31,6 +31,7 @@
 #include "pdrmesh/quality.hpp"
 #include "pdrmesh/refine.hpp"
 #include "pdrmesh/sizing.hpp"
+#include "pdrmesh/stopwatch.hpp"
 #include "pdrmesh/surface_check.hpp"
 #include "pdrmesh/surface_io.hpp"
 #include "pdrmesh/tet_mesh.hpp"
@@ -303,6 +304,7 @@ void print_profile(const PdrProfile& p) {
 
 int run_run(const RunArgs& a) {
   const auto t_wall = Clock::now();
+  const double cpu0 = process_cpu_seconds();
   const std::optional<Clock::time_point> deadline = deadline_after(a.time_limit_s);
   // --workers N is the whole run's thread budget: the leaf schedules and every
   // parallel step around them (surface check, sizing, sorts, validation).
@@ -357,6 +359,7 @@ int run_run(const RunArgs& a) {
   profile.quality = times.quality;
   profile.overlapped += times.overlapped;
   profile.wall = seconds_since(t_wall);
+  profile.cpu = process_cpu_seconds() - cpu0;
   if (a.profile) print_profile(profile);
   if (!a.profile_json.empty()) {
     if (Status s = write_text(a.profile_json, profile_to_json(profile, a.workers)); !s.ok()) return fail(s);

@@ -364,14 +364,16 @@ TEST(Pdr, OptimizationTasksGetOnlyTheSelectedTetsAndTheirHalo) {
   EXPECT_EQ(none->points, plain->points);
   EXPECT_EQ(tets_beyond(*none, -1e9), tets_beyond(*plain, -1e9));
 
-  // The tets with a corner in the first fifth along x, with one vertex layer:
-  // the tasks (three rounds, the last over the whole mesh) get tets near
-  // that slab only, and nothing far beyond it changes.
+  // The tets with a corner in the first fifth along x, with one vertex layer
+  // (and one buffer layer in the final pass): the tasks (three rounds, the
+  // last over one leaf, the whole grid at depth 2) get tets near that slab
+  // only, and nothing far beyond it changes.
   const Box bb = sp->surface.bounds();
   const double lo = bb.lo[0], w = bb.hi[0] - bb.lo[0];
   const RecordingKernel near(nudging_hook());
   o.optimize_kernel = &near;
   o.optimize_halo = 1;
+  o.optimize_buffer_layers = 1;
   o.optimize_selects = [x0 = lo + 0.2 * w](const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
     return std::min({a[0], b[0], c[0], d[0]}) < x0;
   };
@@ -389,6 +391,45 @@ TEST(Pdr, OptimizationTasksGetOnlyTheSelectedTetsAndTheirHalo) {
   ASSERT_FALSE(prof.rounds.empty());
   EXPECT_EQ(prof.rounds.back().name, "final optimization");
   EXPECT_EQ(prof.rounds.back().leaves.size(), 1u);
+}
+
+TEST(Pdr, TheFinalOptimizationRunsAsBufferedTasksOnACoarserGrid) {
+  // sphere966 at depth 3 with the real refiner and optimizer: the final pass
+  // goes in two sweeps of colour rounds over the depth-1 grid, each task a
+  // leaf's selected tets with a buffer around them, and no task gets the
+  // whole mesh's selection; the result is valid and the same for any workers.
+  const Sphere* sp = sphere();
+  ASSERT_NE(sp, nullptr) << "sphere966.mesh not readable";
+  const std::unique_ptr<LeafKernel> kernel = make_leaf_kernel("native").value();
+  const std::unique_ptr<LeafKernel> optimizer = make_leaf_kernel("optimize").value();
+  PdrOptions o = depth2(1);
+  o.depth = 3;
+  o.optimize_kernel = optimizer.get();
+  o.optimize_selects = [](const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
+    const AngleRange r = dihedral_range(a, b, c, d);
+    return r.min < 15 || r.max > 150;
+  };
+  PdrProfile prof;
+  Result<VolumeMesh> one = run_pdr(sp->surface, *sp->sizing, *kernel, o, &prof);
+  ASSERT_TRUE(one.ok()) << one.status().to_string();
+  expect_valid(*one, sp->surface);
+  std::size_t final_rounds = 0, final_tasks = 0, final_sent = 0;
+  for (const RoundRecord& r : prof.rounds) {
+    if (r.name != "final optimization") continue;
+    ++final_rounds;
+    final_tasks += r.leaves.size();
+    final_sent = std::max(final_sent, r.tets_sent);
+    EXPECT_EQ(r.depth, 1);
+    EXPECT_LT(r.tets_sent, r.tets) << "a round got every tet of the mesh";
+  }
+  EXPECT_GT(final_rounds, 8u) << "two sweeps of colour rounds";
+  EXPECT_GT(final_tasks, final_rounds / 2);
+  EXPECT_GT(final_sent, 0u);
+  o.workers = 3;
+  Result<VolumeMesh> three = run_pdr(sp->surface, *sp->sizing, *kernel, o, nullptr);
+  ASSERT_TRUE(three.ok()) << three.status().to_string();
+  EXPECT_EQ(one->points, three->points);
+  EXPECT_EQ(one->tets, three->tets);
 }
 
 TEST(Pdr, InterfaceRoundsGetOnlyTheTetsNearTheLastInterfaces) {
