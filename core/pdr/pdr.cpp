@@ -160,13 +160,15 @@ void grow_selection(const VolumeMesh& m, std::vector<char>& flag, int layers) {
 
 /// The optimization rounds' selection: the tets options.optimize_selects
 /// picks and their optimize_halo layers.
-std::vector<char> select_bad_tets(const VolumeMesh& m, const PdrOptions& options, int halo) {
+/// With `skip`, the tets it flags are no seeds (they may join a halo).
+std::vector<char> select_bad_tets(const VolumeMesh& m, const PdrOptions& options, int halo,
+                                  const std::vector<char>* skip = nullptr) {
   const auto& needs = options.optimize_selects;
   const std::vector<Vec3>& P = m.points;
   std::vector<char> flag(m.tets.size(), 0);
   tbb::parallel_for(std::size_t{0}, m.tets.size(), [&](std::size_t t) {
     const Tet& k = m.tets[t];
-    flag[t] = needs(P[k[0]], P[k[1]], P[k[2]], P[k[3]]) ? 1 : 0;
+    flag[t] = (skip == nullptr || !(*skip)[t]) && needs(P[k[0]], P[k[1]], P[k[2]], P[k[3]]) ? 1 : 0;
   });
   grow_selection(m, flag, halo);
   return flag;
@@ -220,7 +222,8 @@ struct Grid {
 /// moved point's is evaluated again.
 void splice(VolumeMesh& cur, const std::vector<LeafId>& leaves, std::vector<TaskResult>& results,
             std::vector<std::vector<Tet>>& kept, std::vector<Tet>& outside, std::vector<int>& outside_leaf,
-            const Grid* grid, std::vector<double>* sizes, const SizingField& sizing, RoundResult& rr) {
+            const Grid* grid, std::vector<double>* sizes, const SizingField& sizing, RoundResult& rr,
+            std::vector<char>* cored = nullptr, const std::vector<char>& outside_cored = {}) {
   const std::size_t n = results.size();
   std::vector<Vec3>& pts = cur.points;
   std::vector<std::size_t> tet_at(n + 1, outside.size()), point_at(n + 1, pts.size());
@@ -241,6 +244,10 @@ void splice(VolumeMesh& cur, const std::vector<LeafId>& leaves, std::vector<Task
   if (sizes != nullptr) sizes->resize(point_at[n]);
   std::copy(outside.begin(), outside.end(), cur.tets.begin());
   std::copy(outside_leaf.begin(), outside_leaf.end(), cur.tet_regions.begin());
+  if (cored != nullptr) {
+    cored->assign(tet_at[n], 0);
+    std::copy(outside_cored.begin(), outside_cored.end(), cored->begin());
+  }
   outside = {};
   outside_leaf = {};
   tbb::parallel_for(std::size_t{0}, n, [&](std::size_t l) {
@@ -267,8 +274,10 @@ void splice(VolumeMesh& cur, const std::vector<LeafId>& leaves, std::vector<Task
     std::fill(cur.tet_regions.begin() + static_cast<std::ptrdiff_t>(tet_at[l]),
               cur.tet_regions.begin() + static_cast<std::ptrdiff_t>(tet_at[l + 1]), static_cast<int>(leaves[l]));
     if (grid != nullptr) {
-      for (std::size_t t = tet_at[l]; t < tet_at[l] + r.output.tets.size(); ++t)
+      for (std::size_t t = tet_at[l]; t < tet_at[l] + r.output.tets.size(); ++t) {
         cur.tet_regions[t] = static_cast<int>(leaf_of_point(grid->box, grid->depth, tet_barycenter(cur, static_cast<Index>(t))));
+        if (cored != nullptr) (*cored)[t] = cur.tet_regions[t] == static_cast<int>(leaves[l]) ? 1 : 0;
+      }
     }
     r = TaskResult{};
     kept[l] = {};
@@ -293,6 +302,9 @@ struct RoundExtras {
   std::vector<double>* sizes = nullptr;         ///< h per point of `cur`, kept up to date (see splice)
   std::size_t leaves_before = 0;                ///< leaves merged in this phase's earlier rounds (progress)
   std::size_t tets_beside = 0;                  ///< tets of the whole mesh when `cur` is a part of it (progress)
+  /// Per tet of `cur`, kept up to date (with `grid` and `outside`): 1 when the
+  /// last task that had it made it in its own leaf (its core), else 0.
+  std::vector<char>* cored = nullptr;
 };
 Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const FaceIdTable& boundary,
                  const SizingField& sizing, const LeafKernel& kernel, const PdrOptions& options, bool fixups,
@@ -402,7 +414,13 @@ Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const
   PDR_TRY(error);
 
   const auto t0 = Clock::now();
-  splice(cur, d.leaves, results, kept, outside, outside_leaf, extras.grid, extras.sizes, sizing, rr);
+  std::vector<char> outside_cored;
+  if (extras.cored != nullptr && extras.outside != nullptr) {
+    outside_cored.resize(extras.outside->size());
+    for (std::size_t i = 0; i < outside_cored.size(); ++i) outside_cored[i] = (*extras.cored)[(*extras.outside)[i]];
+  }
+  splice(cur, d.leaves, results, kept, outside, outside_leaf, extras.grid, extras.sizes, sizing, rr, extras.cored,
+         outside_cored);
   rr.merge_s += seconds_since(t0);
   rr.record.name = std::string(phase);
   rr.record.depth = d.depth;
@@ -420,7 +438,9 @@ constexpr int kMaxSweeps = 3;
 /// refinement's: its tasks' selections (bad tets and their halo) and buffers
 /// reach several tets beyond a leaf, and in a grid as fine as the
 /// refinement's two buffers of one round would meet and block each other.
-constexpr int kFinalCoarsening = 2;
+/// Below depth 2 that grid would hold one leaf per colour (its tasks one
+/// after another, twice): one task over the selection is cheaper.
+constexpr int kFinalCoarsening = 3;
 
 /// The tasks of one buffered round (PdrOptions::buffered): the leaves of one
 /// colour (the parities of the grid coordinates, i&1 | (j&1)<<1 | (k&1)<<2),
@@ -882,15 +902,16 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
       prof.optimization_leaves = seconds_since(t0);
     }
     if (select && buffered) {
-      // The final pass, in eight rounds by colour as in the refinement: a
-      // leaf's task gets the selected tets whose barycenter it holds and
+      // The final pass, in rounds by colour as in the refinement (over a
+      // coarser grid: kFinalCoarsening; one leaf, one task, on small meshes):
+      // a leaf's task gets the selected tets whose barycenter it holds and
       // optimize_buffer_layers of any tets around them, and may change all
       // but its hull, so what the rounds' frozen hulls kept from them is
       // reached with no task over the whole mesh. The rounds work on the
       // selection and its buffer as a sub-mesh (its hull unchanged), put back
       // into the mesh at the end: their scans cost what the selection does.
       const auto tg = Clock::now();
-      const int final_depth = std::max(0, depth - kFinalCoarsening);
+      const int final_depth = depth - kFinalCoarsening >= 2 ? depth - kFinalCoarsening : 0;
       const auto sweep = [&]() -> Status {
         const Grid grid{box1, final_depth};
         auto td = Clock::now();
@@ -900,11 +921,14 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
         const FaceIdTable sub_boundary(sub.mesh.boundary, sub.mesh.boundary_ids);
         prof.decomposition += seconds_since(td);
         // With more than one leaf, a task changes tets of leaves whose round
-        // has passed (its buffer): a second sweep gives them a core again.
+        // has passed (its buffer): a second sweep gives those a core again,
+        // and no seed to the bad tets a task already had in its core.
         const int colours = final_depth > 0 ? 16 : 1;
+        std::vector<char> cored(sub.mesh.tets.size(), 0);
         for (int colour = 0; colour < colours; ++colour) {
           td = Clock::now();
-          const std::vector<char> selected = select_bad_tets(sub.mesh, options);
+          const std::vector<char> selected =
+              select_bad_tets(sub.mesh, options, options.optimize_halo, colour >= 8 ? &cored : nullptr);
           BufferedRound b =
               buffered_round(sub.mesh, box1, final_depth, colour % 8, options.optimize_buffer_layers, nullptr, &selected);
           prof.decomposition += seconds_since(td);
@@ -915,7 +939,8 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
                             {.outside = &b.outside,
                              .cores = &b.cores,
                              .grid = &grid,
-                             .tets_beside = cur.tets.size() - sub.global_tets.size()}));
+                             .tets_beside = cur.tets.size() - sub.global_tets.size(),
+                             .cored = &cored}));
           account(std::move(r));
         }
         td = Clock::now();

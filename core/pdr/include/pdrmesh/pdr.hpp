@@ -173,12 +173,13 @@ struct PdrOptions {
   /// only its tets within optimize_halo vertex layers of such a tet (the others
   /// stay as they are; the selection's outer faces are frozen like any leaf
   /// hull, and a leaf with no selected tet runs no task), and the final pass
-  /// runs optimize_kernel instead of `optimize`: with buffered rounds, in
-  /// colour rounds over a grid two levels coarser than the refinement's (one
-  /// task over the whole selection at depth 2 or less; two sweeps otherwise,
-  /// since a task's buffer changes tets of leaves whose round has passed),
-  /// without them as one task over the whole selection. The work then
-  /// follows the bad tets, not the mesh size.
+  /// runs optimize_kernel instead of `optimize`: as one task over the whole
+  /// selection, or, with buffered rounds at depth 5 or more (large meshes,
+  /// where that task would be the run's long pole), in colour rounds over a
+  /// grid three levels coarser than the refinement's, two sweeps (a task's
+  /// buffer changes tets of leaves whose round has passed; the second sweep
+  /// seeds only the bad tets no task has had in its core since). The work
+  /// then follows the bad tets, not the mesh size.
   std::function<bool(const Vec3&, const Vec3&, const Vec3&, const Vec3&)> optimize_selects;
   /// Vertex layers around the selected tets: with 1, every point of a bad tet
   /// has its whole star in the task (it may move); 2 also lets the points of
