@@ -916,8 +916,9 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
         const Grid grid{box1, final_depth};
         auto td = Clock::now();
         assign_leaves(cur, box1, final_depth);
-        SubMesh sub =
-            extract_tets(cur, select_bad_tets(cur, options, options.optimize_halo + options.optimize_buffer_layers));
+        // One leaf has no cuts for a buffer to cover.
+        const int buffer = final_depth > 0 ? options.optimize_buffer_layers : 0;
+        SubMesh sub = extract_tets(cur, select_bad_tets(cur, options, options.optimize_halo + buffer));
         const FaceIdTable sub_boundary(sub.mesh.boundary, sub.mesh.boundary_ids);
         prof.decomposition += seconds_since(td);
         // With more than one leaf, a task changes tets of leaves whose round
@@ -930,7 +931,7 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
           const std::vector<char> selected =
               select_bad_tets(sub.mesh, options, options.optimize_halo, colour >= 8 ? &cored : nullptr);
           BufferedRound b =
-              buffered_round(sub.mesh, box1, final_depth, colour % 8, options.optimize_buffer_layers, nullptr, &selected);
+              buffered_round(sub.mesh, box1, final_depth, colour % 8, buffer, nullptr, &selected);
           prof.decomposition += seconds_since(td);
           if (b.d.size() == 0) continue;
           RoundResult r;
