@@ -12,11 +12,13 @@
 #include <array>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <iterator>
 #include <limits>
 #include <optional>
 #include <span>
 #include <tuple>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -72,6 +74,17 @@ struct SizeBounds {
   AngleRange limits{};
   bool room = true;
 };
+
+/// The local attempts whose failures the optimizer remembers (Optimizer::failed_before):
+/// per tet, the flips of the reconnection, a sliver's insertion and the repair and
+/// absorption operations; per point, the moves of the smoothing, the angle, margin
+/// (a bad tet's point, or a ring point) and size polish.
+enum class Attempt : unsigned char { kFlips, kSliver, kRepair, kAbsorb, kSmooth, kAngle, kMargin, kRing, kSize };
+inline constexpr std::size_t kAttempts = static_cast<std::size_t>(Attempt::kSize) + 1;
+
+/// The parameters an attempt depends on beyond its tets (a floor, the mesh's
+/// extremes, a search length): a failure counts only under the same ones.
+using AttemptKey = std::array<double, 4>;
 
 /// The cap repair's view of a bad tet (Optimizer::cap_kind).
 enum class CapKind { kNone, kCap, kFreeApex };
@@ -270,6 +283,9 @@ class Optimizer {
   };
 
   // state.cpp
+  bool failed_before(Attempt a, Index i) const;
+  void remember_failure(Attempt a, Index i);
+  void attempt_key(Attempt a, const AttemptKey& key);
   Badness badness(Index t) const;
   Badness compute_badness(Index t) const;
   std::vector<unsigned char> bad_flags() const;
@@ -583,6 +599,22 @@ class Optimizer {
   std::vector<Index> moved_list_;    ///< the points of moved_, in the order first moved
   std::vector<Tri> surface_keys_;    ///< repair_caps: the surface triangles, sorted keys
   bool surface_keys_known_ = false;
+  /// The work queue's memory. clock_ counts the tets touched (touch); stamp_
+  /// holds per point the clock when a tet holding it was last created or
+  /// moved. A failed attempt notes the clock (Failures::at, per slot or
+  /// point); it is not made again while no point of its tet (or the point
+  /// itself, whose star holds every tet it reads) has a later stamp and the
+  /// parameters are the same: it would fail again, so rounds cost what
+  /// changed since the last one, not what is bad.
+  /// (A map, as few slots or points ever fail; it is only looked up, never walked.)
+  struct Failures {
+    std::unordered_map<Index, std::uint64_t> at;  ///< slot or point -> the clock at its failure
+    std::uint64_t from = 0;  ///< failures before this clock were under other parameters
+    AttemptKey key{};
+  };
+  std::array<Failures, kAttempts> failed_{};
+  std::vector<std::uint64_t> stamp_;
+  std::uint64_t clock_ = 1;
 };
 
 /// The interior repair's criterion (repair rounds): a new tet scores its
@@ -607,6 +639,8 @@ class Optimizer::RepairCriterion final {
     return true;
   }
   void done(std::span<const Index>, std::span<const double>) const {}
+  /// What its decisions depend on beyond the tets (Optimizer::attempt_key).
+  AttemptKey key() const { return {surface_floor_, 0.0, 0.0, 0.0}; }
   /// The floors bar() found, per class.
   const ClassFloors& floors() const { return floors_; }
   double surface_floor() const { return surface_floor_; }
@@ -640,6 +674,8 @@ class Optimizer::AbsorbCriterion final {
   }
   bool accepts(std::span<const Tet>) const { return true; }
   void done(std::span<const Index>, std::span<const double>) const {}
+  /// What its decisions depend on beyond the tets (Optimizer::attempt_key).
+  AttemptKey key() const { return {extremes_.min, extremes_.max, 0.0, 0.0}; }
 
  private:
   const Optimizer& o_;

@@ -6,6 +6,32 @@
 
 namespace pdrmesh::optimize_detail {
 
+/// Whether attempt a on tet (or point) i failed under the present
+/// parameters and nothing it reads has changed since (failed_, stamp_).
+bool Optimizer::failed_before(Attempt a, Index i) const {
+  const Failures& f = failed_[static_cast<std::size_t>(a)];
+  const auto it = f.at.find(i);
+  if (it == f.at.end() || it->second < f.from) return false;
+  const auto later = [&](Index v) { return v < stamp_.size() && stamp_[v] > it->second; };
+  if (a >= Attempt::kSmooth) return !later(i);
+  for (Index v : m_.tet(i))
+    if (later(v)) return false;
+  return true;
+}
+
+/// Notes that attempt a on tet (or point) i failed now.
+void Optimizer::remember_failure(Attempt a, Index i) {
+  failed_[static_cast<std::size_t>(a)].at[i] = clock_;
+}
+
+/// The parameters of attempt a from now on; failures under other ones no longer count.
+void Optimizer::attempt_key(Attempt a, const AttemptKey& key) {
+  Failures& f = failed_[static_cast<std::size_t>(a)];
+  if (f.key == key) return;
+  f.key = key;
+  f.from = ++clock_;
+}
+
 /// The badness of the alive tet t, through known_ (see there).
 Badness Optimizer::badness(Index t) const {
   if (t >= known_.size()) known_.resize(m_.num_slots(), 0);  // never inside bad_flags' parallel scan
@@ -184,8 +210,14 @@ void Optimizer::forget_created() {
 }
 
 /// Slot t holds a new tet, or one whose points moved: its badness is
-/// unknown, and bad_tets() and angles() look at it again.
+/// unknown, bad_tets() and angles() look at it again, and its points get a
+/// new stamp (failed attempts around them may succeed now).
 void Optimizer::touch(Index t) {
+  ++clock_;
+  for (Index v : m_.tet(t)) {
+    if (v >= stamp_.size()) stamp_.resize(std::max<std::size_t>(v + 1, m_.num_points()), 0);
+    stamp_[v] = clock_;
+  }
   if (t < known_.size()) known_[t] = 0;
   if (bad_known_) touched_.push_back(t);
   if (range_built_) range_.touch(t);
