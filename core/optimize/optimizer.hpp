@@ -143,8 +143,11 @@ class RangeTree {
  public:
   static constexpr Index kRangeBlock = 8;
 
-  /// Measures every block (in parallel on a large mesh).
-  void build(const TetMesh& m) {
+  /// Measures every block (in parallel on a large mesh), handing each live
+  /// tet's angles to visit(t, range) on the way (the first scan of bad tets
+  /// reads them too, so the mesh is measured once).
+  template <class Visit>
+  void build(const TetMesh& m, Visit&& visit) {
     const Index blocks = (m.num_slots() + kRangeBlock - 1) / kRangeBlock;
     cap_ = 1;
     while (cap_ < blocks) cap_ *= 2;
@@ -152,7 +155,7 @@ class RangeTree {
     is_dirty_.assign(cap_, 0);
     dirty_.clear();
     const auto scan = [&](const tbb::blocked_range<Index>& r) {
-      for (Index b = r.begin(); b < r.end(); ++b) node_[cap_ + b] = measure_block(m, b);
+      for (Index b = r.begin(); b < r.end(); ++b) node_[cap_ + b] = measure_block(m, b, visit);
     };
     const tbb::blocked_range<Index> all(0, blocks, 512);
     if (m.num_slots() < kParallelTets) {
@@ -200,12 +203,17 @@ class RangeTree {
   static constexpr AngleRange kNeutral{180.0, 0.0};
 
   static AngleRange measure_block(const TetMesh& m, Index b) {
+    return measure_block(m, b, [](Index, const AngleRange&) {});
+  }
+  template <class Visit>
+  static AngleRange measure_block(const TetMesh& m, Index b, Visit&& visit) {
     AngleRange r = kNeutral;
     const Index end = std::min(m.num_slots(), (b + 1) * kRangeBlock);
     for (Index t = b * kRangeBlock; t < end; ++t) {
       if (!m.alive(t)) continue;
       const auto p = corners(m, m.tet(t));
       const AngleRange a = dihedral_range(p[0], p[1], p[2], p[3]);
+      visit(t, a);
       r.min = std::min(r.min, a.min);
       r.max = std::max(r.max, a.max);
     }
@@ -288,7 +296,8 @@ class Optimizer {
   void attempt_key(Attempt a, const AttemptKey& key);
   Badness badness(Index t) const;
   Badness compute_badness(Index t) const;
-  std::vector<unsigned char> bad_flags() const;
+  Badness badness_of(const AngleRange& r) const;
+  std::vector<unsigned char> bad_flags();
   const std::vector<Index>& bad_tets();
   AngleRange angles();
   Index any_tet(Index v);

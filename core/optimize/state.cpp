@@ -42,15 +42,27 @@ Badness Optimizer::badness(Index t) const {
 
 Badness Optimizer::compute_badness(Index t) const {
   const auto p = corners(m_, m_.tet(t));
-  const AngleRange r = dihedral_range(p[0], p[1], p[2], p[3]);
+  return badness_of(dihedral_range(p[0], p[1], p[2], p[3]));
+}
+
+/// The badness of a tet whose dihedral angles span r.
+Badness Optimizer::badness_of(const AngleRange& r) const {
   const bool small = r.min < o_.target_min_dihedral, large = r.max > o_.target_max_dihedral;
   if (small && large) return Badness::kSliver;
   return small || large ? Badness::kBad : Badness::kGood;
 }
 
-/// Per slot: 1 for a live bad tet (computed in parallel).
-std::vector<unsigned char> Optimizer::bad_flags() const {
+/// Per slot: 1 for a live bad tet (computed in parallel). The first call
+/// builds the angle tree (angles()) in the same pass, which notes every
+/// tet's badness in known_.
+std::vector<unsigned char> Optimizer::bad_flags() {
   if (known_.size() < m_.num_slots()) known_.resize(m_.num_slots(), 0);
+  if (!range_built_) {
+    range_.build(m_, [this](Index t, const AngleRange& r) {
+      known_[t] = static_cast<unsigned char>(1 + static_cast<int>(badness_of(r)));
+    });
+    range_built_ = true;
+  }
   std::vector<unsigned char> is_bad(m_.num_slots(), 0);
   const auto scan = [&](const tbb::blocked_range<Index>& r) {
     for (Index t = r.begin(); t < r.end(); ++t) is_bad[t] = m_.alive(t) && badness(t) != Badness::kGood ? 1 : 0;
@@ -94,7 +106,7 @@ const std::vector<Index>& Optimizer::bad_tets() {
 /// The mesh's extreme dihedral angles now (range_, built on first use).
 AngleRange Optimizer::angles() {
   if (!range_built_) {
-    range_.build(m_);
+    range_.build(m_, [](Index, const AngleRange&) {});
     range_built_ = true;
   }
   return range_.range(m_);
