@@ -30,6 +30,7 @@
 #include "pdrmesh/foam_quality.hpp"
 #include "pdrmesh/quality.hpp"
 #include "pdrmesh/refine.hpp"
+#include "pdrmesh/regions.hpp"
 #include "pdrmesh/sizing.hpp"
 #include "pdrmesh/stopwatch.hpp"
 #include "pdrmesh/surface_check.hpp"
@@ -91,6 +92,29 @@ std::string names_line(const std::map<int, std::string>& names) {
   return fmt::format("boundary names: {}", fmt::join(items, ", "));
 }
 
+/// ", N regions: NAME, ..." when the surface has interfaces (regions.hpp), else empty.
+std::string regions_note(const SurfaceMesh& surface, const SurfaceReport& report) {
+  const auto regions = surface_regions(surface, report);
+  if (!regions.ok() || regions->empty()) return {};
+  std::vector<std::string> names;
+  for (const SurfaceRegion& r : *regions) names.push_back(fmt::format("{} {}", r.id, r.name));
+  return fmt::format(", {} regions: {}", regions->size(), fmt::join(names, ", "));
+}
+
+/// Per region of a mesh (none without tet_regions): id, name, tets.
+struct RegionCount {
+  int id;
+  std::string name;
+  std::size_t tets;
+};
+std::vector<RegionCount> region_counts(const VolumeMesh& mesh) {
+  std::map<int, std::size_t> n;
+  for (int r : mesh.tet_regions) ++n[r];
+  std::vector<RegionCount> out;
+  for (const auto& [id, tets] : n) out.push_back({id, region_name(mesh.region_names, id), tets});
+  return out;
+}
+
 /// Reads and checks a surface, with the names of a --names file (`names_path`,
 /// empty: none); on failure prints why and returns the exit code.
 int load_checked_surface(const std::string& path, const std::string& names_path, Progress& progress,
@@ -106,7 +130,7 @@ int load_checked_surface(const std::string& path, const std::string& names_path,
   const SurfaceReport report = check_surface(*surface);
   if (times) times->check = seconds_since(t);
   if (Status s = require_meshable(report, path); !s.ok()) return fail(s);
-  progress.say("surface check passed: {} component(s)", report.components.size());
+  progress.say("surface check passed: {} component(s){}", report.components.size(), regions_note(*surface, report));
   out = std::move(surface).value();
   return kExitOk;
 }
@@ -167,7 +191,10 @@ int finish(const VolumeMesh& mesh, const SurfaceMesh& surface, const Outcome& o,
       fmt::print(stderr, "{}", format_validation(report));
       return fail(internal_error("the generated mesh failed validation; please report this with the input"));
     }
-    progress.say("validated: conforming, positive, boundary identical to the input, volume conserved");
+    progress.say("validated: conforming, positive, boundary identical to the input, volume conserved{}",
+                 report.regions > 0 ? fmt::format("; {} regions, {} interface faces shared by the regions they separate",
+                                                  report.regions, report.interface_faces)
+                                    : std::string());
   }
   if (!staged.ok()) return fail(staged.status());
   if (Status s = staged->commit(); !s.ok()) return fail(s);
@@ -189,10 +216,23 @@ int run_check(const std::string& path, bool json, bool no_self_intersections) {
   CheckOptions options;
   options.self_intersections = !no_self_intersections;
   const SurfaceReport report = check_surface(*surface, options);
+  const Result<std::vector<SurfaceRegion>> regions =
+      report.meshable() ? surface_regions(*surface, report) : Result<std::vector<SurfaceRegion>>(std::vector<SurfaceRegion>{});
   if (json) {
-    fmt::print("{}\n", report_to_json(report, path));
+    auto j = nlohmann::json::parse(report_to_json(report, path));
+    j["regions"] = nlohmann::json::array();
+    if (regions.ok())
+      for (const SurfaceRegion& r : *regions)
+        j["regions"].push_back({{"id", r.id}, {"name", r.name}, {"triangles", r.domain.triangles.size()}});
+    fmt::print("{}\n", j.dump());
   } else {
     fmt::print("{}", format_report(report, path));
+    if (regions.ok() && !regions->empty()) {
+      fmt::print("  {} regions (shells inside shells of the same orientation are interfaces):\n", regions->size());
+      for (const SurfaceRegion& r : *regions)
+        fmt::print("    region {} {}: {} triangles with its interfaces and cavities\n", r.id, r.name,
+                   r.domain.triangles.size());
+    }
   }
   return report.meshable() ? kExitOk : kExitBadInput;
 }
@@ -374,13 +414,21 @@ int run_quality(const std::string& path, bool json, const std::string& svg) {
   // checkMesh's figures need every face in one or two tets; on a mesh where
   // that fails the rest of the report still prints, with the reason.
   const auto foam = measure_foam_quality(*mesh);
+  const std::vector<RegionCount> regions = region_counts(*mesh);
   if (json) {
     auto j = nlohmann::json::parse(quality_to_json(q));
     j["openfoam"] = foam.ok() ? nlohmann::json::parse(foam_quality_to_json(*foam))
                               : nlohmann::json{{"error", foam.status().message()}};
+    j["regions"] = nlohmann::json::array();
+    for (const RegionCount& r : regions) j["regions"].push_back({{"id", r.id}, {"name", r.name}, {"tets", r.tets}});
     fmt::print("{}\n", j.dump());
   } else {
     fmt::print("{}", format_quality(q));
+    if (!regions.empty()) {
+      std::vector<std::string> items;
+      for (const RegionCount& r : regions) items.push_back(fmt::format("{} {}: {} tets", r.id, r.name, r.tets));
+      fmt::print("regions: {}\n", fmt::join(items, ", "));
+    }
     fmt::print("{}", foam.ok() ? format_foam_quality(*foam)
                                : fmt::format("OpenFOAM (checkMesh) figures not measured: {}\n", foam.status().message()));
   }
@@ -407,6 +455,8 @@ int run_validate(const std::string& path, const std::string& surface_path, bool 
                               {"tets", report.tets},
                               {"points", report.points},
                               {"boundary_faces", report.boundary_faces},
+                              {"regions", report.regions},
+                              {"interface_faces", report.interface_faces},
                               {"volume", report.volume},
                               {"enclosed_volume", report.enclosed_volume},
                               {"error_count", report.error_count},
