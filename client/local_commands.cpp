@@ -22,6 +22,7 @@
 #include "run_options.hpp"
 #include "pdrmesh/boundary_names.hpp"
 #include "pdrmesh/boundary_names_io.hpp"
+#include "pdrmesh/farfield.hpp"
 #include "pdrmesh/leaf_kernels.hpp"
 #include "pdrmesh/pdr_profile.hpp"
 #include "pdrmesh/optimize.hpp"
@@ -116,15 +117,25 @@ std::vector<RegionCount> region_counts(const VolumeMesh& mesh) {
 }
 
 /// Reads and checks a surface, with the names of a --names file (`names_path`,
-/// empty: none); on failure prints why and returns the exit code.
-int load_checked_surface(const std::string& path, const std::string& names_path, Progress& progress,
-                         SurfaceMesh& out, StepTimes* times = nullptr) {
+/// empty: none), and with `farfield` the domain around it (farfield.hpp) in its
+/// place; on failure prints why and returns the exit code.
+int load_checked_surface(const std::string& path, const std::string& names_path,
+                         const std::optional<FarfieldOptions>& farfield, Progress& progress, SurfaceMesh& out,
+                         StepTimes* times = nullptr) {
   auto t = Clock::now();
   auto surface = read_surface(path);
   if (!surface.ok()) return fail(surface.status());
   if (Status s = apply_names_file(names_path, surface->surface_ids, surface->surface_names); !s.ok()) return fail(s);
   if (times) times->read = seconds_since(t);
   progress.say("read {}: {} points, {} triangles", path, surface->points.size(), surface->triangles.size());
+  if (farfield) {
+    auto domain = make_farfield(*surface, *farfield);
+    if (!domain.ok()) return fail(domain.status());
+    progress.say("far field: a {} {:g} body lengths (L = {:.6g}) from the body, {} triangles of about {:.6g}",
+                 to_string(farfield->shape), farfield->distance, domain->body_length, domain->farfield_triangles,
+                 domain->farfield_size);
+    *surface = std::move(domain->surface);
+  }
   if (!surface->surface_names.empty()) progress.say("{}", names_line(surface->surface_names));
   t = Clock::now();
   const SurfaceReport report = check_surface(*surface);
@@ -249,13 +260,15 @@ struct MeshArgs {
   bool no_optimize = false;
   SizeArgs size;
   std::string names;  ///< --names FILE; empty: none
+  FarfieldArgs farfield;
 };
 
 int run_mesh(const MeshArgs& a) {
   Progress progress(a.quiet);
   const auto start = Clock::now();
   SurfaceMesh surface;
-  if (int code = load_checked_surface(a.surface, a.names, progress, surface); code != kExitOk) return code;
+  if (int code = load_checked_surface(a.surface, a.names, a.farfield.options(), progress, surface); code != kExitOk)
+    return code;
   // The time limit counts from the start: what reading and checking took is gone.
   const double left_s = a.time_limit_s > 0 ? a.time_limit_s - seconds_since(start) : 0;
   if (a.time_limit_s > 0 && !(left_s > 0))
@@ -352,8 +365,9 @@ int run_run(const RunArgs& a) {
   Progress progress(a.quiet);
   SurfaceMesh surface;
   StepTimes times;
-  if (int code = load_checked_surface(a.surface, a.mesh.names, progress, surface, &times); code != kExitOk)
-    return code;
+  const int loaded =
+      load_checked_surface(a.surface, a.mesh.names, a.mesh.farfield.options(), progress, surface, &times);
+  if (loaded != kExitOk) return loaded;
 
   auto kernel = make_leaf_kernel(a.mesh.kernel);
   if (!kernel.ok()) return fail(kernel.status());
@@ -512,6 +526,7 @@ void add_local_commands(CLI::App& app, int& exit_code) {
     cmd->add_flag("--no-optimize", a->no_optimize, "skip the final optimization");
     a->size.add_to(cmd);
     add_names_option(cmd, a->names);
+    a->farfield.add_to(cmd);
     add_time_limit(cmd, a->time_limit_s, "none");
     cmd->add_flag("-q,--quiet", a->quiet, "no progress or summary on stderr");
     cmd->add_flag("--json", a->json, json_help);
@@ -520,7 +535,9 @@ void add_local_commands(CLI::App& app, int& exit_code) {
                              {"pdrmesh mesh part.stl -o part.msh --size 1% --time-limit 600",
                               "edges about 1% of the bounding-box diagonal; stop after 10 minutes"},
                              {"pdrmesh mesh part.ply -o part.su2 --names names.txt",
-                              "SU2 markers named by names.txt (lines like '1 inlet')"}}));
+                              "SU2 markers named by names.txt (lines like '1 inlet')"},
+                             {"pdrmesh mesh wing.stl -o case/constant/polyMesh --farfield 10",
+                              "external flow: the space between the wing and a box 10 wing lengths away"}}));
     cmd->callback([&exit_code, a, cmd] {
       a->size.check();
       refuse_together(*cmd, "--no-refine", {"--size", "--hmin", "--hmax", "--growth", "--no-optimize"},
