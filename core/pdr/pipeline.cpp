@@ -279,7 +279,7 @@ void add_profile(PdrProfile& all, PdrProfile&& p) {
                  &PdrProfile::boundary_extraction, &PdrProfile::leaves, &PdrProfile::merge,
                  &PdrProfile::interface_round, &PdrProfile::optimization, &PdrProfile::optimization_leaves,
                  &PdrProfile::task_busy, &PdrProfile::global_optimization, &PdrProfile::total,
-                 &PdrProfile::background, &PdrProfile::sizing, &PdrProfile::overlapped})
+                 &PdrProfile::background, &PdrProfile::sizing, &PdrProfile::overlapped, &PdrProfile::task_cpu})
     all.*m += p.*m;
   for (auto m : {&PdrProfile::initial_tets, &PdrProfile::leaf_count, &PdrProfile::interface_leaf_count,
                  &PdrProfile::fixup_swaps, &PdrProfile::fixup_moves, &PdrProfile::fixup_unresolved,
@@ -288,6 +288,7 @@ void add_profile(PdrProfile& all, PdrProfile&& p) {
   all.depth = std::max(all.depth, p.depth);
   all.max_leaf_tets = std::max(all.max_leaf_tets, p.max_leaf_tets);
   all.max_concurrency = std::max(all.max_concurrency, p.max_concurrency);
+  all.threads = std::max(all.threads, p.threads);
   if (all.first_failure.empty()) all.first_failure = std::move(p.first_failure);
   for (RoundRecord& r : p.rounds) all.rounds.push_back(std::move(r));
 }
