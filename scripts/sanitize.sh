@@ -2,8 +2,9 @@
 # SPDX-License-Identifier: AGPL-3.0-or-later
 # The sanitizer and fuzz stage of scripts/test.sh (run after the normal build and ctest):
 #  1. build-asan: clang-14, AddressSanitizer + UndefinedBehaviorSanitizer (UBSan stops at the
-#     first report) and the libFuzzer targets; the whole ctest suite there, including the replay
-#     of tests/fuzz/regressions; then every fuzz target for FUZZ_SECONDS (default 5) each.
+#     first report) and the libFuzzer targets; the ctest suite there (less the labels openfoam
+#     and no_sanitizers), including the replay of tests/fuzz/regressions; then every fuzz target
+#     for FUZZ_SECONDS (default 5) each.
 #  2. build-tsan: clang-14, ThreadSanitizer, linked against oneTBB built with TSan from Debian's
 #     own source (scripts/tsan-tbb.sh: Debian's libtbb12 is not instrumented, so TSan could not
 #     see TBB's task hand-off). pdrmesh_thread_tests (tests/pdr/scheduler_test.cpp and
@@ -42,8 +43,9 @@ echo "sanitize: ASan+UBSan ctest ($((SECONDS - t0)) s so far)"
 # posix_spawn (tetgen_adapter.cpp), so a lock that another thread holds cannot reach it (LLVM 14's
 # ASan allocator is not fork-safe; a bare fork() of TetGen beside busy threads used to hang here).
 # Except the OpenFOAM/CGNS checks (label openfoam): their time is checkMesh's and cgnscheck's, and
-# the writers they exercise run under the sanitizers in the io unit tests.
-(cd "$root/build-asan" && ctest --output-on-failure --parallel "$jobs" --timeout 900 -LE openfoam)
+# the writers they exercise run under the sanitizers in the io unit tests; and the slowest
+# end-to-end tests (label no_sanitizers, see tests/CMakeLists.txt), whose code the others cover.
+(cd "$root/build-asan" && ctest --output-on-failure --parallel "$jobs" --timeout 900 -LE "openfoam|no_sanitizers")
 echo "sanitize: fuzzing, ${FUZZ_SECONDS:-5} s per target ($((SECONDS - t0)) s so far)"
 FUZZ_BUILD_DIR=$root/build-asan "$root/tests/fuzz/run.sh" "${FUZZ_SECONDS:-5}"
 
