@@ -65,7 +65,8 @@ patches() { sed -n 's/^    \([^ {}]\+\)$/\1/p' "$1/boundary" | paste -sd' '; }
 if [[ $mode == --openfoam ]]; then
   for bashrc in /usr/share/openfoam/etc/bashrc /usr/lib/openfoam/openfoam*/etc/bashrc; do
     if [[ -f $bashrc ]]; then
-      set +u; source "$bashrc" >/dev/null 2>&1 || true; set -u
+      # No arguments: the bashrc reads its own as settings to look up (minutes of searching).
+      set +u; set --; source "$bashrc" >/dev/null 2>&1 || true; set -u
       break
     fi
   done

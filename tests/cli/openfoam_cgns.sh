@@ -41,7 +41,8 @@ DICT
 echo 'FoamFile { version 2.0; format ascii; class dictionary; object fvSolution; }' >"$tmp/case/system/fvSolution"
 for bashrc in /usr/share/openfoam/etc/bashrc /usr/lib/openfoam/openfoam*/etc/bashrc; do
   if [[ -f $bashrc ]]; then
-    set +u; source "$bashrc" >/dev/null 2>&1 || true; set -u
+    # No arguments: the bashrc reads its own as settings to look up (minutes of searching).
+    set +u; set --; source "$bashrc" >/dev/null 2>&1 || true; set -u
     break
   fi
 done
