@@ -5,15 +5,18 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <numbers>
+#include <span>
 #include <utility>
 #include <vector>
 
 #include <oneapi/tbb/parallel_for.h>
 
+#include "pdrmesh/fixed_chunks.hpp"
 #include "pdrmesh/topology.hpp"
 
 namespace pdrmesh {
@@ -103,23 +106,34 @@ std::vector<double> min_dihedral_per_tet(const VolumeMesh& mesh) {
 
 namespace {
 
-/// Per point: on a face that only one tet has (the hull).
+/// Per point: on a face that only one tet has (the hull). Faces bucketed by
+/// their smallest point (fixed_chunks.hpp), the buckets in parallel; a hull
+/// face marks its points with idempotent stores.
 std::vector<char> hull_points(const VolumeMesh& mesh) {
   std::vector<char> on(mesh.points.size(), 0);
-  std::vector<Tri> faces;
-  faces.reserve(4 * mesh.tets.size());
-  for (const Tet& k : mesh.tets)
-    for (int f = 0; f < 4; ++f) faces.push_back(topo::sorted_key(topo::face_of(k, f)));
-  std::sort(faces.begin(), faces.end());
-  for (std::size_t i = 0; i < faces.size();) {
-    std::size_t j = i + 1;
-    while (j < faces.size() && faces[j] == faces[i]) ++j;
-    if (j - i == 1)
-      for (Index v : faces[i]) on[v] = 1;
-    i = j;
-  }
+  const detail::Buckets<detail::FaceRef> faces = detail::faces_by_smallest_point(mesh.tets, mesh.points.size());
+  tbb::parallel_for(std::size_t{0}, mesh.points.size(), [&](std::size_t a) {
+    detail::for_each_face_group(faces, a, [&](std::span<const detail::FaceRef> group) {
+      if (group.size() != 1) return;
+      for (Index v : topo::face_of(mesh.tets[group[0].tet], static_cast<int>(group[0].slot)))
+        std::atomic_ref<char>(on[v]).store(1, std::memory_order_relaxed);
+    });
+  });
   return on;
 }
+
+/// The figures of one block of tets, summed in tet order.
+struct BlockFigures {
+  double volume = 0;
+  double lo = std::numeric_limits<double>::infinity();
+  double hi = -std::numeric_limits<double>::infinity();
+  std::array<std::size_t, 18> histogram{};
+  std::size_t below = 0, above = 0, interior = 0;
+  double interior_lo = 180.0, interior_hi = 0.0;
+  double min_shape = std::numeric_limits<double>::infinity();
+  double min_shape_and_size = std::numeric_limits<double>::infinity();
+  double shape_sum = 0, shape_size_sum = 0;
+};
 
 }  // namespace
 
@@ -129,60 +143,73 @@ QualityReport measure_quality(const VolumeMesh& mesh, bool interior) {
   q.points = mesh.points.size();
   if (mesh.tets.empty()) return q;
   const auto& p = mesh.points;
-  for (const Tet& k : mesh.tets) q.volume += signed_volume(p[k[0]], p[k[1]], p[k[2]], p[k[3]]);
+  // Blocks of a fixed size, each summed in tet order and the blocks combined
+  // in order: the report is the same bit for bit whatever the thread count.
+  constexpr std::size_t kBlock = 1 << 16;
+  const std::size_t blocks = (mesh.tets.size() + kBlock - 1) / kBlock;
+  const auto block_range = [&](std::size_t b) {
+    return std::pair{b * kBlock, std::min(mesh.tets.size(), (b + 1) * kBlock)};
+  };
+  std::vector<double> block_volume(blocks, 0.0);
+  tbb::parallel_for(std::size_t{0}, blocks, [&](std::size_t b) {
+    const auto [first, last] = block_range(b);
+    for (std::size_t t = first; t < last; ++t) {
+      const Tet& k = mesh.tets[t];
+      block_volume[b] += signed_volume(p[k[0]], p[k[1]], p[k[2]], p[k[3]]);
+    }
+  });
+  for (double v : block_volume) q.volume += v;
   const double average_volume = q.volume / static_cast<double>(q.tets);
 
-  q.min_dihedral = std::numeric_limits<double>::infinity();
-  q.max_dihedral = -std::numeric_limits<double>::infinity();
-  q.min_shape = q.min_shape_and_size = std::numeric_limits<double>::infinity();
-  std::size_t below = 0, above = 0;
-  double shape_sum = 0, shape_size_sum = 0;
   q.interior_measured = interior;
   const std::vector<char> on_hull = interior ? hull_points(mesh) : std::vector<char>();
-  double interior_lo = 180.0, interior_hi = 0.0;
-  // Per-tet measures in parallel, a block at a time; the sums are taken in tet
-  // order, so the report is the same bit for bit whatever the thread count.
-  struct PerTet {
-    std::array<double, 6> angles;
-    double shape, shape_size;
-  };
-  constexpr std::size_t kBlock = 1 << 16;
-  std::vector<PerTet> block(std::min(kBlock, mesh.tets.size()));
-  for (std::size_t first = 0; first < mesh.tets.size(); first += kBlock) {
-    const std::size_t count = std::min(kBlock, mesh.tets.size() - first);
-    tbb::parallel_for(std::size_t{0}, count, [&](std::size_t i) {
-      const Tet& k = mesh.tets[first + i];
-      const Vec3 &a = p[k[0]], &b = p[k[1]], &c = p[k[2]], &d = p[k[3]];
-      PerTet& r = block[i];
-      const auto angles = dihedral_angles(a, b, c, d);
-      r.angles = angles;
-      r.shape = verdict_shape(a, b, c, d);
-      r.shape_size = r.shape * verdict_relative_size_squared(a, b, c, d, average_volume);
-    });
-    for (std::size_t i = 0; i < count; ++i) {
-      const PerTet& r = block[i];
+  std::vector<BlockFigures> figures(blocks);
+  tbb::parallel_for(std::size_t{0}, blocks, [&](std::size_t b) {
+    BlockFigures& f = figures[b];
+    const auto [first, last] = block_range(b);
+    for (std::size_t t = first; t < last; ++t) {
+      const Tet& k = mesh.tets[t];
+      const Vec3 &a = p[k[0]], &bb = p[k[1]], &c = p[k[2]], &d = p[k[3]];
       double lo = 180.0, hi = 0.0;
-      for (double x : r.angles) {
+      for (double x : dihedral_angles(a, bb, c, d)) {
         lo = std::min(lo, x);
         hi = std::max(hi, x);
-        const auto bin = std::min<std::size_t>(17, static_cast<std::size_t>(std::max(0.0, x) / 10.0));
-        ++q.histogram[bin];
+        ++f.histogram[std::min<std::size_t>(17, static_cast<std::size_t>(std::max(0.0, x) / 10.0))];
       }
-      q.min_dihedral = std::min(q.min_dihedral, lo);
-      q.max_dihedral = std::max(q.max_dihedral, hi);
-      const Tet& k = mesh.tets[first + i];
+      f.lo = std::min(f.lo, lo);
+      f.hi = std::max(f.hi, hi);
       if (interior && !on_hull[k[0]] && !on_hull[k[1]] && !on_hull[k[2]] && !on_hull[k[3]]) {
-        ++q.interior_tets;
-        interior_lo = std::min(interior_lo, lo);
-        interior_hi = std::max(interior_hi, hi);
+        ++f.interior;
+        f.interior_lo = std::min(f.interior_lo, lo);
+        f.interior_hi = std::max(f.interior_hi, hi);
       }
-      below += lo < 10.0;
-      above += hi > 165.0;
-      q.min_shape = std::min(q.min_shape, r.shape);
-      q.min_shape_and_size = std::min(q.min_shape_and_size, r.shape_size);
-      shape_sum += r.shape;
-      shape_size_sum += r.shape_size;
+      f.below += lo < 10.0;
+      f.above += hi > 165.0;
+      const double shape = verdict_shape(a, bb, c, d);
+      const double shape_size = shape * verdict_relative_size_squared(a, bb, c, d, average_volume);
+      f.min_shape = std::min(f.min_shape, shape);
+      f.min_shape_and_size = std::min(f.min_shape_and_size, shape_size);
+      f.shape_sum += shape;
+      f.shape_size_sum += shape_size;
     }
+  });
+  q.min_dihedral = q.min_shape = q.min_shape_and_size = std::numeric_limits<double>::infinity();
+  q.max_dihedral = -std::numeric_limits<double>::infinity();
+  std::size_t below = 0, above = 0;
+  double shape_sum = 0, shape_size_sum = 0, interior_lo = 180.0, interior_hi = 0.0;
+  for (const BlockFigures& f : figures) {
+    q.min_dihedral = std::min(q.min_dihedral, f.lo);
+    q.max_dihedral = std::max(q.max_dihedral, f.hi);
+    for (std::size_t i = 0; i < f.histogram.size(); ++i) q.histogram[i] += f.histogram[i];
+    q.interior_tets += f.interior;
+    interior_lo = std::min(interior_lo, f.interior_lo);
+    interior_hi = std::max(interior_hi, f.interior_hi);
+    below += f.below;
+    above += f.above;
+    q.min_shape = std::min(q.min_shape, f.min_shape);
+    q.min_shape_and_size = std::min(q.min_shape_and_size, f.min_shape_and_size);
+    shape_sum += f.shape_sum;
+    shape_size_sum += f.shape_size_sum;
   }
   const double n = static_cast<double>(q.tets);
   q.share_below_10 = static_cast<double>(below) / n;

@@ -242,11 +242,11 @@ void splice(VolumeMesh& cur, const std::vector<LeafId>& leaves, std::vector<Task
   cur.tet_regions.resize(tet_at[n]);
   pts.resize(point_at[n]);
   if (sizes != nullptr) sizes->resize(point_at[n]);
-  std::copy(outside.begin(), outside.end(), cur.tets.begin());
-  std::copy(outside_leaf.begin(), outside_leaf.end(), cur.tet_regions.begin());
+  detail::parallel_copy(outside.begin(), outside.end(), cur.tets.begin());
+  detail::parallel_copy(outside_leaf.begin(), outside_leaf.end(), cur.tet_regions.begin());
   if (cored != nullptr) {
     cored->assign(tet_at[n], 0);
-    std::copy(outside_cored.begin(), outside_cored.end(), cored->begin());
+    detail::parallel_copy(outside_cored.begin(), outside_cored.end(), cored->begin());
   }
   outside = {};
   outside_leaf = {};

@@ -40,6 +40,17 @@ void for_each_chunk(std::size_t n, std::size_t grain, Body&& body) {
                     });
 }
 
+/// std::copy of [first, last) to out in fixed chunks, the chunks in parallel:
+/// a copy of millions of items is a memory pass one thread does not saturate.
+template <class In, class Out>
+void parallel_copy(In first, In last, Out out, std::size_t grain = std::size_t{1} << 16) {
+  const auto n = static_cast<std::size_t>(last - first);
+  for_each_chunk(n, grain, [&](std::size_t, std::size_t b, std::size_t e) {
+    std::copy(first + static_cast<std::ptrdiff_t>(b), first + static_cast<std::ptrdiff_t>(e),
+              out + static_cast<std::ptrdiff_t>(b));
+  });
+}
+
 /// An allocator that leaves a resized vector's new items default-initialised
 /// (trivial items: not written), so that a parallel pass writing every item
 /// first touches the memory, rather than a serial zero fill.
