@@ -76,6 +76,27 @@ AngleRange dihedral_range(const Vec3& a, const Vec3& b, const Vec3& c, const Vec
   return {flat ? 0.0 : angle(lo), angle(hi)};
 }
 
+DihedralBounds::DihedralBounds(double min, double max)
+    // The angle is 180 - acos(cosine), cosine that of the outward face normals:
+    // under min where the cosine is under -cos(min), over max where it is over -cos(max).
+    : flat_is_outside_(min > 0), below_(-std::cos(min / kDegrees)), above_(-std::cos(max / kDegrees)) {}
+
+bool DihedralBounds::outside(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) const {
+  const std::array<Vec3, 4> n{cross(c - b, d - b), cross(d - a, c - a), cross(b - a, d - a), cross(c - a, b - a)};
+  const std::array<double, 4> len{norm(n[0]), norm(n[1]), norm(n[2]), norm(n[3])};
+  static constexpr int kPair[6][2] = {{2, 3}, {1, 3}, {1, 2}, {0, 3}, {0, 2}, {0, 1}};
+  for (const auto& [i, j] : kPair) {
+    const double l = len[i] * len[j];
+    if (l == 0.0) {
+      if (flat_is_outside_) return true;
+      continue;
+    }
+    const double x = dot(n[i], n[j]);
+    if (x < below_ * l || x > above_ * l) return true;
+  }
+  return false;
+}
+
 double verdict_shape(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
   const Vec3 u = b - a, v = c - a, w = d - a;
   const double jacobian = dot(u, cross(v, w));

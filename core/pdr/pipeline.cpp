@@ -254,10 +254,9 @@ Result<ParallelResult> mesh_parallel_one(const SurfaceMesh& surface, const Paral
     }
     pdr.optimize_kernel = optimize_kernel;
     pdr.optimize = [&sizing, &options](VolumeMesh& m) { return optimize_volume(m, sizing, *options.optimize); };
-    pdr.optimize_selects = [lo = opt.target_min_dihedral, hi = opt.target_max_dihedral](
+    pdr.optimize_selects = [bounds = DihedralBounds(opt.target_min_dihedral, opt.target_max_dihedral)](
                                const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
-      const AngleRange r = dihedral_range(a, b, c, d);
-      return r.min < lo || r.max > hi;
+      return bounds.outside(a, b, c, d);
     };
   }
   if (plan) {

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 #include <numbers>
 
@@ -63,6 +64,37 @@ TEST(DihedralRange, EqualsTheExtremesOfTheSixAngles) {
     EXPECT_EQ(r.min, *std::min_element(a.begin(), a.end()));
     EXPECT_EQ(r.max, *std::max_element(a.begin(), a.end()));
   }
+}
+
+TEST(DihedralBounds, DecidesAsDihedralRangeDoes) {
+  // The cosine test against [15, 150] degrees (and a few other bounds) on
+  // random, flat and degenerate tets: the same decision as dihedral_range's
+  // extremes, except where an extreme lies within rounding of a bound.
+  std::uint64_t state = 777;
+  const auto next = [&state] {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return static_cast<double>(state >> 11) / 9007199254740992.0 - 0.5;
+  };
+  std::vector<std::array<Vec3, 4>> tets;
+  for (int i = 0; i < 5000; ++i) tets.push_back({Vec3{next(), next(), next()}, Vec3{next(), next(), next()},
+                                                 Vec3{next(), next(), next()}, Vec3{next(), next(), next()}});
+  tets.push_back({kA, kB, kC, kD});
+  tets.push_back({Vec3{0, 0, 0}, Vec3{1, 0, 0}, Vec3{1, 1, 0}, Vec3{0, 1, 0}});  // flat
+  tets.push_back({Vec3{0, 0, 0}, Vec3{1, 0, 0}, Vec3{2, 0, 0}, Vec3{0, 1, 1}});  // a degenerate face
+  tets.push_back({Vec3{0, 0, 0}, Vec3{0, 0, 0}, Vec3{0, 0, 0}, Vec3{0, 0, 0}});  // a point
+  std::size_t outside = 0, inside = 0;
+  for (const auto& [lo, hi] : {std::pair{15.0, 150.0}, std::pair{0.0, 180.0}, std::pair{40.0, 100.0}}) {
+    const DihedralBounds bounds(lo, hi);
+    for (const auto& p : tets) {
+      const AngleRange r = dihedral_range(p[0], p[1], p[2], p[3]);
+      if (std::abs(r.min - lo) < 1e-9 || std::abs(r.max - hi) < 1e-9) continue;
+      const bool want = r.min < lo || r.max > hi;
+      EXPECT_EQ(bounds.outside(p[0], p[1], p[2], p[3]), want) << lo << " " << hi << ": " << r.min << " " << r.max;
+      (want ? outside : inside) += 1;
+    }
+  }
+  EXPECT_GT(outside, 1000u);  // both answers are exercised
+  EXPECT_GT(inside, 1000u);
 }
 
 TEST(VerdictShape, OneForRegularZeroForInverted) {

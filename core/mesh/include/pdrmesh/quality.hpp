@@ -23,6 +23,20 @@ struct AngleRange {
 };
 AngleRange dihedral_range(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d);
 
+/// Whether a tet has a dihedral angle under `min` or over `max` degrees, for
+/// scans of whole meshes: dihedral_range's extremes against the bounds, with
+/// the bounds turned into cosines once and no arc cosine or division per tet
+/// (the same decision up to rounding at the bounds themselves).
+class DihedralBounds {
+ public:
+  DihedralBounds(double min, double max);
+  bool outside(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) const;
+
+ private:
+  bool flat_is_outside_;  ///< a degenerate face's angle (0) is under min
+  double below_, above_;  ///< the faces' normal cosines at min and max
+};
+
 /// Verdict's tet shape metric (mean ratio): 1 for the regular tet, 0 for a
 /// degenerate or inverted one.
 double verdict_shape(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d);
