@@ -455,6 +455,11 @@ struct BufferedRound {
   std::vector<Index> outside;  ///< the tets of no task, ascending
   std::vector<Box> cores;      ///< per leaf: its box
 };
+/// The tasks of a round from each tet's leaf (`owner`; at least kBlocked:
+/// none): leaves ascending, each one's tets ascending, the others `outside`;
+/// no cores, no lock sets.
+BufferedRound tasks_of_owners(const std::vector<LeafId>& owner, const Box& box, int depth);
+
 /// m.tet_regions must hold the leaf of each tet's barycenter.
 /// Only leaves in `allowed` (ascending; null: all) get a task. With `selected`
 /// (one flag per tet), a leaf's core is its selected tets only; its buffer
@@ -497,6 +502,26 @@ BufferedRound buffered_round(const VolumeMesh& m, const Box& box, int depth, int
       owner[t] = claim;
     });
   }
+  BufferedRound r = tasks_of_owners(owner, box, depth);
+  for (LeafId l : r.d.leaves) r.cores.push_back(leaf_box(box, depth, l));
+  return r;
+}
+
+/// The tasks of a round that sends each leaf only its selected tets (one flag
+/// per tet of m): a selected tet goes to the leaf of the depth-`depth` grid
+/// over `box` that holds its barycenter, the others to no task (kept where
+/// they are). Only the selection is bucketed, and the tasks, whose tets are
+/// disjoint and whose hulls are frozen, need no lock sets.
+BufferedRound selected_round(const VolumeMesh& m, const Box& box, int depth, const std::vector<char>& selected) {
+  std::vector<LeafId> owner(m.tets.size(), std::numeric_limits<LeafId>::max());
+  tbb::parallel_for(std::size_t{0}, m.tets.size(), [&](std::size_t t) {
+    if (selected[t]) owner[t] = leaf_of_point(box, depth, tet_barycenter(m, static_cast<Index>(t)));
+  });
+  return tasks_of_owners(owner, box, depth);
+}
+
+BufferedRound tasks_of_owners(const std::vector<LeafId>& owner, const Box& box, int depth) {
+  constexpr LeafId kBlocked = std::numeric_limits<LeafId>::max() - 1;
   BufferedRound r;
   r.d.box = box;
   r.d.depth = depth;
@@ -531,7 +556,6 @@ BufferedRound buffered_round(const VolumeMesh& m, const Box& box, int depth, int
   });
   r.d.n1.assign(r.d.size(), {});
   r.d.n2.assign(r.d.size(), {});
-  for (LeafId l : r.d.leaves) r.cores.push_back(leaf_box(box, depth, l));
   return r;
 }
 
@@ -792,13 +816,19 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
                          const Selector& select) -> Status {
     return step(phase, [&]() -> Status {
       const auto td = Clock::now();
-      PDR_ASSIGN_OR_RETURN(Decomposition d, decompose_leaves(cur, round_depth, box));
-      prof.decomposition += seconds_since(td);
-      std::vector<char> selected;
-      if (select) selected = select();
       RoundResult r;
-      PDR_TRY(run_round(phase, cur, std::move(d), boundary, sizing, k, options, fix, r,
-                        {.selected = select ? &selected : nullptr}));
+      if (select && !fix) {
+        BufferedRound b = selected_round(cur, box, round_depth, select());
+        prof.decomposition += seconds_since(td);
+        PDR_TRY(run_round(phase, cur, std::move(b.d), boundary, sizing, k, options, false, r, {.outside = &b.outside}));
+      } else {
+        PDR_ASSIGN_OR_RETURN(Decomposition d, decompose_leaves(cur, round_depth, box));
+        std::vector<char> selected;
+        if (select) selected = select();
+        prof.decomposition += seconds_since(td);
+        PDR_TRY(run_round(phase, cur, std::move(d), boundary, sizing, k, options, fix, r,
+                          {.selected = select ? &selected : nullptr}));
+      }
       account(std::move(r));
       return {};
     });
