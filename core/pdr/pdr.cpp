@@ -945,10 +945,10 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
       const auto sweep = [&]() -> Status {
         const Grid grid{box1, final_depth};
         auto td = Clock::now();
-        assign_leaves(cur, box1, final_depth);
         // One leaf has no cuts for a buffer to cover.
         const int buffer = final_depth > 0 ? options.optimize_buffer_layers : 0;
         SubMesh sub = extract_tets(cur, select_bad_tets(cur, options, options.optimize_halo + buffer));
+        assign_leaves(sub.mesh, box1, final_depth);
         const FaceIdTable sub_boundary(sub.mesh.boundary, sub.mesh.boundary_ids);
         prof.decomposition += seconds_since(td);
         // With more than one leaf, a task changes tets of leaves whose round
@@ -980,16 +980,14 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
         return {};
       };
       PDR_TRY(step("final optimization", sweep));
-      assign_leaves(cur, box1, depth);  // the same again when resumed after it
       prof.global_optimization = seconds_since(tg);
     } else if (select) {
       // The final pass: one task over the whole mesh's selection (its hull
       // frozen), so what the rounds' frozen hulls kept from them is reached.
-      // Its tets are then in the one leaf of a depth-0 grid; afterwards each
-      // gets the leaf of the last round's grid that holds its barycenter.
+      // Its tets are then in the one leaf of a depth-0 grid (from here on the
+      // leaf of a tet is bookkeeping no step reads).
       const auto tg = Clock::now();
       PDR_TRY(round("final optimization", box1, *options.optimize_kernel, false, 0, bad));
-      assign_leaves(cur, last_box, depth);  // the same again when resumed after it
       prof.global_optimization = seconds_since(tg);
     } else if (options.optimize && !select) {
       // The leaf of each tet is bookkeeping, not a material region: the
