@@ -451,13 +451,13 @@ constexpr int kFinalCoarsening = 3;
 /// In parallel and deterministic: per point the least and greatest leaf of
 /// its tets by atomic min and max, each tet writing only its own owner.
 struct BufferedRound {
-  Decomposition d;             ///< leaves, leaf_tets (core and buffer), no lock sets: none conflict
+  Decomposition d;             ///< leaves, leaf_tets (core and buffer); no lock sets (none conflict), no tet_leaf
   std::vector<Index> outside;  ///< the tets of no task, ascending
   std::vector<Box> cores;      ///< per leaf: its box
 };
 /// The tasks of a round from each tet's leaf (`owner`; at least kBlocked:
 /// none): leaves ascending, each one's tets ascending, the others `outside`;
-/// no cores, no lock sets.
+/// no cores, no lock sets, no tet_leaf (only the fix-ups read it).
 BufferedRound tasks_of_owners(const std::vector<LeafId>& owner, const Box& box, int depth);
 
 /// m.tet_regions must hold the leaf of each tet's barycenter.
@@ -545,10 +545,6 @@ BufferedRound tasks_of_owners(const std::vector<LeafId>& owner, const Box& box, 
     if (owner[t] < kBlocked) emit(dense[owner[t]], static_cast<Index>(t));
   });
   detail::sort_buckets(buckets, std::less<Index>());
-  r.d.tet_leaf.resize(owner.size());
-  tbb::parallel_for(std::size_t{0}, owner.size(), [&](std::size_t t) {
-    r.d.tet_leaf[t] = owner[t] < kBlocked ? dense[owner[t]] : kNoIndex;
-  });
   r.d.leaf_tets.resize(nl);
   tbb::parallel_for(std::size_t{0}, nl, [&](std::size_t k) {
     r.d.leaf_tets[k].assign(buckets.items.begin() + static_cast<std::ptrdiff_t>(buckets.first[k]),
