@@ -455,6 +455,13 @@ struct BufferedRound {
   std::vector<Index> outside;  ///< the tets of no task, ascending
   std::vector<Box> cores;      ///< per leaf: its box
 };
+/// The colour of leaf l of the depth-`depth` grid: the parities of its grid
+/// coordinates, i&1 | (j&1)<<1 | (k&1)<<2.
+int colour_of(LeafId l, int depth) {
+  const auto c = leaf_coords(l, depth);
+  return static_cast<int>((c[0] & 1U) | (c[1] & 1U) << 1 | (c[2] & 1U) << 2);
+}
+
 /// The tasks of a round from each tet's leaf (`owner`; at least kBlocked:
 /// none): leaves ascending, each one's tets ascending, the others `outside`;
 /// no cores, no lock sets, no tet_leaf (only the fix-ups read it).
@@ -472,8 +479,7 @@ BufferedRound buffered_round(const VolumeMesh& m, const Box& box, int depth, int
   tbb::parallel_for(std::size_t{0}, m.tets.size(), [&](std::size_t t) {
     if (selected != nullptr && !(*selected)[t]) return;
     const auto l = static_cast<LeafId>(m.tet_regions[t]);
-    const auto c = leaf_coords(l, depth);
-    if (static_cast<int>((c[0] & 1U) | (c[1] & 1U) << 1 | (c[2] & 1U) << 2) != colour) return;
+    if (colour_of(l, depth) != colour) return;
     if (allowed == nullptr || std::binary_search(allowed->begin(), allowed->end(), l)) owner[t] = l;
   });
   std::vector<LeafId> lo(m.points.size()), hi(m.points.size());
@@ -860,6 +866,9 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
       std::vector<LeafId> done, todo;
       for (int sweep = 0; sweep < kMaxSweeps; ++sweep) {
         for (int colour = 0; colour < 8; ++colour) {
+          // A later sweep's few leaves leave most colours empty: those cost no pass over the mesh.
+          if (sweep > 0 && std::none_of(todo.begin(), todo.end(), [&](LeafId l) { return colour_of(l, depth) == colour; }))
+            continue;
           auto td = Clock::now();
           BufferedRound b = buffered_round(cur, box1, depth, colour, options.buffer_layers, sweep > 0 ? &todo : nullptr);
           prof.decomposition += seconds_since(td);
