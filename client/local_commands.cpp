@@ -118,10 +118,12 @@ std::vector<RegionCount> region_counts(const VolumeMesh& mesh) {
 
 /// Reads and checks a surface, with the names of a --names file (`names_path`,
 /// empty: none), and with `farfield` the domain around it (farfield.hpp) in its
-/// place; on failure prints why and returns the exit code.
+/// place, `body_diagonal` then the body's bounding-box diagonal (0 without);
+/// on failure prints why and returns the exit code.
 int load_checked_surface(const std::string& path, const std::string& names_path,
                          const std::optional<FarfieldOptions>& farfield, Progress& progress, SurfaceMesh& out,
-                         StepTimes* times = nullptr) {
+                         double& body_diagonal, StepTimes* times = nullptr) {
+  body_diagonal = 0;
   auto t = Clock::now();
   auto surface = read_surface(path);
   if (!surface.ok()) return fail(surface.status());
@@ -129,6 +131,7 @@ int load_checked_surface(const std::string& path, const std::string& names_path,
   if (times) times->read = seconds_since(t);
   progress.say("read {}: {} points, {} triangles", path, surface->points.size(), surface->triangles.size());
   if (farfield) {
+    body_diagonal = surface->bounds().diagonal();
     auto domain = make_farfield(*surface, *farfield);
     if (!domain.ok()) return fail(domain.status());
     progress.say("far field: a {} {:g} body lengths (L = {:.6g}) from the body, {} triangles of about {:.6g}",
@@ -267,7 +270,9 @@ int run_mesh(const MeshArgs& a) {
   Progress progress(a.quiet);
   const auto start = Clock::now();
   SurfaceMesh surface;
-  if (int code = load_checked_surface(a.surface, a.names, a.farfield.options(), progress, surface); code != kExitOk)
+  double body_diagonal = 0;
+  if (int code = load_checked_surface(a.surface, a.names, a.farfield.options(), progress, surface, body_diagonal);
+      code != kExitOk)
     return code;
   // The time limit counts from the start: what reading and checking took is gone.
   const double left_s = a.time_limit_s > 0 ? a.time_limit_s - seconds_since(start) : 0;
@@ -287,7 +292,7 @@ int run_mesh(const MeshArgs& a) {
   }
 
   SerialOptions options;
-  options.sizing = a.size.resolve(surface, outcome.size_line);
+  options.sizing = a.size.resolve(surface, outcome.size_line, true, body_diagonal);
   outcome.size = options.sizing.size;
   progress.say("{}", outcome.size_line);
   if (Status s = a.size.check_tet_limit(surface, options.sizing, true); !s.ok()) return fail(s);
@@ -365,14 +370,15 @@ int run_run(const RunArgs& a) {
   Progress progress(a.quiet);
   SurfaceMesh surface;
   StepTimes times;
-  const int loaded =
-      load_checked_surface(a.surface, a.mesh.names, a.mesh.farfield.options(), progress, surface, &times);
+  double body_diagonal = 0;
+  const int loaded = load_checked_surface(a.surface, a.mesh.names, a.mesh.farfield.options(), progress, surface,
+                                          body_diagonal, &times);
   if (loaded != kExitOk) return loaded;
 
   auto kernel = make_leaf_kernel(a.mesh.kernel);
   if (!kernel.ok()) return fail(kernel.status());
   Outcome outcome{&a.output, &a.surface, {}, std::nullopt, a.json};
-  ParallelOptions options = a.mesh.parallel_options(a.mesh.size.resolve(surface, outcome.size_line));
+  ParallelOptions options = a.mesh.parallel_options(a.mesh.size.resolve(surface, outcome.size_line, true, body_diagonal));
   outcome.size = options.sizing.size;
   progress.say("{}", outcome.size_line);
   if (Status s = a.mesh.size.check_tet_limit(surface, options.sizing, true); !s.ok()) return fail(s);

@@ -16,7 +16,7 @@ namespace pdrmesh::cli {
 void SizeArgs::add_to(CLI::App* cmd) {
   cmd->add_option("--size", size,
                   "uniform target edge length, or a percentage of the surface's bounding-box diagonal such as 1% "
-                  "(default: the surface's own spacing)")
+                  "(with --farfield: of the body's; default: the surface's own spacing)")
       ->check(size_check())
       ->type_name("LENGTH|PCT%");
   add_number(cmd, "--hmin", hmin, "smallest target edge length", kLength);
@@ -44,11 +44,13 @@ Result<SizingOptions> SizeArgs::job_sizing(const std::filesystem::path& path, st
   const std::optional<SizeValue> s = size_value();
   if ((s && s->percent) || max_tets > 0) {
     PDR_ASSIGN_OR_RETURN(SurfaceMesh surface, read_surface(path));
+    double body_diagonal = 0;
     if (farfield) {
+      body_diagonal = surface.bounds().diagonal();
       PDR_ASSIGN_OR_RETURN(FarfieldDomain domain, make_farfield(surface, *farfield));
       surface = std::move(domain.surface);
     }
-    if (s && s->percent) sizing = resolve(surface, line, /*surface_h=*/false);
+    if (s && s->percent) sizing = resolve(surface, line, /*surface_h=*/false, body_diagonal);
     PDR_TRY(check_tet_limit(surface, sizing, false));
   }
   if (s && !s->percent) line = fmt::format("size: {:.6g} (--size)", *sizing.size);
@@ -70,12 +72,14 @@ SizingOptions SizeArgs::options(double diagonal) const {
   return o;
 }
 
-SizingOptions SizeArgs::resolve(const SurfaceMesh& surface, std::string& line, bool surface_h) const {
-  const double diagonal = surface.bounds().diagonal();
+SizingOptions SizeArgs::resolve(const SurfaceMesh& surface, std::string& line, bool surface_h,
+                                double body_diagonal) const {
+  const double diagonal = body_diagonal > 0 ? body_diagonal : surface.bounds().diagonal();
   const SizingOptions o = options(diagonal);
   const std::optional<SizeValue> s = size_value();
   if (s && s->percent) {
-    line = fmt::format("size: {:.6g} ({:g}% of the bounding-box diagonal {:.6g})", *o.size, s->value, diagonal);
+    line = fmt::format("size: {:.6g} ({:g}% of the {}bounding-box diagonal {:.6g})", *o.size, s->value,
+                       body_diagonal > 0 ? "body's " : "", diagonal);
   } else if (s) {
     line = fmt::format("size: {:.6g} (--size)", *o.size);
   } else {

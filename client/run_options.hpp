@@ -36,7 +36,11 @@ struct SizeArgs {
   /// The sizing options for `surface`, and the line that says which spacing
   /// they give ("size: 0.59 (1% of the bounding-box diagonal 59.16)"); with
   /// `surface_h`, the default's range at the surface points is worked out too.
-  SizingOptions resolve(const SurfaceMesh& surface, std::string& line, bool surface_h = true) const;
+  /// `body_diagonal` > 0 (the surface is a far-field domain around a body with
+  /// that bounding-box diagonal): a percentage refers to the body's diagonal,
+  /// the length an engineer has in mind, not the far field's.
+  SizingOptions resolve(const SurfaceMesh& surface, std::string& line, bool surface_h = true,
+                        double body_diagonal = 0) const;
   /// Estimates the mesh of `surface` with `options` (estimate.hpp) and refuses
   /// (with the estimate and the smallest sensible --size) when it is over
   /// --max-tets, or over this machine's memory when --max-tets is not given
@@ -47,7 +51,8 @@ struct SizeArgs {
   /// lengths) and --max-tets is checked against the estimate (the coordinator
   /// checks its own limits in any case); the file is read only for those.
   /// `line` says which size the job asks for. With `farfield`, the surface is
-  /// the domain around the file's body, as the coordinator makes it.
+  /// the domain around the file's body, as the coordinator makes it, and a
+  /// percentage refers to the body's diagonal (resolve).
   Result<SizingOptions> job_sizing(const std::filesystem::path& path, std::string& line,
                                    const std::optional<FarfieldOptions>& farfield) const;
 };

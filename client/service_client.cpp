@@ -11,6 +11,8 @@
 #include <fstream>
 #include <iterator>
 
+#include <unistd.h>
+
 #include "pdrmesh/volume_io.hpp"
 
 namespace pdrmesh::cli {
@@ -134,17 +136,49 @@ grpc::Status ServiceClient::remove(std::string_view id, v1::Job& job) {
 }
 
 grpc::Status ServiceClient::fetch(std::string_view id, const std::filesystem::path& out, std::uint64_t* bytes) {
+  const Result<VolumeFormat> written = volume_format_from_path(out);
+  if (written.ok() && (*written == VolumeFormat::kCgns || *written == VolumeFormat::kFoam))
+    return fetch_converted(id, out, bytes);
   const std::string format = volume_format_of(out);
   if (format.empty()) {
     return {grpc::StatusCode::INVALID_ARGUMENT,
-            fmt::format("{}: unknown volume mesh suffix (.vtu .mesh .meshb .ugrid .lb8.ugrid .b8.ugrid .msh .su2)",
-                        out.string())};
+            fmt::format("{}: unknown volume mesh suffix ({})", out.string(), volume_format_suffixes())};
   }
   // The .mapbc first: whoever sees the grid sees its names too.
   if (format.ends_with("ugrid")) {
     if (grpc::Status s = fetch_format(id, "mapbc", mapbc_path(out), nullptr); !s.ok()) return s;
   }
   return fetch_format(id, format, out, bytes);
+}
+
+grpc::Status ServiceClient::fetch_converted(std::string_view id, const std::filesystem::path& out,
+                                            std::uint64_t* bytes) {
+  namespace fs = std::filesystem;
+  // The VTU goes beside the output (a polyMesh's case/constant is made here,
+  // as write_volume would make it): no other file system needs room for it.
+  fs::path dir = out.lexically_normal();
+  if (!dir.has_filename()) dir = dir.parent_path();  // "case/constant/polyMesh/"
+  const std::string name = dir.filename().string();
+  dir = dir.parent_path();
+  std::error_code ec;
+  if (!dir.empty()) fs::create_directories(dir, ec);
+  if (ec) return {grpc::StatusCode::DATA_LOSS, fmt::format("{}: cannot make the directory: {}", dir.string(), ec.message())};
+  const fs::path vtu = dir / fmt::format(".{}.{}.fetch.vtu", name, ::getpid());
+  if (grpc::Status s = fetch_format(id, "vtu", vtu, nullptr); !s.ok()) return s;
+  Result<VolumeMesh> mesh = read_volume(vtu);
+  fs::remove(vtu, ec);
+  if (!mesh.ok()) return {grpc::StatusCode::DATA_LOSS, mesh.status().to_string()};
+  if (Status s = write_volume(*mesh, out); !s.ok()) return {grpc::StatusCode::DATA_LOSS, s.to_string()};
+  if (bytes) {
+    *bytes = 0;
+    if (fs::is_directory(out, ec)) {
+      for (const auto& f : fs::directory_iterator(out, ec))
+        if (f.is_regular_file(ec)) *bytes += f.file_size(ec);
+    } else {
+      *bytes = fs::file_size(out, ec);
+    }
+  }
+  return grpc::Status::OK;
 }
 
 grpc::Status ServiceClient::fetch_format(std::string_view id, const std::string& format,

@@ -47,10 +47,15 @@ class ServiceClient {
   grpc::Status remove(std::string_view id, v1::Job& job);
   /// Writes the result in the format named by `out`'s suffix (via a temporary
   /// file renamed into place); a UGRID result's .mapbc (its boundary names)
-  /// goes beside it (mapbc_path). `bytes`: the mesh file's size.
+  /// goes beside it (mapbc_path). CGNS and a polyMesh directory, which the
+  /// coordinator does not serve, are written here from the job's VTU (names
+  /// and regions included), as `pdrmesh mesh -o` writes them. `bytes`: the
+  /// mesh file's size (a polyMesh's files together).
   grpc::Status fetch(std::string_view id, const std::filesystem::path& out, std::uint64_t* bytes = nullptr);
 
  private:
+  /// A written-only format (CGNS, polyMesh): the VTU fetched beside `out`, read, written as `out`.
+  grpc::Status fetch_converted(std::string_view id, const std::filesystem::path& out, std::uint64_t* bytes);
   /// One FetchResult call: the result in `format` into `out`.
   grpc::Status fetch_format(std::string_view id, const std::string& format, const std::filesystem::path& out,
                             std::uint64_t* bytes);

@@ -121,6 +121,17 @@ cli::RunOptionArgs run_options(const std::optional<std::string>& size, std::opti
   return a;
 }
 
+std::optional<FarfieldOptions> farfield_options(std::optional<double> farfield, const std::string& shape) {
+  const auto parsed = parse_farfield_shape(shape);
+  if (!parsed) throw py::value_error(fmt::format("farfield_shape must be 'box' or 'sphere', got '{}'", shape));
+  if (!farfield) {
+    if (*parsed != FarfieldShape::kBox) throw py::value_error("farfield_shape needs farfield (the distance in body lengths)");
+    return std::nullopt;
+  }
+  if (Status st = check_farfield_distance(*farfield, "farfield"); !st.ok()) throw py::value_error(st.message());
+  return FarfieldOptions{*farfield, *parsed};
+}
+
 namespace {
 
 using F64Array = py::array_t<double, py::array::c_style | py::array::forcecast>;
@@ -224,7 +235,8 @@ SurfaceMesh to_surface(const py::handle& points, const py::handle& triangles, co
 }
 
 VolumeMesh to_volume(const py::handle& points, const py::handle& tets, const py::handle& boundary,
-                     const py::handle& boundary_ids, const py::handle& regions, const py::handle& names) {
+                     const py::handle& boundary_ids, const py::handle& regions, const py::handle& names,
+                     const py::handle& region_names = py::none()) {
   VolumeMesh m;
   m.points = to_points(points, "points");
   m.tets = to_cells<4>(tets, "tets", m.points.size());
@@ -232,6 +244,7 @@ VolumeMesh to_volume(const py::handle& points, const py::handle& tets, const py:
   if (!boundary_ids.is_none()) m.boundary_ids = to_ints(boundary_ids, "boundary_ids", m.boundary.size());
   if (!regions.is_none()) m.tet_regions = to_ints(regions, "regions", m.tets.size());
   m.boundary_names = to_names(names);
+  m.region_names = to_names(region_names);
   return m;
 }
 
@@ -278,6 +291,7 @@ py::dict volume_dict(const VolumeMesh& m) {
   d["boundary_ids"] = ints_array(m.boundary_ids);
   d["regions"] = m.tet_regions.empty() ? py::object(py::none()) : py::object(ints_array(m.tet_regions));
   d["boundary_names"] = m.boundary_names;
+  d["region_names"] = m.region_names;
   return d;
 }
 
@@ -326,14 +340,7 @@ py::dict mesh_py(const py::handle& points, const py::handle& triangles, const py
   if (depth && workers == 0) throw py::value_error("depth is an option of the parallel method: give workers >= 1");
   if (kernel_name != "native" && workers == 0)
     throw py::value_error("kernel is an option of the parallel method: give workers >= 1");
-  std::optional<FarfieldOptions> far;
-  if (farfield) {
-    if (Status st = check_farfield_distance(*farfield, "farfield"); !st.ok()) throw py::value_error(st.message());
-    const auto shape = parse_farfield_shape(farfield_shape);
-    if (!shape)
-      throw py::value_error(fmt::format("farfield_shape must be 'box' or 'sphere', got '{}'", farfield_shape));
-    far = FarfieldOptions{*farfield, *shape};
-  }
+  const std::optional<FarfieldOptions> far = farfield_options(farfield, farfield_shape);
   SurfaceMesh surface = to_surface(points, triangles, surface_ids, names);
 
   std::string size_line;
@@ -342,12 +349,14 @@ py::dict mesh_py(const py::handle& points, const py::handle& triangles, const py
     py::gil_scoped_release release;
     result = [&]() -> Result<VolumeMesh> {
       const auto start = Clock::now();
+      double body_diagonal = 0;  // what a percentage size refers to with a far field
       if (far) {  // the domain around the body takes its place, as with `pdrmesh mesh --farfield`
+        body_diagonal = surface.bounds().diagonal();
         PDR_ASSIGN_OR_RETURN(FarfieldDomain domain, make_farfield(surface, *far));
         surface = std::move(domain.surface);
       }
       PDR_TRY(require_meshable(check_surface(surface), surface.name));
-      const SizingOptions sizing = args.size.resolve(surface, size_line);
+      const SizingOptions sizing = args.size.resolve(surface, size_line, true, body_diagonal);
       PDR_TRY(args.size.check_tet_limit(surface, sizing, true));
       const double limit_s = time_limit.value_or(0);
       const auto deadline = start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(limit_s));
@@ -404,8 +413,9 @@ py::array_t<double> min_dihedral_py(const py::handle& points, const py::handle& 
 }
 
 py::dict validate_py(const py::handle& points, const py::handle& tets, const py::handle& boundary,
-                     const py::handle& boundary_ids, const py::handle& surface) {
-  const VolumeMesh m = to_volume(points, tets, boundary, boundary_ids, py::none(), py::none());
+                     const py::handle& boundary_ids, const py::handle& regions, const py::handle& surface) {
+  // The regions too: a mesh of several regions has its interfaces among the boundary triangles.
+  const VolumeMesh m = to_volume(points, tets, boundary, boundary_ids, regions, py::none());
   std::optional<SurfaceMesh> s;
   if (!surface.is_none()) {
     const py::tuple t = surface.cast<py::tuple>();
@@ -423,6 +433,8 @@ py::dict validate_py(const py::handle& points, const py::handle& tets, const py:
   d["tets"] = r.tets;
   d["points"] = r.points;
   d["boundary_faces"] = r.boundary_faces;
+  d["regions"] = r.regions;
+  d["interface_faces"] = r.interface_faces;
   d["volume"] = r.volume;
   d["enclosed_volume"] = s ? py::object(py::float_(r.enclosed_volume)) : py::object(py::none());
   d["error_count"] = r.error_count;
@@ -437,8 +449,8 @@ py::dict read_volume_py(const std::filesystem::path& path) {
 
 void write_volume_py(const py::handle& points, const py::handle& tets, const py::handle& boundary,
                      const py::handle& boundary_ids, const py::handle& regions, const py::handle& names,
-                     const std::filesystem::path& path) {
-  const VolumeMesh m = to_volume(points, tets, boundary, boundary_ids, regions, names);
+                     const py::handle& region_names, const std::filesystem::path& path) {
+  const VolumeMesh m = to_volume(points, tets, boundary, boundary_ids, regions, names, region_names);
   raise_unless_ok(without_gil([&] { return write_volume(m, path); }));
 }
 
@@ -458,9 +470,10 @@ PYBIND11_MODULE(_pdrmesh, m) {
         arg("optimize"), arg("time_limit"), arg("validate"), arg("farfield"), arg("farfield_shape"));
   m.def("quality", &quality_py, arg("points"), arg("tets"));
   m.def("min_dihedral", &min_dihedral_py, arg("points"), arg("tets"));
-  m.def("validate", &validate_py, arg("points"), arg("tets"), arg("boundary"), arg("boundary_ids"), arg("surface"));
+  m.def("validate", &validate_py, arg("points"), arg("tets"), arg("boundary"), arg("boundary_ids"), arg("regions"),
+        arg("surface"));
   m.def("read_volume", &read_volume_py, arg("path"));
   m.def("write_volume", &write_volume_py, arg("points"), arg("tets"), arg("boundary"), arg("boundary_ids"),
-        arg("regions"), arg("names"), arg("path"));
+        arg("regions"), arg("names"), arg("region_names"), arg("path"));
   bind_service(m);
 }

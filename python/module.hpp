@@ -10,6 +10,7 @@
 #include <string>
 
 #include "options.hpp"
+#include "pdrmesh/farfield.hpp"
 #include "pdrmesh/status.hpp"
 #include "run_options.hpp"
 
@@ -28,6 +29,12 @@ namespace pdrmesh::python {
 cli::RunOptionArgs run_options(const std::optional<std::string>& size, std::optional<double> hmin,
                                std::optional<double> hmax, double growth, std::optional<double> max_tets,
                                std::optional<int> depth, const std::string& kernel, bool optimize);
+
+/// The far field of the keywords farfield (body lengths, None: none) and
+/// farfield_shape ("box" or "sphere"), as --farfield and --farfield-shape
+/// take them; ValueError for a distance or shape they refuse, or a sphere
+/// without a distance.
+std::optional<FarfieldOptions> farfield_options(std::optional<double> farfield, const std::string& shape);
 
 /// Binds the service client (service.cpp).
 void bind_service(pybind11::module_& m);

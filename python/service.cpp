@@ -10,12 +10,14 @@
 #include <pybind11/stl/filesystem.h>
 
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
 
 #include "job_json.hpp"
 #include "module.hpp"
+#include "pdrmesh/volume_io.hpp"
 #include "service_client.hpp"
 
 namespace py = pybind11;
@@ -57,12 +59,19 @@ class Client {
     if (auto s = cli::ServiceClient::connect(config, client_); !s.ok()) raise_grpc(s, "connect");
   }
 
-  /// Uploads the surface file with the options of `pdrmesh submit`; the job as JSON.
+  /// Uploads the surface file with the options of `pdrmesh submit` (`names`
+  /// those of --names, the far field those of --farfield and --farfield-shape);
+  /// the job as JSON.
   std::string submit(const std::filesystem::path& surface, const std::optional<std::string>& size,
                      std::optional<double> hmin, std::optional<double> hmax, double growth,
                      std::optional<double> max_tets, std::optional<int> depth, const std::string& kernel,
-                     bool optimize, std::optional<double> time_limit) {
-    const cli::RunOptionArgs args = run_options(size, hmin, hmax, growth, max_tets, depth, kernel, optimize);
+                     bool optimize, std::optional<double> time_limit, const std::map<int, std::string>& names,
+                     std::optional<double> farfield, const std::string& farfield_shape) {
+    cli::RunOptionArgs args = run_options(size, hmin, hmax, growth, max_tets, depth, kernel, optimize);
+    if (const auto far = farfield_options(farfield, farfield_shape)) {
+      args.farfield.distance = far->distance;
+      args.farfield.shape = std::string(to_string(far->shape));
+    }
     if (time_limit && !(*time_limit > 0))
       throw py::value_error(fmt::format("time_limit must be a positive number of seconds, got {}", *time_limit));
     grpc::Status s;
@@ -75,6 +84,7 @@ class Client {
       local = sizing.status();
       if (sizing.ok()) {
         v1::MeshOptions options = args.mesh_options(*sizing);
+        for (const auto& [id, name] : names) (*options.mutable_surface_names())[id] = name;
         if (time_limit) options.set_time_limit_s(*time_limit);
         s = client_->submit(surface, options, job);
       }
@@ -141,10 +151,9 @@ class Client {
 
   /// Writes the result in the format `path`'s suffix names; its size in bytes.
   std::uint64_t fetch(const std::string& id, const std::filesystem::path& path) {
-    if (cli::volume_format_of(path).empty())
-      throw py::value_error(fmt::format("{}: the suffix names no volume mesh format (.vtu .mesh .meshb .ugrid "
-                                        ".lb8.ugrid .b8.ugrid .msh .su2)",
-                                        path.string()));
+    if (!volume_format_from_path(path).ok())
+      throw py::value_error(
+          fmt::format("{}: the suffix names no volume mesh format ({})", path.string(), volume_format_suffixes()));
     std::uint64_t bytes = 0;
     grpc::Status s;
     {
@@ -179,7 +188,8 @@ void bind_service(py::module_& m) {
       .def(py::init<const std::string&, const std::string&, const std::string&, double>(), arg("server"),
            arg("token"), arg("tls_ca"), arg("timeout"))
       .def("submit", &Client::submit, arg("surface"), arg("size"), arg("hmin"), arg("hmax"), arg("growth"),
-           arg("max_tets"), arg("depth"), arg("kernel"), arg("optimize"), arg("time_limit"))
+           arg("max_tets"), arg("depth"), arg("kernel"), arg("optimize"), arg("time_limit"), arg("names"),
+           arg("farfield"), arg("farfield_shape"))
       .def("get", &Client::get, arg("job"))
       .def("watch", &Client::watch, arg("job"), arg("on_event"))
       .def("list", &Client::list)

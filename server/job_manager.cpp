@@ -237,6 +237,9 @@ Result<std::filesystem::path> JobManager::result_file(std::string_view user, std
   if (const auto names = JobPaths::result(config_.data_dir, job.id, ".names"); std::filesystem::exists(names)) {
     PDR_ASSIGN_OR_RETURN(mesh.boundary_names, read_boundary_names(names));
   }
+  if (const auto names = JobPaths::result(config_.data_dir, job.id, ".regions"); std::filesystem::exists(names)) {
+    PDR_ASSIGN_OR_RETURN(mesh.region_names, read_boundary_names(names));
+  }
   // A private temporary name (concurrent fetches of one format each convert), renamed into place.
   const auto tmp = JobPaths::dir(config_.data_dir, job.id) / fmt::format("tmp-{}{}", new_job_id(), suffix);
   std::error_code ec;

@@ -372,10 +372,14 @@ Status JobRunner::mesh_job(JobRecord& job, JobProgress& progress) {
   auto tmp = final_path;
   tmp += ".tmp";
   PDR_TRY(write_volume(mesh, tmp.string() + ".meshb"));
-  // Medit holds no names: they go beside the result, in place before it is.
+  // Medit holds no names: they go beside the result (the regions' in
+  // result.regions), in place before it is.
   if (!mesh.boundary_names.empty())
     PDR_TRY(write_file_atomically(JobPaths::result(data_dir_, job.id, ".names"),
                                   {format_boundary_names(mesh.boundary_names)}));
+  if (!mesh.region_names.empty())
+    PDR_TRY(write_file_atomically(JobPaths::result(data_dir_, job.id, ".regions"),
+                                  {format_boundary_names(mesh.region_names)}));
   std::error_code ec;
   std::filesystem::rename(tmp.string() + ".meshb", final_path, ec);
   if (ec) return io_error(fmt::format("{}: cannot store the result: {}", final_path.string(), ec.message()));

@@ -4,7 +4,9 @@
     import numpy as np, pdrmesh
     surface = pdrmesh.read_surface("wing.stl")          # or numpy arrays: points (N x 3), triangles (M x 3)
     m = pdrmesh.mesh(surface.points, surface.triangles, size="2%", workers=2)
+    flow = pdrmesh.mesh(surface, farfield=10)            # the space around it: inlet, outlet, sides, wall
     m.points, m.tets, m.boundary, m.boundary_ids       # numpy arrays (float64, int64, int64, int32)
+    m.boundary_names, m.regions, m.region_names         # {id: name}, per-tet region ids (or None), {id: name}
     pdrmesh.quality(m)["min_dihedral"]                  # the figures of `pdrmesh quality --json`
     meshio.Mesh(m.points, m.cells, cell_data=m.cell_data)  # or m.to_meshio()
 
@@ -44,13 +46,16 @@ class Surface:
 class Mesh:
     """A tetrahedral mesh: points (N x 3 float64), tets (M x 4 int64, positively oriented),
     the boundary triangles (K x 3 int64, outward) with one id each (int32), optional
-    per-tet regions (int32) and the names of boundary ids."""
+    per-tet regions (int32), the names of boundary ids (a far field's inlet, outlet, sides or
+    farfield, the body's wall or its own names) and of region ids. A mesh of several regions
+    lists the interfaces between them among the boundary triangles too."""
     points: np.ndarray
     tets: np.ndarray
     boundary: np.ndarray
     boundary_ids: np.ndarray
     regions: Optional[np.ndarray] = None
     boundary_names: dict = field(default_factory=dict)
+    region_names: dict = field(default_factory=dict)
     size_text: str = ""  # mesh(): the spacing used, as `pdrmesh mesh` prints it
 
     @property
@@ -69,13 +74,15 @@ class Mesh:
 
     def to_meshio(self):
         """A meshio.Mesh with the tets, the boundary triangles, their cell data and the
-        boundary names as field data (name: [id, 2], Gmsh's convention). Needs meshio."""
+        boundary and region names as field data (name: [id, 2] and [id, 3], Gmsh's
+        convention). Needs meshio."""
         try:
             import meshio
         except ImportError as e:
             raise ImportError("to_meshio needs meshio (Debian: python3-meshio; pip: meshio); "
                               "without it, pass mesh.points, mesh.cells and mesh.cell_data to meshio.Mesh") from e
         field_data = {name: np.array([i, 2]) for i, name in sorted(self.boundary_names.items())}
+        field_data.update({name: np.array([i, 3]) for i, name in sorted(self.region_names.items())})
         return meshio.Mesh(self.points, self.cells, cell_data=self.cell_data, field_data=field_data)
 
     @classmethod
@@ -100,7 +107,8 @@ class Mesh:
 
 def _mesh_from_dict(d: dict) -> Mesh:
     return Mesh(points=d["points"], tets=d["tets"], boundary=d["boundary"], boundary_ids=d["boundary_ids"],
-                regions=d["regions"], boundary_names=dict(d["boundary_names"]), size_text=d.get("size_text", ""))
+                regions=d["regions"], boundary_names=dict(d["boundary_names"]),
+                region_names=dict(d.get("region_names", {})), size_text=d.get("size_text", ""))
 
 
 def _is_path(x) -> bool:
@@ -196,9 +204,11 @@ def min_dihedral(m) -> np.ndarray:
 
 def validate(m, surface=None) -> dict:
     """The validator of `pdrmesh validate`: conformity, positive tets (exact), a closed
-    boundary equal to the mesh's boundary triangles and, given a surface (a Surface, a file,
-    or (points, triangles[, surface_ids])), the boundary equal to it and the volume conserved.
-    Returns {"valid": bool, "errors": [...], "error_count", "text", counts, volumes}."""
+    boundary equal to the mesh's boundary triangles (with regions: and the interfaces
+    between them) and, given a surface (a Surface, a file, or (points, triangles[,
+    surface_ids])), the boundary equal to it and the volume conserved.
+    Returns {"valid": bool, "errors": [...], "error_count", "text", counts ("regions" and
+    "interface_faces" among them), volumes}."""
     m = _as_mesh(m)
     surface_args = None
     if surface is not None:
@@ -206,7 +216,7 @@ def validate(m, surface=None) -> dict:
         surface_args = (s.points, s.triangles, s.surface_ids)
     boundary = m.boundary if len(m.boundary) else None
     ids = m.boundary_ids if boundary is not None else None
-    return _pdrmesh.validate(m.points, m.tets, boundary, ids, surface_args)
+    return _pdrmesh.validate(m.points, m.tets, boundary, ids, m.regions, surface_args)
 
 
 def read_volume(path) -> Mesh:
@@ -219,7 +229,7 @@ def write_volume(m, path) -> None:
     under its name only once complete."""
     m = _as_mesh(m)
     _pdrmesh.write_volume(m.points, m.tets, m.boundary, m.boundary_ids, m.regions, m.boundary_names or None,
-                          os.fspath(path))
+                          m.region_names or None, os.fspath(path))
 
 
 def _job_id(job) -> str:
@@ -249,22 +259,29 @@ class Client:
         tls_ca = tls_ca or os.environ.get("PDRMESH_TLS_CA", "")
         self._client = _pdrmesh.ServiceClient(address, token, os.fspath(tls_ca), float(timeout))
 
-    def submit(self, surface, triangles=None, surface_ids=None, *, size=None, hmin=None, hmax=None,
-               growth: float = 1.2, max_tets=None, depth=None, kernel: str = "native", optimize: bool = True,
-               time_limit=None, wait: bool = False) -> dict:
+    def submit(self, surface, triangles=None, surface_ids=None, *, names: Optional[dict] = None, size=None,
+               hmin=None, hmax=None, growth: float = 1.2, max_tets=None, depth=None, kernel: str = "native",
+               optimize: bool = True, time_limit=None, farfield: Optional[float] = None,
+               farfield_shape: str = "box", wait: bool = False) -> dict:
         """Uploads a surface (a file, a Surface, or points and triangles) with the options of
-        `pdrmesh submit`; the job, or with wait=True the finished job (watch)."""
-        args = (_size_text(size), hmin, hmax, float(growth), max_tets, depth, kernel, bool(optimize), time_limit)
+        `pdrmesh submit`: names (`--names`: boundary names by surface id; a Surface's own
+        names otherwise), farfield and farfield_shape as in mesh(); the job, or with wait=True
+        the finished job (watch)."""
+        def send(path, surface_names):
+            return json.loads(self._client.submit(
+                path, _size_text(size), hmin, hmax, float(growth), max_tets, depth, kernel, bool(optimize),
+                time_limit, dict(surface_names or {}), None if farfield is None else float(farfield),
+                str(farfield_shape)))
         if _is_path(surface) and triangles is None:
             if not os.path.isfile(surface):
                 raise FileNotFoundError(f"{os.fspath(surface)}: no such surface file")
-            job = json.loads(self._client.submit(os.fspath(surface), *args))
+            job = send(os.fspath(surface), names)
         else:
-            s = _surface(surface, triangles, surface_ids)
+            s = _surface(surface, triangles, surface_ids, names)
             with tempfile.TemporaryDirectory(prefix="pdrmesh-") as tmp:
                 path = os.path.join(tmp, (s.name.rsplit(".", 1)[0] or "surface") + ".mesh")
-                write_surface(s, path)
-                job = json.loads(self._client.submit(path, *args))
+                write_surface(s, path)  # a Medit surface keeps the ids; the names travel as options
+                job = send(path, s.names)
         return self.watch(job) if wait else job
 
     def status(self, job) -> dict:
@@ -278,13 +295,14 @@ class Client:
         return json.loads(self._client.watch(_job_id(job), on_event))
 
     def fetch(self, job, path) -> int:
-        """Downloads a finished job's mesh in the format path's suffix names; its size in bytes."""
+        """Downloads a finished job's mesh in the format path's suffix names (every format
+        write_volume writes: a .cgns file or a polyMesh directory too); its size in bytes."""
         return self._client.fetch(_job_id(job), os.fspath(path))
 
     def result(self, job) -> Mesh:
-        """A finished job's mesh as a Mesh."""
+        """A finished job's mesh as a Mesh, with its boundary names, regions and region names."""
         with tempfile.TemporaryDirectory(prefix="pdrmesh-") as tmp:
-            path = os.path.join(tmp, "result.meshb")
+            path = os.path.join(tmp, "result.vtu")
             self.fetch(job, path)
             return read_volume(path)
 

@@ -5,11 +5,13 @@
 #     the tet count printed, and modest
 #   --farfield 10 --farfield-shape sphere: `mesh` to .msh, physical names wall
 #     and farfield
+#   --size 20% with --farfield 1: 20% of the body's bounding-box diagonal
 #   an STL with four named solids (the sphere reversed in a box whose faces are
 #     the solids inlet, outlet and sides, written here): its names are the patches
 #   refused with a clear message: a distance of 0.5 or 2000 body lengths, a bad
 #     shape, a shape without --farfield (usage, exit 64), an open body (exit 65)
-# With --openfoam instead: both polyMesh cases pass checkMesh with the names as
+# With --openfoam instead: both polyMesh cases (--farfield 10 from `mesh`, the
+# four solids from `run`'s parallel method) pass checkMesh with the names as
 # patch names and potentialFoam converges on them (skipped, exit 77, without
 # OpenFOAM: scripts/install-deps.sh installs Debian's openfoam).
 # Usage: farfield.sh PDRMESH SPHERE_STL [--openfoam]
@@ -162,7 +164,7 @@ PY
   }
   "$pdrmesh" mesh -q "$sphere" --farfield 10 -o "$tmp/far/constant/polyMesh"
   foam_check "$tmp/far" wall
-  "$pdrmesh" run -q "$tmp/four.stl" --workers 2 -o "$tmp/four/constant/polyMesh"
+  "$pdrmesh" run -q "$tmp/four.stl" --workers 2 --depth 1 -o "$tmp/four/constant/polyMesh"  # the parallel method
   foam_check "$tmp/four" sphere
   echo "ok: checkMesh says Mesh OK and potentialFoam converges on --farfield 10 and on four named solids"
   exit 0
@@ -197,6 +199,19 @@ cmp "$tmp/r1.su2" "$tmp/r2.su2" || fail "run --farfield: 1 and 2 workers differ"
 "$pdrmesh" convert "$tmp/r2.su2" "$tmp/case/constant/polyMesh"
 [[ $(patches "$tmp/case/constant/polyMesh") == "wall inlet outlet sides" ]] ||
   fail "polyMesh patches '$(patches "$tmp/case/constant/polyMesh")'"
+
+# --size P% is a share of the body's bounding-box diagonal, not of the far field's.
+"$pdrmesh" mesh "$sphere" --farfield 1 --size 20% -o "$tmp/pct.meshb" --json >"$tmp/pct.json" 2>"$tmp/pct.log" ||
+  { cat "$tmp/pct.log"; fail "mesh --farfield 1 --size 20%"; }
+grep -q "(20% of the body's bounding-box diagonal" "$tmp/pct.log" || { cat "$tmp/pct.log"; fail "no body size line"; }
+python3 - "$tmp/pct.json" "$sphere" <<'PY' || fail "--size 20% with --farfield is not 20% of the body's diagonal"
+import json, math, sys
+size = json.load(open(sys.argv[1]))["size"]
+pts = [[float(x) for x in line.split()[1:]] for line in open(sys.argv[2]) if line.split()[:1] == ["vertex"]]
+diag = math.dist([min(p[a] for p in pts) for a in range(3)], [max(p[a] for p in pts) for a in range(3)])
+assert abs(size - 0.2 * diag) <= 1e-9 * diag, (size, diag)
+PY
+"$pdrmesh" validate "$tmp/pct.meshb" >/dev/null
 
 # Four named solids: their names are the patches.
 "$pdrmesh" mesh -q "$tmp/four.stl" -o "$tmp/four.su2"

@@ -2,7 +2,8 @@
 # The service end to end with real processes on loopback (a coordinator, no
 # workers: leaves run in its process): `pdrmesh submit --wait -o` gives the same
 # bytes as `pdrmesh run` with the same options; every format fetched validates
-# against the surface; --json parses; --farfield as in run; the client config file, the
+# against the surface; CGNS and polyMesh fetched are run's files, names and regions
+# kept; --json parses; --farfield as in run; the client config file, the
 # environment and flags in their order of precedence; delete; exit codes.
 # Usage: service.sh PDRMESH COORDINATOR SURFACE [MESH OPTIONS...]
 set -euo pipefail
@@ -63,6 +64,32 @@ assert o["farfield"] == 3 and o["farfield_shape"] == "sphere", o'
 "$pdrmesh" delete "$far_id" > /dev/null
 expect_exit 64 "$pdrmesh" submit "$surface" --farfield 0.5
 echo "ok: a --farfield job is byte-identical to pdrmesh run --farfield"
+
+# CGNS and polyMesh, which the client writes from the job's VTU: the files pdrmesh run writes,
+# with the names and the regions, on two regions (the OBJ groups fluid and body: a box in a box).
+python3 - "$tmp/two.obj" <<'PY'
+import sys
+quads = [(0, 4, 6, 2), (1, 3, 7, 5), (0, 1, 5, 4), (2, 6, 7, 3), (4, 5, 7, 6), (0, 2, 3, 1)]
+with open(sys.argv[1], "w") as out:
+    for k, (name, lo, hi) in enumerate((("fluid", 0, 4), ("body", 1.5, 2.5))):
+        out.write(f"g {name}\n")
+        out.writelines(f"v {hi if c & 1 else lo} {hi if c & 2 else lo} {hi if c & 4 else lo}\n" for c in range(8))
+        out.writelines("f " + " ".join(str(8 * k + i + 1) for i in q) + "\n" for q in quads)
+PY
+two=(--size 0.5 --depth 1)
+two_id=$("$pdrmesh" submit "$tmp/two.obj" "${two[@]}" --wait -o "$tmp/two-job.cgns" 2>/dev/null)
+"$pdrmesh" fetch "$two_id" -o "$tmp/job/constant/polyMesh" --json > "$tmp/fetch.json"
+[[ $(json_field bytes < "$tmp/fetch.json") -gt 0 ]]
+"$pdrmesh" run -q "$tmp/two.obj" "${two[@]}" -o "$tmp/two-run.cgns"
+"$pdrmesh" run -q "$tmp/two.obj" "${two[@]}" -o "$tmp/run/constant/polyMesh"
+cmp "$tmp/two-job.cgns" "$tmp/two-run.cgns"
+diff -r "$tmp/job/constant/polyMesh" "$tmp/run/constant/polyMesh"
+[[ $(sed -n 's/^    \([a-z]\+\)$/\1/p' "$tmp/job/constant/polyMesh/cellZones" | paste -sd' ') == "fluid body" ]]
+[[ $(sed -n 's/^    \([a-z]\+\)$/\1/p' "$tmp/job/constant/polyMesh/boundary" | paste -sd' ') == fluid ]]  # body: internal faces
+[[ $(ls -A "$tmp/job/constant") == polyMesh ]]  # the VTU it was written from is gone
+expect_exit 64 "$pdrmesh" fetch "$two_id" -o "$tmp/two.xyz"
+"$pdrmesh" delete "$two_id" > /dev/null
+echo "ok: fetch -o .cgns and -o polyMesh give pdrmesh run's files, regions and names included"
 
 "$pdrmesh" status "$id" --json | json_field leaves_total > /dev/null
 "$pdrmesh" list --json | python3 -c 'import json,sys; j=json.load(sys.stdin); assert len(j["jobs"])==1, j'

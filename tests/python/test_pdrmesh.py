@@ -49,6 +49,21 @@ def icosphere(subdivisions: int):
     return np.array(points), np.array(tris, dtype=np.int64)
 
 
+def nested_boxes(inner_name="body"):
+    """Two regions: the box [0, 4]^3 (surface id 1, "fluid") around the box [1.5, 2.5]^3
+    (id 2, `inner_name`), both with outward normals, each face two triangles."""
+    quads = [(0, 4, 6, 2), (1, 3, 7, 5), (0, 1, 5, 4), (2, 6, 7, 3), (4, 5, 7, 6), (0, 2, 3, 1)]
+    points, triangles, ids = [], [], []
+    for box_id, (lo, hi) in enumerate(((0.0, 4.0), (1.5, 2.5)), start=1):
+        first = len(points)
+        points += [(hi if c & 1 else lo, hi if c & 2 else lo, hi if c & 4 else lo) for c in range(8)]
+        for a, b, c, d in quads:
+            triangles += [(first + a, first + b, first + c), (first + a, first + c, first + d)]
+            ids += [box_id, box_id]
+    return (np.array(points), np.array(triangles, np.int64), np.array(ids, np.int32),
+            {1: "fluid", 2: inner_name})
+
+
 def canonical(triangles, points):
     """Each triangle as its corners' coordinates, rotated to start at its smallest corner
     (orientation kept), sorted: equal for two triangulations of the same oriented triangles."""
@@ -152,6 +167,14 @@ class MeshFromArrays(unittest.TestCase):
         self.assertEqual(pdrmesh.quality(mm)["min_dihedral"], pdrmesh.quality(m)["min_dihedral"])
 
 
+def _has_meshio() -> bool:
+    try:
+        import meshio  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
 class Surfaces(unittest.TestCase):
     def test_read_a_test_surface_and_mesh_it_from_its_arrays(self):
         if not DATA:
@@ -178,6 +201,43 @@ class Surfaces(unittest.TestCase):
             pdrmesh.mesh(s, farfield=0.5)
         with self.assertRaisesRegex(ValueError, "farfield_shape must be 'box' or 'sphere'"):
             pdrmesh.mesh(s, farfield=4, farfield_shape="cone")
+        with self.assertRaisesRegex(ValueError, "farfield_shape needs farfield"):
+            pdrmesh.mesh(s, farfield_shape="sphere")
+
+    def test_farfield_size_percent_is_of_the_body(self):
+        points, triangles = icosphere(2)
+        m = pdrmesh.mesh(points, triangles, farfield=1, size="25%", names={1: "ball"})
+        body_diagonal = float(np.linalg.norm(points.max(axis=0) - points.min(axis=0)))
+        self.assertIn("25% of the body's bounding-box diagonal", m.size_text)
+        size = float(re.search(r"size: (\S+)", m.size_text).group(1))
+        self.assertAlmostEqual(size, 0.25 * body_diagonal, delta=1e-5 * body_diagonal)
+        self.assertEqual(m.boundary_names, {1: "ball", 2: "inlet", 3: "outlet", 4: "sides"})
+        self.assertTrue(pdrmesh.validate(m)["valid"])
+
+    def test_two_regions_carry_ids_and_names_through_files(self):
+        points, triangles, ids, names = nested_boxes()
+        m = pdrmesh.mesh(points, triangles, ids, names=names, size=0.5)
+        self.assertEqual(m.regions.shape, (len(m.tets),))
+        self.assertEqual(sorted(np.unique(m.regions)), [1, 2])
+        self.assertEqual(m.region_names, {1: "fluid", 2: "body"})
+        self.assertEqual(m.boundary_names, names)
+        report = pdrmesh.validate(m, (points, triangles, ids))
+        self.assertTrue(report["valid"], report["text"])
+        self.assertEqual((report["regions"], report["interface_faces"]), (2, 12))
+        parallel = pdrmesh.mesh(points, triangles, ids, names=names, size=0.5, workers=2, depth=1)
+        self.assertTrue(np.array_equal(parallel.regions, pdrmesh.mesh(
+            points, triangles, ids, names=names, size=0.5, workers=1, depth=1).regions))
+        with tempfile.TemporaryDirectory() as tmp:
+            for suffix in ("vtu", "msh"):
+                path = os.path.join(tmp, "two." + suffix)
+                m.write(path)
+                back = pdrmesh.read_volume(path)
+                self.assertTrue(np.array_equal(back.regions, m.regions), suffix)
+                self.assertEqual(back.region_names, m.region_names, suffix)
+                self.assertEqual(back.boundary_names, m.boundary_names, suffix)
+        field = m.to_meshio().field_data if _has_meshio() else None
+        if field is not None:
+            self.assertEqual(list(field["body"]), [2, 3])
 
     def test_check_reports_a_hole_with_its_place(self):
         points, triangles = icosphere(1)

@@ -3,6 +3,7 @@
 the program; the test is skipped without it): submit numpy arrays, watch, fetch, the same mesh
 as pdrmesh.mesh with the parallel method, and the errors a client meets."""
 import os
+import re
 import secrets
 import subprocess
 import tempfile
@@ -12,7 +13,7 @@ import unittest
 import numpy as np
 
 import pdrmesh
-from test_pdrmesh import icosphere
+from test_pdrmesh import icosphere, nested_boxes
 
 COORDINATOR = os.environ.get("PDRMESH_COORDINATOR", "")
 
@@ -70,6 +71,35 @@ class Service(unittest.TestCase):
             self.assertTrue(np.array_equal(pdrmesh.read_volume(path).tets, local.tets))
         client.delete(job)
         self.assertRaises(LookupError, client.status, job)
+
+    def test_farfield_names_and_regions_through_the_service(self):
+        points, triangles = icosphere(2)
+        client = pdrmesh.Client(self.address, token=self.token)
+        far = dict(names={1: "ball"}, farfield=2, farfield_shape="sphere")
+        job = client.submit(points, triangles, depth=1, wait=True, **far)
+        self.assertEqual(job["state"], "succeeded", job["error"])
+        self.assertEqual(job["options"]["farfield_shape"], "sphere")
+        m = client.result(job)
+        local = pdrmesh.mesh(points, triangles, workers=1, depth=1, **far)
+        self.assertTrue(np.array_equal(m.tets, local.tets))
+        self.assertEqual(m.boundary_names, {1: "ball", 2: "farfield"})
+        with tempfile.TemporaryDirectory() as tmp:
+            self.assertGreater(client.fetch(job, os.path.join(tmp, "case", "constant", "polyMesh")), 0)
+            with open(os.path.join(tmp, "case", "constant", "polyMesh", "boundary")) as f:
+                patches = re.findall(r"^    (\w+)$", f.read(), re.M)
+            self.assertEqual(patches, ["ball", "farfield"])
+            self.assertGreater(client.fetch(job, os.path.join(tmp, "ball.cgns")), 0)
+        client.delete(job)
+
+        points, triangles, ids, names = nested_boxes()
+        job = client.submit(points, triangles, ids, names=names, size=0.5, depth=1, wait=True)
+        self.assertEqual(job["state"], "succeeded", job["error"])
+        m = client.result(job)
+        local = pdrmesh.mesh(points, triangles, ids, names=names, size=0.5, workers=1, depth=1)
+        self.assertTrue(np.array_equal(m.regions, local.regions))
+        self.assertEqual(m.region_names, {1: "fluid", 2: "body"})
+        self.assertEqual(m.boundary_names, names)
+        client.delete(job)
 
     def test_errors(self):
         points, triangles = icosphere(1)
