@@ -164,9 +164,11 @@ PY
   }
   "$pdrmesh" mesh -q "$sphere" --farfield 10 -o "$tmp/far/constant/polyMesh"
   foam_check "$tmp/far" wall
-  "$pdrmesh" run -q "$tmp/four.stl" --workers 2 --depth 1 -o "$tmp/four/constant/polyMesh"  # the parallel method
+  "$pdrmesh" run -q "$sphere" --farfield 10 --workers 2 --depth 1 -o "$tmp/far_run/constant/polyMesh"
+  foam_check "$tmp/far_run" wall  # the parallel method
+  "$pdrmesh" run -q "$tmp/four.stl" --workers 2 --depth 1 -o "$tmp/four/constant/polyMesh"
   foam_check "$tmp/four" sphere
-  echo "ok: checkMesh says Mesh OK and potentialFoam converges on --farfield 10 and on four named solids"
+  echo "ok: checkMesh says Mesh OK and potentialFoam converges on --farfield 10 (mesh and run) and on four named solids"
   exit 0
 fi
 
