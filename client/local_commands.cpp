@@ -17,12 +17,15 @@
 #include <string>
 
 #include "exit_codes.hpp"
+#include "layer_options.hpp"
 #include "options.hpp"
 #include "progress_display.hpp"
 #include "run_options.hpp"
 #include "pdrmesh/boundary_names.hpp"
 #include "pdrmesh/boundary_names_io.hpp"
+#include "pdrmesh/layered_pipeline.hpp"
 #include "pdrmesh/leaf_kernels.hpp"
+#include "pdrmesh/mixed_cells.hpp"
 #include "pdrmesh/pdr_profile.hpp"
 #include "pdrmesh/optimize.hpp"
 #include "pdrmesh/pdr.hpp"
@@ -128,6 +131,7 @@ void print_result_json(const Outcome& o, const VolumeMesh& mesh, const QualityRe
                       {"tets", mesh.tets.size()},
                       {"points", mesh.points.size()},
                       {"quality", nlohmann::json::parse(quality_to_json(q))}};
+  if (mesh.mixed()) j["layers"] = nlohmann::json::parse(layers_to_json(measure_layers(mesh)));
   fmt::print("{}\n", j.dump());
 }
 
@@ -171,7 +175,7 @@ int finish(const VolumeMesh& mesh, const SurfaceMesh& surface, const Outcome& o,
   if (!staged.ok()) return fail(staged.status());
   if (Status s = staged->commit(); !s.ok()) return fail(s);
   progress.say("wrote {}", *o.output);
-  if (!quiet) fmt::print(stderr, "{}", format_quality(quality));
+  if (!quiet) fmt::print(stderr, "{}{}", format_quality(quality), format_layers(measure_layers(mesh)));
   if (o.json) print_result_json(o, mesh, quality);
   return kExitOk;
 }
@@ -208,7 +212,29 @@ struct MeshArgs {
   bool no_optimize = false;
   SizeArgs size;
   std::string names;  ///< --names FILE; empty: none
+  LayerArgs layers;
+  bool growth_given = false;  ///< --growth on the command line (else the layers' ratio continues)
 };
+
+/// `mesh --layers`: prisms on the walls, the serial pipeline for the rest.
+int run_mesh_layered(const MeshArgs& a, const SurfaceMesh& surface, SerialOptions options, Outcome& outcome,
+                     Progress& progress) {
+  auto layers = a.layers.resolve(surface);
+  if (!layers.ok()) return fail(layers.status());
+  if (!a.growth_given && layers->growth_ratio > 1) options.sizing.growth = layers->growth_ratio;
+  auto result = mesh_serial_layered(surface, *layers, options, [&progress](const RefinePassStats& p) {
+    progress.say("pass {}: {} candidates, {} inserted, {} flips, {} tets", p.pass, p.candidates, p.inserted,
+                 p.flips, p.tets);
+  });
+  if (!result.ok()) return fail_run(result.status(), a.time_limit_s);
+  progress.say("layers: {} on {} wall triangles ({} points), stack {:.4g} to {:.4g} thick, {} stacks compressed "
+               "({:.2f} s)",
+               layers->layers, result->wall_triangles, result->wall_points, result->thickness_min,
+               result->thickness_max, result->compressed_points, result->seconds_layers);
+  progress.say("mixed mesh: {} prisms, {} tets, {} points", result->mesh.prisms.size(), result->mesh.tets.size(),
+               result->mesh.points.size());
+  return finish(result->mesh, surface, outcome, !a.no_validate, progress, a.quiet);
+}
 
 int run_mesh(const MeshArgs& a) {
   Progress progress(a.quiet);
@@ -239,6 +265,7 @@ int run_mesh(const MeshArgs& a) {
   if (Status s = a.size.check_tet_limit(surface, options.sizing, true); !s.ok()) return fail(s);
   options.time_limit_s = left_s;
   if (a.no_optimize) options.optimize.reset();
+  if (a.layers.layers > 0) return run_mesh_layered(a, surface, options, outcome, progress);
   auto result = mesh_serial(surface, options, [&progress](const RefinePassStats& p) {
     progress.say("pass {}: {} candidates, {} inserted, {} flips, {} tets", p.pass, p.candidates, p.inserted,
                  p.flips, p.tets);
@@ -367,6 +394,24 @@ int run_run(const RunArgs& a) {
 int run_quality(const std::string& path, bool json, const std::string& svg) {
   auto mesh = read_volume(path);
   if (!mesh.ok()) return fail(mesh.status());
+  if (mesh->mixed()) {
+    // The tet measures below cover the tets alone; the prisms get the layer figures.
+    const LayerReport layers = measure_layers(*mesh);
+    const QualityReport q = measure_quality(*mesh, /*interior=*/true);
+    if (json) {
+      auto j = nlohmann::json::parse(quality_to_json(q));
+      j["layers"] = nlohmann::json::parse(layers_to_json(layers));
+      j["openfoam"] = {{"error", "not measured on a mesh with prisms or pyramids"}};
+      fmt::print("{}\n", j.dump());
+    } else {
+      fmt::print("{}{}", format_quality(q), format_layers(layers));
+      fmt::print("OpenFOAM (checkMesh) figures not measured: the mesh has prisms or pyramids\n");
+    }
+    if (!svg.empty()) {
+      if (Status s = write_text(svg, quality_histogram_svg(q, path)); !s.ok()) return fail(s);
+    }
+    return kExitOk;
+  }
   const QualityReport q = measure_quality(*mesh, /*interior=*/true);
   // checkMesh's figures need every face in one or two tets; on a mesh where
   // that fails the rest of the report still prints, with the reason.
@@ -463,7 +508,10 @@ void add_local_commands(CLI::App& app, int& exit_code) {
     cmd->add_flag("-q,--quiet", a->quiet, "no progress or summary on stderr");
     cmd->add_flag("--json", a->json, json_help);
     cmd->add_flag("--no-validate", a->no_validate, "skip validating the result before writing it");
+    a->layers.add_to(cmd);
     cmd->footer(help_footer({{"pdrmesh mesh part.stl -o part.vtu", "mesh with the spacing the surface's triangles give"},
+                             {"pdrmesh mesh duct.stl -o duct.su2 --layers 10 --first-height 1e-4 --growth-ratio 1.2",
+                              "ten prism layers on the walls, then tets"},
                              {"pdrmesh mesh part.stl -o part.msh --size 1% --time-limit 600",
                               "edges about 1% of the bounding-box diagonal; stop after 10 minutes"},
                              {"pdrmesh mesh part.ply -o part.su2 --names names.txt",
@@ -474,6 +522,9 @@ void add_local_commands(CLI::App& app, int& exit_code) {
                       "the initial mesh is not refined");
       if (cmd->count("--max-volume") > 0 && !a->no_refine)
         usage_error("--max-volume: only with --no-refine (the refined mesh follows --size)");
+      if (a->layers.layers > 0 && a->no_refine) usage_error("--layers: not with --no-refine");
+      a->layers.check(*cmd, a->output);
+      a->growth_given = cmd->count("--growth") > 0;
       exit_code = run_mesh(*a);
     });
   }

@@ -26,6 +26,7 @@ struct ValidationOptions {
 
 struct ValidationReport {
   std::size_t tets = 0;
+  std::size_t prisms = 0, pyramids = 0;  ///< of a mixed mesh (mixed_cells.hpp)
   std::size_t points = 0;
   std::size_t boundary_faces = 0;
   double volume = 0;           ///< sum of tet volumes
@@ -48,6 +49,7 @@ struct ValidationReport {
 /// With a surface: the boundary equals the surface triangulation exactly (same
 /// coordinates, same triangles, same orientation, and the same ids when the mesh
 /// carries them) and the volume equals the enclosed volume.
+/// A mesh with prisms or pyramids goes to validate_mixed_mesh (mixed_cells.hpp).
 /// Runs in parallel (oneTBB, fixed chunks): the report, messages and volume bits
 /// included, is the same for any number of threads.
 ValidationReport validate_mesh(const VolumeMesh& mesh, const SurfaceMesh* surface = nullptr,

@@ -16,6 +16,9 @@ namespace pdrmesh {
 /// oriented outward with one `boundary_ids` entry each; `tet_regions` is
 /// empty or holds one integer per tet (a region, or the octree leaf that made it).
 /// `boundary_names` names some boundary ids (carried from the input surface).
+/// `prisms` and `pyramids` are empty in a tetrahedral mesh; a mixed mesh (prism
+/// boundary layers) holds them beside the tets, numbered and checked as
+/// mixed_cells.hpp draws them.
 struct VolumeMesh {
   std::vector<Vec3> points;
   std::vector<Tet> tets;
@@ -23,6 +26,10 @@ struct VolumeMesh {
   std::vector<int> boundary_ids;
   std::vector<int> tet_regions;
   std::map<int, std::string> boundary_names;
+  std::vector<Prism> prisms;
+  std::vector<Pyramid> pyramids;
+
+  bool mixed() const { return !prisms.empty() || !pyramids.empty(); }
 };
 
 /// The name a format writes for boundary id `id`: its entry in `names`, else
