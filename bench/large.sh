@@ -37,5 +37,5 @@ print(f"tets {tets:,}  points {result['points']:,}  wall {wall:.1f} s  max RSS {
 phases = {k: v for k, v in profile["phases"].items() if isinstance(v, (int, float)) and v >= 0.05}
 print("phases (s): " + ", ".join(f"{k} {v:.1f}" for k, v in sorted(phases.items(), key=lambda kv: -kv[1])))
 PY
-[[ -n ${KEEP:-} ]] && cp "$tmp/profile.json" "$KEEP/large.$name.$size.json"
+[[ -n ${KEEP:-} ]] && mkdir -p "$KEEP" && cp "$tmp/profile.json" "$KEEP/large.$name.$size.json"
 if [[ -x $replay ]]; then "$replay" "$tmp/profile.json"; fi

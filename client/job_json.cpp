@@ -52,6 +52,8 @@ nlohmann::json options_json(const v1::MeshOptions& o) {
   // Ascending ids, so the output does not depend on the map's order.
   const std::map<int, std::string> names(o.surface_names().begin(), o.surface_names().end());
   for (const auto& [id, name] : names) j["surface_names"][std::to_string(id)] = name;
+  if (o.has_farfield()) j["farfield"] = o.farfield();
+  if (o.has_farfield_shape()) j["farfield_shape"] = o.farfield_shape();
   return j;
 }
 

@@ -23,6 +23,7 @@
 #include "run_options.hpp"
 #include "pdrmesh/boundary_names.hpp"
 #include "pdrmesh/boundary_names_io.hpp"
+#include "pdrmesh/farfield.hpp"
 #include "pdrmesh/layered_pipeline.hpp"
 #include "pdrmesh/leaf_kernels.hpp"
 #include "pdrmesh/mixed_cells.hpp"
@@ -33,7 +34,9 @@
 #include "pdrmesh/foam_quality.hpp"
 #include "pdrmesh/quality.hpp"
 #include "pdrmesh/refine.hpp"
+#include "pdrmesh/regions.hpp"
 #include "pdrmesh/sizing.hpp"
+#include "pdrmesh/stopwatch.hpp"
 #include "pdrmesh/surface_check.hpp"
 #include "pdrmesh/surface_io.hpp"
 #include "pdrmesh/tet_mesh.hpp"
@@ -93,22 +96,55 @@ std::string names_line(const std::map<int, std::string>& names) {
   return fmt::format("boundary names: {}", fmt::join(items, ", "));
 }
 
+/// ", N regions: NAME, ..." when the surface has interfaces (regions.hpp), else empty.
+std::string regions_note(const SurfaceMesh& surface, const SurfaceReport& report) {
+  const auto regions = surface_regions(surface, report);
+  if (!regions.ok() || regions->empty()) return {};
+  std::vector<std::string> names;
+  for (const SurfaceRegion& r : *regions) names.push_back(fmt::format("{} {}", r.id, r.name));
+  return fmt::format(", {} regions: {}", regions->size(), fmt::join(names, ", "));
+}
+
+/// Per region of a mesh (none without tet_regions): id, name, tets.
+struct RegionCount {
+  int id;
+  std::string name;
+  std::size_t tets;
+};
+std::vector<RegionCount> region_counts(const VolumeMesh& mesh) {
+  std::map<int, std::size_t> n;
+  for (int r : mesh.tet_regions) ++n[r];
+  std::vector<RegionCount> out;
+  for (const auto& [id, tets] : n) out.push_back({id, region_name(mesh.region_names, id), tets});
+  return out;
+}
+
 /// Reads and checks a surface, with the names of a --names file (`names_path`,
-/// empty: none); on failure prints why and returns the exit code.
-int load_checked_surface(const std::string& path, const std::string& names_path, Progress& progress,
-                         SurfaceMesh& out, StepTimes* times = nullptr) {
+/// empty: none), and with `farfield` the domain around it (farfield.hpp) in its
+/// place; on failure prints why and returns the exit code.
+int load_checked_surface(const std::string& path, const std::string& names_path,
+                         const std::optional<FarfieldOptions>& farfield, Progress& progress, SurfaceMesh& out,
+                         StepTimes* times = nullptr) {
   auto t = Clock::now();
   auto surface = read_surface(path);
   if (!surface.ok()) return fail(surface.status());
   if (Status s = apply_names_file(names_path, surface->surface_ids, surface->surface_names); !s.ok()) return fail(s);
   if (times) times->read = seconds_since(t);
   progress.say("read {}: {} points, {} triangles", path, surface->points.size(), surface->triangles.size());
+  if (farfield) {
+    auto domain = make_farfield(*surface, *farfield);
+    if (!domain.ok()) return fail(domain.status());
+    progress.say("far field: a {} {:g} body lengths (L = {:.6g}) from the body, {} triangles of about {:.6g}",
+                 to_string(farfield->shape), farfield->distance, domain->body_length, domain->farfield_triangles,
+                 domain->farfield_size);
+    *surface = std::move(domain->surface);
+  }
   if (!surface->surface_names.empty()) progress.say("{}", names_line(surface->surface_names));
   t = Clock::now();
   const SurfaceReport report = check_surface(*surface);
   if (times) times->check = seconds_since(t);
   if (Status s = require_meshable(report, path); !s.ok()) return fail(s);
-  progress.say("surface check passed: {} component(s)", report.components.size());
+  progress.say("surface check passed: {} component(s){}", report.components.size(), regions_note(*surface, report));
   out = std::move(surface).value();
   return kExitOk;
 }
@@ -170,7 +206,10 @@ int finish(const VolumeMesh& mesh, const SurfaceMesh& surface, const Outcome& o,
       fmt::print(stderr, "{}", format_validation(report));
       return fail(internal_error("the generated mesh failed validation; please report this with the input"));
     }
-    progress.say("validated: conforming, positive, boundary identical to the input, volume conserved");
+    progress.say("validated: conforming, positive, boundary identical to the input, volume conserved{}",
+                 report.regions > 0 ? fmt::format("; {} regions, {} interface faces shared by the regions they separate",
+                                                  report.regions, report.interface_faces)
+                                    : std::string());
   }
   if (!staged.ok()) return fail(staged.status());
   if (Status s = staged->commit(); !s.ok()) return fail(s);
@@ -192,10 +231,23 @@ int run_check(const std::string& path, bool json, bool no_self_intersections) {
   CheckOptions options;
   options.self_intersections = !no_self_intersections;
   const SurfaceReport report = check_surface(*surface, options);
+  const Result<std::vector<SurfaceRegion>> regions =
+      report.meshable() ? surface_regions(*surface, report) : Result<std::vector<SurfaceRegion>>(std::vector<SurfaceRegion>{});
   if (json) {
-    fmt::print("{}\n", report_to_json(report, path));
+    auto j = nlohmann::json::parse(report_to_json(report, path));
+    j["regions"] = nlohmann::json::array();
+    if (regions.ok())
+      for (const SurfaceRegion& r : *regions)
+        j["regions"].push_back({{"id", r.id}, {"name", r.name}, {"triangles", r.domain.triangles.size()}});
+    fmt::print("{}\n", j.dump());
   } else {
     fmt::print("{}", format_report(report, path));
+    if (regions.ok() && !regions->empty()) {
+      fmt::print("  {} regions (shells inside shells of the same orientation are interfaces):\n", regions->size());
+      for (const SurfaceRegion& r : *regions)
+        fmt::print("    region {} {}: {} triangles with its interfaces and cavities\n", r.id, r.name,
+                   r.domain.triangles.size());
+    }
   }
   return report.meshable() ? kExitOk : kExitBadInput;
 }
@@ -214,6 +266,7 @@ struct MeshArgs {
   std::string names;  ///< --names FILE; empty: none
   LayerArgs layers;
   bool growth_given = false;  ///< --growth on the command line (else the layers' ratio continues)
+  FarfieldArgs farfield;
 };
 
 /// `mesh --layers`: prisms on the walls, the serial pipeline for the rest.
@@ -240,7 +293,8 @@ int run_mesh(const MeshArgs& a) {
   Progress progress(a.quiet);
   const auto start = Clock::now();
   SurfaceMesh surface;
-  if (int code = load_checked_surface(a.surface, a.names, progress, surface); code != kExitOk) return code;
+  if (int code = load_checked_surface(a.surface, a.names, a.farfield.options(), progress, surface); code != kExitOk)
+    return code;
   // The time limit counts from the start: what reading and checking took is gone.
   const double left_s = a.time_limit_s > 0 ? a.time_limit_s - seconds_since(start) : 0;
   if (a.time_limit_s > 0 && !(left_s > 0))
@@ -330,6 +384,7 @@ void print_profile(const PdrProfile& p) {
 
 int run_run(const RunArgs& a) {
   const auto t_wall = Clock::now();
+  const double cpu0 = process_cpu_seconds();
   const std::optional<Clock::time_point> deadline = deadline_after(a.time_limit_s);
   // --workers N is the whole run's thread budget: the leaf schedules and every
   // parallel step around them (surface check, sizing, sorts, validation).
@@ -337,8 +392,9 @@ int run_run(const RunArgs& a) {
   Progress progress(a.quiet);
   SurfaceMesh surface;
   StepTimes times;
-  if (int code = load_checked_surface(a.surface, a.mesh.names, progress, surface, &times); code != kExitOk)
-    return code;
+  const int loaded =
+      load_checked_surface(a.surface, a.mesh.names, a.mesh.farfield.options(), progress, surface, &times);
+  if (loaded != kExitOk) return loaded;
 
   auto kernel = make_leaf_kernel(a.mesh.kernel);
   if (!kernel.ok()) return fail(kernel.status());
@@ -384,6 +440,7 @@ int run_run(const RunArgs& a) {
   profile.quality = times.quality;
   profile.overlapped += times.overlapped;
   profile.wall = seconds_since(t_wall);
+  profile.cpu = process_cpu_seconds() - cpu0;
   if (a.profile) print_profile(profile);
   if (!a.profile_json.empty()) {
     if (Status s = write_text(a.profile_json, profile_to_json(profile, a.workers)); !s.ok()) return fail(s);
@@ -416,13 +473,21 @@ int run_quality(const std::string& path, bool json, const std::string& svg) {
   // checkMesh's figures need every face in one or two tets; on a mesh where
   // that fails the rest of the report still prints, with the reason.
   const auto foam = measure_foam_quality(*mesh);
+  const std::vector<RegionCount> regions = region_counts(*mesh);
   if (json) {
     auto j = nlohmann::json::parse(quality_to_json(q));
     j["openfoam"] = foam.ok() ? nlohmann::json::parse(foam_quality_to_json(*foam))
                               : nlohmann::json{{"error", foam.status().message()}};
+    j["regions"] = nlohmann::json::array();
+    for (const RegionCount& r : regions) j["regions"].push_back({{"id", r.id}, {"name", r.name}, {"tets", r.tets}});
     fmt::print("{}\n", j.dump());
   } else {
     fmt::print("{}", format_quality(q));
+    if (!regions.empty()) {
+      std::vector<std::string> items;
+      for (const RegionCount& r : regions) items.push_back(fmt::format("{} {}: {} tets", r.id, r.name, r.tets));
+      fmt::print("regions: {}\n", fmt::join(items, ", "));
+    }
     fmt::print("{}", foam.ok() ? format_foam_quality(*foam)
                                : fmt::format("OpenFOAM (checkMesh) figures not measured: {}\n", foam.status().message()));
   }
@@ -449,6 +514,8 @@ int run_validate(const std::string& path, const std::string& surface_path, bool 
                               {"tets", report.tets},
                               {"points", report.points},
                               {"boundary_faces", report.boundary_faces},
+                              {"regions", report.regions},
+                              {"interface_faces", report.interface_faces},
                               {"volume", report.volume},
                               {"enclosed_volume", report.enclosed_volume},
                               {"error_count", report.error_count},
@@ -504,6 +571,7 @@ void add_local_commands(CLI::App& app, int& exit_code) {
     cmd->add_flag("--no-optimize", a->no_optimize, "skip the final optimization");
     a->size.add_to(cmd);
     add_names_option(cmd, a->names);
+    a->farfield.add_to(cmd);
     add_time_limit(cmd, a->time_limit_s, "none");
     cmd->add_flag("-q,--quiet", a->quiet, "no progress or summary on stderr");
     cmd->add_flag("--json", a->json, json_help);
@@ -515,7 +583,9 @@ void add_local_commands(CLI::App& app, int& exit_code) {
                              {"pdrmesh mesh part.stl -o part.msh --size 1% --time-limit 600",
                               "edges about 1% of the bounding-box diagonal; stop after 10 minutes"},
                              {"pdrmesh mesh part.ply -o part.su2 --names names.txt",
-                              "SU2 markers named by names.txt (lines like '1 inlet')"}}));
+                              "SU2 markers named by names.txt (lines like '1 inlet')"},
+                             {"pdrmesh mesh wing.stl -o case/constant/polyMesh --farfield 10",
+                              "external flow: the space between the wing and a box 10 wing lengths away"}}));
     cmd->callback([&exit_code, a, cmd] {
       a->size.check();
       refuse_together(*cmd, "--no-refine", {"--size", "--hmin", "--hmax", "--growth", "--no-optimize"},

@@ -37,12 +37,17 @@ Status SizeArgs::check_tet_limit(const SurfaceMesh& surface, const SizingOptions
   return pdrmesh::check_tet_limit(e, options, default_max_tets(), "--max-tets, from this machine's memory");
 }
 
-Result<SizingOptions> SizeArgs::job_sizing(const std::filesystem::path& path, std::string& line) const {
+Result<SizingOptions> SizeArgs::job_sizing(const std::filesystem::path& path, std::string& line,
+                                           const std::optional<FarfieldOptions>& farfield) const {
   SizingOptions sizing = options(0);
   line = "size: from the surface (the coordinator derives it)";
   const std::optional<SizeValue> s = size_value();
   if ((s && s->percent) || max_tets > 0) {
-    PDR_ASSIGN_OR_RETURN(const SurfaceMesh surface, read_surface(path));
+    PDR_ASSIGN_OR_RETURN(SurfaceMesh surface, read_surface(path));
+    if (farfield) {
+      PDR_ASSIGN_OR_RETURN(FarfieldDomain domain, make_farfield(surface, *farfield));
+      surface = std::move(domain.surface);
+    }
     if (s && s->percent) sizing = resolve(surface, line, /*surface_h=*/false);
     PDR_TRY(check_tet_limit(surface, sizing, false));
   }
@@ -94,6 +99,27 @@ CLI::Option* add_time_limit(CLI::App* cmd, double& seconds, const std::string& d
                     kSeconds);
 }
 
+void FarfieldArgs::add_to(CLI::App* cmd) {
+  constexpr Accepts kBodyLengths{"a distance in body lengths over 0.5 and at most 1000 (10 to 20 is usual)",
+                                 "LENGTHS", kMinFarfieldDistance, kMaxFarfieldDistance, true};
+  CLI::Option* far = add_number(cmd, "--farfield", distance,
+                                "external flow: mesh the space between the surface (the body) and a far field this "
+                                "many body lengths away, patches inlet (-x), outlet (+x) and sides, or farfield",
+                                kBodyLengths);
+  cmd->add_option("--farfield-shape", shape, "the far field's shape: box (inlet, outlet, sides) or sphere (farfield)")
+      ->check(CLI::IsMember({"box", "sphere"}))
+      ->needs(far)
+      ->capture_default_str();
+}
+
+std::optional<FarfieldOptions> FarfieldArgs::options() const {
+  if (!(distance > 0)) return std::nullopt;
+  FarfieldOptions o;
+  o.distance = distance;
+  o.shape = parse_farfield_shape(shape).value_or(FarfieldShape::kBox);
+  return o;
+}
+
 void RunOptionArgs::add_to(CLI::App* cmd) {
   add_number(cmd, "--depth", depth,
              "octree depth (2^d leaves a side); default: chosen from the target size and the leaves the body "
@@ -104,6 +130,7 @@ void RunOptionArgs::add_to(CLI::App* cmd) {
   cmd->add_flag("--no-optimize", no_optimize, "skip the final optimization");
   size.add_to(cmd);
   add_names_option(cmd, names);
+  farfield.add_to(cmd);
 }
 
 ParallelOptions RunOptionArgs::parallel_options(const SizingOptions& sizing) const {
@@ -125,6 +152,10 @@ v1::MeshOptions RunOptionArgs::mesh_options(const SizingOptions& s) const {
   o.set_kernel(kernel);
   o.set_interface_round(!no_interface_round);
   o.set_optimize(!no_optimize);
+  if (const auto f = farfield.options()) {
+    o.set_farfield(f->distance);
+    o.set_farfield_shape(std::string(to_string(f->shape)));
+  }
   return o;
 }
 

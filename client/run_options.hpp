@@ -12,6 +12,7 @@
 #include <string>
 
 #include "options.hpp"
+#include "pdrmesh/farfield.hpp"
 #include "pdrmesh/pipeline.hpp"
 #include "pdrmesh/sizing.hpp"
 #include "pdrmesh/status.hpp"
@@ -45,8 +46,21 @@ struct SizeArgs {
   /// becomes a length from the surface's bounding box (the coordinator takes
   /// lengths) and --max-tets is checked against the estimate (the coordinator
   /// checks its own limits in any case); the file is read only for those.
-  /// `line` says which size the job asks for.
-  Result<SizingOptions> job_sizing(const std::filesystem::path& path, std::string& line) const;
+  /// `line` says which size the job asks for. With `farfield`, the surface is
+  /// the domain around the file's body, as the coordinator makes it.
+  Result<SizingOptions> job_sizing(const std::filesystem::path& path, std::string& line,
+                                   const std::optional<FarfieldOptions>& farfield) const;
+};
+
+/// --farfield DISTANCE and --farfield-shape box|sphere: mesh the space around
+/// the surface, out to a far field that many body lengths away (farfield.hpp).
+struct FarfieldArgs {
+  double distance = 0;  ///< body lengths; 0: no far field
+  std::string shape = "box";
+
+  void add_to(CLI::App* cmd);
+  /// The far field asked for; nullopt without --farfield.
+  std::optional<FarfieldOptions> options() const;
 };
 
 /// Adds --time-limit: seconds the whole run may take (a deadline, exit 75 past it).
@@ -55,6 +69,7 @@ CLI::Option* add_time_limit(CLI::App* cmd, double& seconds, const std::string& d
 /// --depth --kernel --no-interface-round --no-optimize --names and the size options.
 struct RunOptionArgs {
   SizeArgs size;
+  FarfieldArgs farfield;
   std::string names;  ///< --names FILE; empty: none (read by the command, not by mesh_options)
   int depth = -1;
   std::string kernel = "native";

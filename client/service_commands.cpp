@@ -313,7 +313,7 @@ int run_submit(Common& c, const SubmitArgs& a) {
   SizingOptions sizing = a.mesh.size.options(0);
   if (a.max_volume == 0) {
     std::string line;
-    auto job_sizing = a.mesh.size.job_sizing(a.surface, line);
+    auto job_sizing = a.mesh.size.job_sizing(a.surface, line, a.mesh.farfield.options());
     if (!job_sizing.ok()) {
       fmt::print(stderr, "pdrmesh: error: {}\n", job_sizing.status().to_string());
       return cli::exit_code_for(job_sizing.status());

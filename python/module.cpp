@@ -25,6 +25,7 @@
 #include <string>
 #include <vector>
 
+#include "pdrmesh/farfield.hpp"
 #include "pdrmesh/leaf_kernels.hpp"
 #include "pdrmesh/pipeline.hpp"
 #include "pdrmesh/quality.hpp"
@@ -317,14 +318,23 @@ py::dict mesh_py(const py::handle& points, const py::handle& triangles, const py
                  const py::handle& names, const std::optional<std::string>& size, std::optional<double> hmin,
                  std::optional<double> hmax, double growth, std::optional<double> max_tets, int workers,
                  std::optional<int> depth, const std::string& kernel_name, bool optimize,
-                 std::optional<double> time_limit, bool validate) {
+                 std::optional<double> time_limit, bool validate, std::optional<double> farfield,
+                 const std::string& farfield_shape) {
   const cli::RunOptionArgs args = run_options(size, hmin, hmax, growth, max_tets, depth, kernel_name, optimize);
   if (workers < 0 || workers > 4096) throw py::value_error(fmt::format("workers must be 0 (serial) or 1 to 4096, got {}", workers));
   if (time_limit) check_number("time_limit", *time_limit, cli::kSeconds);
   if (depth && workers == 0) throw py::value_error("depth is an option of the parallel method: give workers >= 1");
   if (kernel_name != "native" && workers == 0)
     throw py::value_error("kernel is an option of the parallel method: give workers >= 1");
-  const SurfaceMesh surface = to_surface(points, triangles, surface_ids, names);
+  std::optional<FarfieldOptions> far;
+  if (farfield) {
+    if (Status st = check_farfield_distance(*farfield, "farfield"); !st.ok()) throw py::value_error(st.message());
+    const auto shape = parse_farfield_shape(farfield_shape);
+    if (!shape)
+      throw py::value_error(fmt::format("farfield_shape must be 'box' or 'sphere', got '{}'", farfield_shape));
+    far = FarfieldOptions{*farfield, *shape};
+  }
+  SurfaceMesh surface = to_surface(points, triangles, surface_ids, names);
 
   std::string size_line;
   Result<VolumeMesh> result = VolumeMesh{};
@@ -332,6 +342,10 @@ py::dict mesh_py(const py::handle& points, const py::handle& triangles, const py
     py::gil_scoped_release release;
     result = [&]() -> Result<VolumeMesh> {
       const auto start = Clock::now();
+      if (far) {  // the domain around the body takes its place, as with `pdrmesh mesh --farfield`
+        PDR_ASSIGN_OR_RETURN(FarfieldDomain domain, make_farfield(surface, *far));
+        surface = std::move(domain.surface);
+      }
       PDR_TRY(require_meshable(check_surface(surface), surface.name));
       const SizingOptions sizing = args.size.resolve(surface, size_line);
       PDR_TRY(args.size.check_tet_limit(surface, sizing, true));
@@ -441,7 +455,7 @@ PYBIND11_MODULE(_pdrmesh, m) {
   m.def("check", &check_py, arg("points"), arg("triangles"), arg("surface_ids"), arg("self_intersections"));
   m.def("mesh", &mesh_py, arg("points"), arg("triangles"), arg("surface_ids"), arg("names"), arg("size"),
         arg("hmin"), arg("hmax"), arg("growth"), arg("max_tets"), arg("workers"), arg("depth"), arg("kernel"),
-        arg("optimize"), arg("time_limit"), arg("validate"));
+        arg("optimize"), arg("time_limit"), arg("validate"), arg("farfield"), arg("farfield_shape"));
   m.def("quality", &quality_py, arg("points"), arg("tets"));
   m.def("min_dihedral", &min_dihedral_py, arg("points"), arg("tets"));
   m.def("validate", &validate_py, arg("points"), arg("tets"), arg("boundary"), arg("boundary_ids"), arg("surface"));

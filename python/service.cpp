@@ -71,7 +71,7 @@ class Client {
     {
       py::gil_scoped_release release;
       std::string line;
-      Result<SizingOptions> sizing = args.size.job_sizing(surface, line);
+      Result<SizingOptions> sizing = args.size.job_sizing(surface, line, args.farfield.options());
       local = sizing.status();
       if (sizing.ok()) {
         v1::MeshOptions options = args.mesh_options(*sizing);

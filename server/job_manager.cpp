@@ -117,10 +117,8 @@ Result<JobRecord> JobManager::submit(std::string_view user, std::string_view fil
   }
   PDR_TRY(admit(user, bytes.size()));
   // The whole check before anything is stored: a broken surface costs nothing else.
-  PDR_ASSIGN_OR_RETURN(SurfaceMesh surface, parse_surface(bytes, format, name));
-  PDR_TRY(merge_boundary_names(surface.surface_names, surface.surface_ids, options.surface_names,
-                               "job option surface_names"));
-  PDR_TRY(require_meshable(check_surface(surface), name));
+  PDR_ASSIGN_OR_RETURN(SurfaceMesh parsed, parse_surface(bytes, format, name));
+  PDR_ASSIGN_OR_RETURN(const SurfaceMesh surface, job_surface(std::move(parsed), options, name));
   // What meshing it would cost, before anything is stored (the initial mesh
   // alone, with max_volume, is TetGen's and bounded by its time limit).
   double peak_bytes = 0;

@@ -44,7 +44,19 @@ Status JobOptions::validate() const {
   if (kernel != "native" && kernel != "tetgen") {
     return invalid_input(fmt::format("job option kernel must be 'native' or 'tetgen', got '{}'", kernel));
   }
+  if (farfield) PDR_TRY(check_farfield_distance(farfield->distance, "job option farfield"));
   return check_boundary_names(surface_names, "job option surface_names");
+}
+
+Result<SurfaceMesh> job_surface(SurfaceMesh surface, const JobOptions& options, std::string_view name) {
+  PDR_TRY(merge_boundary_names(surface.surface_names, surface.surface_ids, options.surface_names,
+                               "job option surface_names"));
+  if (options.farfield) {
+    PDR_ASSIGN_OR_RETURN(FarfieldDomain domain, make_farfield(surface, *options.farfield));
+    surface = std::move(domain.surface);
+  }
+  PDR_TRY(require_meshable(check_surface(surface), name));
+  return surface;
 }
 
 std::string JobOptions::to_json() const {
@@ -61,6 +73,10 @@ std::string JobOptions::to_json() const {
   j["optimize"] = optimize;
   // Only when there are names, so that the options of a job without them read as before.
   for (const auto& [id, name] : surface_names) j["surface_names"][std::to_string(id)] = name;
+  if (farfield) {
+    j["farfield"] = farfield->distance;
+    j["farfield_shape"] = to_string(farfield->shape);
+  }
   return j.dump();
 }
 
@@ -108,6 +124,16 @@ Result<JobOptions> JobOptions::from_json(std::string_view json) {
         return invalid_input(fmt::format("job option surface_names: expected \"<int id>\": \"<name>\", got {}: {}",
                                          nlohmann::json(key).dump(), value.dump()));
       o.surface_names[id] = value.get<std::string>();
+    }
+  }
+  if (auto it = j.find("farfield"); it != j.end()) {
+    if (!it->is_number()) return invalid_input("job option farfield must be a number");
+    o.farfield = FarfieldOptions{it->get<double>(), FarfieldShape::kBox};
+    if (auto shape = j.find("farfield_shape"); shape != j.end()) {
+      const auto parsed = shape->is_string() ? parse_farfield_shape(shape->get<std::string>()) : std::nullopt;
+      if (!parsed) return invalid_input(fmt::format("job option farfield_shape must be \"box\" or \"sphere\", got {}",
+                                                    shape->dump()));
+      o.farfield->shape = *parsed;
     }
   }
   PDR_TRY(o.validate());
@@ -332,11 +358,9 @@ Status JobRunner::mesh_job(JobRecord& job, JobProgress& progress) {
   PDR_ASSIGN_OR_RETURN(const SurfaceFormat format, surface_format_from_path(job.input_name));
   if (!progress.report("reading", 0.05)) return internal_error("stopped");
   PDR_ASSIGN_OR_RETURN(const std::string bytes, read_file(JobPaths::input(data_dir_, job)));
-  PDR_ASSIGN_OR_RETURN(SurfaceMesh surface, parse_surface(bytes, format, job.input_name));
-  PDR_TRY(merge_boundary_names(surface.surface_names, surface.surface_ids, options.surface_names,
-                               "job option surface_names"));
+  PDR_ASSIGN_OR_RETURN(SurfaceMesh parsed, parse_surface(bytes, format, job.input_name));
   if (!progress.report("checking", 0.1)) return internal_error("stopped");
-  PDR_TRY(require_meshable(check_surface(surface), job.input_name));
+  PDR_ASSIGN_OR_RETURN(const SurfaceMesh surface, job_surface(std::move(parsed), options, job.input_name));
   // The result depends on the input, the options and the engine's build alone.
   const JobCheckpoint checkpoint(JobPaths::checkpoint(data_dir_, job.id),
                                  fmt::format("pdrmesh {} build {:016x}\noptions {}\ninput {:016x}\n",

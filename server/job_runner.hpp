@@ -25,6 +25,7 @@
 
 #include "job_checkpoint.hpp"
 #include "job_store.hpp"
+#include "pdrmesh/farfield.hpp"
 #include "pdrmesh/sizing.hpp"
 #include "pdrmesh/status.hpp"
 #include "pdrmesh/surface.hpp"
@@ -45,6 +46,8 @@ struct JobOptions {
   bool optimize = true;
   /// Boundary names by surface id over the surface file's own (run --names).
   std::map<int, std::string> surface_names;
+  /// External flow (run --farfield): the domain around the surface (farfield.hpp).
+  std::optional<FarfieldOptions> farfield;
 
   /// invalid_input naming the first option out of range.
   Status validate() const;
@@ -52,6 +55,11 @@ struct JobOptions {
   /// invalid_input for malformed JSON, a value of the wrong type or out of range.
   static Result<JobOptions> from_json(std::string_view json);
 };
+
+/// The surface a job meshes: `surface` (its names merged with the options'),
+/// or with options.farfield the domain around it; checked (require_meshable).
+/// `name` names the upload in messages.
+Result<SurfaceMesh> job_surface(SurfaceMesh surface, const JobOptions& options, std::string_view name);
 
 /// Where a job's files live under the data directory.
 struct JobPaths {

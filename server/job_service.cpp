@@ -85,6 +85,10 @@ void to_proto(const JobOptions& o, v1::MeshOptions& out) {
   out.set_interface_round(o.interface_round);
   out.set_optimize(o.optimize);
   for (const auto& [id, name] : o.surface_names) (*out.mutable_surface_names())[id] = name;
+  if (o.farfield) {
+    out.set_farfield(o.farfield->distance);
+    out.set_farfield_shape(std::string(to_string(o.farfield->shape)));
+  }
 }
 
 Result<JobOptions> from_proto(const v1::MeshOptions& in, JobOptions o) {
@@ -102,6 +106,18 @@ Result<JobOptions> from_proto(const v1::MeshOptions& in, JobOptions o) {
   if (in.has_interface_round()) o.interface_round = in.interface_round();
   if (in.has_optimize()) o.optimize = in.optimize();
   for (const auto& [id, name] : in.surface_names()) o.surface_names[id] = name;
+  if (in.has_farfield_shape() && !in.has_farfield())
+    return invalid_input("job option farfield_shape: only with farfield (the distance in body lengths)");
+  if (in.has_farfield()) {
+    o.farfield = FarfieldOptions{in.farfield(), FarfieldShape::kBox};
+    if (in.has_farfield_shape()) {
+      const auto shape = parse_farfield_shape(in.farfield_shape());
+      if (!shape)
+        return invalid_input(fmt::format("job option farfield_shape must be 'box' or 'sphere', got '{}'",
+                                         in.farfield_shape()));
+      o.farfield->shape = *shape;
+    }
+  }
   PDR_TRY(o.validate());
   return o;
 }

@@ -695,13 +695,18 @@ class Checker {
     return true;
   }
 
-  // Nesting depth of every nestable component, and its orientation.
+  // Nesting depth and parent of every nestable component, and its
+  // orientation. A shell with outward normals (positive volume) holds material;
+  // one with inward normals (negative volume) is a cavity, valid only directly
+  // inside material. A positive shell directly inside a positive one is an
+  // interface between two regions; a negative one there is a cavity.
   void check_nesting() {
     auto& comps = report_.components;
     std::vector<Index> nest;
     for (Index c = 0; c < comps.size(); ++c)
       if (nestable(c)) nest.push_back(c);
     std::vector<int> depth(comps.size(), -1);  // -1: undecided
+    std::vector<std::vector<Index>> enclosing(comps.size());
     if (nest.size() == 1) depth[nest[0]] = 0;
     if (nest.size() > 1) {
       // Points of each component to cast from: the first few of its triangles.
@@ -719,17 +724,27 @@ class Checker {
           for (const Vec3& dir : kRayDirections) {
             if (cast(s_.points[v], dir, c, odd)) {
               depth[c] = static_cast<int>(odd.size());
+              enclosing[c] = odd;
               return;
             }
           }
         }
       });
     }
+    // The enclosing shells form a chain (shells neither cross nor touch): the
+    // parent is the one of them one level up.
+    for (Index c = 0; c < comps.size(); ++c) {
+      if (depth[c] <= 0) continue;
+      for (Index e : enclosing[c])
+        if (depth[e] == depth[c] - 1) comps[c].parent = e;
+    }
     for (Index c = 0; c < comps.size(); ++c) {
       if (depth[c] < 0) continue;
       ComponentReport& r = comps[c];
       r.nesting_depth = depth[c];
-      r.outward = depth[c] % 2 == 0 ? r.volume > 0 : r.volume < 0;
+      const bool in_material = r.parent != kNoIndex && comps[r.parent].volume > 0;
+      r.interface = r.volume > 0 && in_material;
+      r.outward = r.volume > 0 || (r.volume < 0 && in_material);
       if (r.outward) continue;
       sink_.add(DefectKind::kInwardOrientation, [&] {
         const Index t = r.first_triangle;
@@ -742,8 +757,10 @@ class Checker {
             fmt::format("component {} ({} triangles, first {}) at nesting depth {} has volume {}: "
                         "{}",
                         c, r.triangles, tri_str(s_, t), r.nesting_depth, r.volume,
-                        depth[c] % 2 == 0 ? "its normals point inward"
-                                          : "a cavity's normals must point into the cavity")};
+                        r.parent == kNoIndex ? std::string("its normals point inward")
+                                             : fmt::format("it lies in the cavity of component {}, so its normals "
+                                                           "must point out of it",
+                                                           r.parent))};
       });
     }
   }

@@ -86,7 +86,8 @@ std::string format_report(const SurfaceReport& r, std::string_view name) {
         k.consistently_oriented ? "oriented" : "not oriented", k.euler,
         k.genus >= 0 ? fmt::format(", genus {}", k.genus) : std::string(), k.volume,
         k.closed && k.manifold && k.consistently_oriented
-            ? fmt::format("depth {}{}", k.nesting_depth, k.outward ? ", outward" : "")
+            ? fmt::format("depth {}{}{}", k.nesting_depth, k.outward ? ", outward" : "",
+                          k.interface ? ", a region interface" : k.outward && k.volume < 0 ? ", a cavity" : "")
             : std::string("nesting not analysed"));
   }
   if (r.components.size() > kMaxComponents)
@@ -118,6 +119,8 @@ std::string report_to_json(const SurfaceReport& r, std::string_view name) {
                      {"volume", c.volume},
                      {"nesting_depth", c.nesting_depth},
                      {"outward", c.outward},
+                     {"parent", c.parent == kNoIndex ? nlohmann::json(nullptr) : nlohmann::json(c.parent)},
+                     {"interface", c.interface},
                      {"first_triangle", c.first_triangle}});
   }
   j["components"] = comps;

@@ -8,7 +8,9 @@
 // FaceCenter), of type BCTypeUserDefined, and a family of that name (FamilyName),
 // which is where SU2 and most CGNS readers take the marker name from.
 // Names are boundary_name(), cut to CGNS's 32 characters and made unique.
-// Regions are not written. HDF5 records each object's creation time, so two
+// A mesh with regions has one TETRA_4 section per region instead (ascending
+// id, named by region_name(), its tets in mesh order; the tets are numbered
+// in that order). HDF5 records each object's creation time, so two
 // writes of one mesh differ in those bytes (the only output that is not
 // byte-identical).
 #include <cgnslib.h>
@@ -90,19 +92,39 @@ Status write_cgns(const VolumeMesh& mesh, const std::filesystem::path& path) {
   }
   coord = {};
 
+  std::set<std::string> used;
   std::vector<cgsize_t> conn;
   conn.reserve(4 * mesh.tets.size());
-  for (const Tet& t : mesh.tets)
-    for (Index v : t) conn.push_back(static_cast<cgsize_t>(v) + 1);
   const auto tets = static_cast<cgsize_t>(mesh.tets.size());
-  if (cg_section_write(fn, base, zone, "Tetrahedra", CGNS_ENUMV(TETRA_4), 1, tets, 0, conn.data(), &node) != CG_OK)
-    return failed("tetrahedra");
+  if (mesh.tet_regions.size() != mesh.tets.size()) {
+    for (const Tet& t : mesh.tets)
+      for (Index v : t) conn.push_back(static_cast<cgsize_t>(v) + 1);
+    if (cg_section_write(fn, base, zone, "Tetrahedra", CGNS_ENUMV(TETRA_4), 1, tets, 0, conn.data(), &node) != CG_OK)
+      return failed("tetrahedra");
+  } else {
+    std::vector<std::size_t> by_region(mesh.tets.size());
+    for (std::size_t i = 0; i < by_region.size(); ++i) by_region[i] = i;
+    std::stable_sort(by_region.begin(), by_region.end(),
+                     [&](std::size_t a, std::size_t b) { return mesh.tet_regions[a] < mesh.tet_regions[b]; });
+    cgsize_t first = 1;
+    for (std::size_t k = 0; k < by_region.size();) {
+      const int id = mesh.tet_regions[by_region[k]];
+      conn.clear();
+      for (; k < by_region.size() && mesh.tet_regions[by_region[k]] == id; ++k)
+        for (Index v : mesh.tets[by_region[k]]) conn.push_back(static_cast<cgsize_t>(v) + 1);
+      const auto count = static_cast<cgsize_t>(conn.size() / 4);
+      const std::string name = cgns_name(region_name(mesh.region_names, id), id, used);
+      if (cg_section_write(fn, base, zone, name.c_str(), CGNS_ENUMV(TETRA_4), first, first + count - 1, 0, conn.data(),
+                           &node) != CG_OK)
+        return failed(fmt::format("region section {}", name));
+      first += count;
+    }
+  }
 
   std::vector<std::size_t> order(mesh.boundary.size());
   for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
   std::stable_sort(order.begin(), order.end(),
                    [&](std::size_t a, std::size_t b) { return mesh.boundary_ids[a] < mesh.boundary_ids[b]; });
-  std::set<std::string> used;
   cgsize_t next = tets + 1;
   for (std::size_t k = 0; k < order.size();) {
     const int id = mesh.boundary_ids[order[k]];

@@ -179,7 +179,7 @@ Status write_foam(const VolumeMesh& mesh, const std::filesystem::path& dir) {
     return {};
   }));
 
-  // Regions as cellZones "region_<id>", ascending id, when there are two or more.
+  // Regions as cellZones named by region_name(), ascending id, when there are two or more.
   std::map<int, std::vector<Index>> zones;
   for (std::size_t t = 0; t < mesh.tet_regions.size(); ++t) zones[mesh.tet_regions[t]].push_back(static_cast<Index>(t));
   if (zones.size() < 2) return {};
@@ -188,8 +188,8 @@ Status write_foam(const VolumeMesh& mesh, const std::filesystem::path& dir) {
     auto it = std::back_inserter(out.buf());
     fmt::format_to(it, "{}\n(\n", zones.size());
     for (const auto& [id, cells] : zones) {
-      fmt::format_to(it, "    region_{}\n    {{\n        type cellZone;\n        cellLabels List<label> {}\n(\n", id,
-                     cells.size());
+      fmt::format_to(it, "    {}\n    {{\n        type cellZone;\n        cellLabels List<label> {}\n(\n",
+                     foam_word(region_name(mesh.region_names, id)), cells.size());
       for (Index c : cells) {
         fmt::format_to(it, FMT_COMPILE("{}\n"), c);
         PDR_TRY(out.maybe_flush());

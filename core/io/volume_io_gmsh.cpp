@@ -3,7 +3,7 @@
 //
 // Written: one surface entity and physical surface per surface id (named by
 // the mesh's boundary_names, else "surface_<id>"), one volume entity and physical volume per region (named
-// "region_<r>"; a single one named "volume" when the mesh has no regions),
+// by the mesh's region_names, else "region_<r>"; a single one named "volume" when the mesh has no regions),
 // all nodes in one block (tags 1..N in mesh order), elements grouped by
 // entity with element tag = position in the mesh (tets 1..T, then boundary
 // triangles T+1..T+B), so that reading back restores the original order.
@@ -14,7 +14,7 @@
 // (type 4); points and lines are skipped, other element kinds are refused.
 // A surface's id is its physical tag (4.1: its entity's first one), or the
 // <id> of a physical name "surface_<id>"; any other physical name of a
-// surface becomes the id's boundary name. Gmsh tets have the same positive
+// surface becomes the id's boundary name, and of a volume the region's name. Gmsh tets have the same positive
 // orientation as VTK.
 #include <fmt/compile.h>
 
@@ -132,7 +132,7 @@ Status write_gmsh(const VolumeMesh& mesh, const std::filesystem::path& path) {
     volumes.push_back({1, 1, "volume", 0, nt, bounds_of(mesh, mesh.tets, tet_order, 0, nt)});
   } else {
     volumes = make_groups(
-        mesh, mesh.tets, mesh.tet_regions, [](int r) { return fmt::format("region_{}", r); }, tet_order);
+        mesh, mesh.tets, mesh.tet_regions, [&](int r) { return region_name(mesh.region_names, r); }, tet_order);
   }
 
   const std::array<const std::vector<Group>*, 2> lists{&surfaces, &volumes};
@@ -241,6 +241,7 @@ class GmshReader {
     int physical;  ///< 2.2: the physical tag (0: none); 4.1: unused
   };
   std::map<int, std::string> names_;
+  std::map<int, std::string> region_names_;
   std::vector<Raw> tet_raw_, tri_raw_;
   std::vector<Tet> tets_;
   std::vector<Tri> tris_;
@@ -598,7 +599,7 @@ int GmshReader::resolve(int dim, const Raw& raw, std::string_view prefix, bool& 
     named = true;
     return id;
   }
-  if (dim == 2) names_.emplace(phys, name->second);
+  (dim == 2 ? names_ : region_names_).emplace(phys, name->second);
   return phys;
 }
 
@@ -660,7 +661,10 @@ Result<VolumeMesh> GmshReader::read() {
     entities.push_back(major_ == 2 ? regions.back() : tet_raw_[i].entity);
   }
   // One unnamed volume means "no regions" (what we write for a mesh without them).
-  if (any_named || distinct(std::move(entities)).size() > 1) mesh.tet_regions = std::move(regions);
+  if (any_named || distinct(std::move(entities)).size() > 1) {
+    mesh.tet_regions = std::move(regions);
+    mesh.region_names = std::move(region_names_);
+  }
   mesh.boundary_names = std::move(names_);
   return mesh;
 }

@@ -8,7 +8,8 @@
 // when the mesh has regions, `region` (Int32, 0 for triangles). min_dihedral is
 // output only and not read back. Field data: `boundary_ids` (Int32) and
 // `boundary_names` (String), one entry per named boundary id, which ParaView's
-// spreadsheet view shows side by side.
+// spreadsheet view shows side by side; `region_ids` and `region_names` the same
+// for the named regions.
 //
 // Encodings (VtuEncoding): appended raw binary (the default), the same with
 // zlib compression (vtkZLibDataCompressor, 32 KiB blocks), or ascii with
@@ -275,18 +276,25 @@ Status write_vtu(const VolumeMesh& mesh, const std::filesystem::path& path, VtuE
                  "header_type=\"UInt64\"{}>\n"
                  "  <UnstructuredGrid>\n",
                  encoding == VtuEncoding::kCompressed ? " compressor=\"vtkZLibDataCompressor\"" : "");
-  if (!mesh.boundary_names.empty()) {
+  // Field data: ids and names side by side, boundaries then regions.
+  const auto named = [&](const std::map<int, std::string>& map, std::string_view what) {
     std::vector<std::string> names;
-    fmt::format_to(it, "    <FieldData>\n      <DataArray type=\"Int32\" Name=\"boundary_ids\" NumberOfTuples=\"{}\" "
-                       "format=\"ascii\">\n        ",
-                   mesh.boundary_names.size());
-    for (const auto& [id, name] : mesh.boundary_names) {
+    fmt::format_to(it, "      <DataArray type=\"Int32\" Name=\"{}_ids\" NumberOfTuples=\"{}\" format=\"ascii\">\n        ",
+                   what, map.size());
+    for (const auto& [id, name] : map) {
       fmt::format_to(it, "{} ", id);
       names.push_back(name);
     }
-    fmt::format_to(it, "\n      </DataArray>\n      <DataArray type=\"String\" Name=\"boundary_names\" "
-                       "NumberOfTuples=\"{}\" format=\"ascii\">\n{}      </DataArray>\n    </FieldData>\n",
-                   names.size(), ascii_strings(names));
+    fmt::format_to(it, "\n      </DataArray>\n      <DataArray type=\"String\" Name=\"{}_names\" "
+                       "NumberOfTuples=\"{}\" format=\"ascii\">\n{}      </DataArray>\n",
+                   what, names.size(), ascii_strings(names));
+  };
+  const bool region_names = !mesh.region_names.empty() && !mesh.tet_regions.empty();
+  if (!mesh.boundary_names.empty() || region_names) {
+    fmt::format_to(it, "    <FieldData>\n");
+    if (!mesh.boundary_names.empty()) named(mesh.boundary_names, "boundary");
+    if (region_names) named(mesh.region_names, "region");
+    fmt::format_to(it, "    </FieldData>\n");
   }
   fmt::format_to(it, "    <Piece NumberOfPoints=\"{}\" NumberOfCells=\"{}\">\n", mesh.points.size(), nc);
   for (std::size_t k = 0; k < arrays.size(); ++k) {

@@ -452,19 +452,23 @@ Result<std::optional<Element>> VtuReader::named_array(const Element& section, st
   }
 }
 
-/// Boundary names from <FieldData>: `boundary_ids` and `boundary_names` side by side.
+/// Boundary and region names from <FieldData>: `boundary_ids` and
+/// `boundary_names` side by side, `region_ids` and `region_names` likewise.
 Status VtuReader::read_field_data(std::size_t from, std::size_t to, VolumeMesh& mesh) {
   PDR_ASSIGN_OR_RETURN(const std::optional<Element> field, find("FieldData", from, to));
   if (!field) return {};
-  PDR_ASSIGN_OR_RETURN(const std::optional<Element> ids_el, named_array(*field, "boundary_ids"));
-  PDR_ASSIGN_OR_RETURN(const std::optional<Element> names_el, named_array(*field, "boundary_names"));
-  if (!ids_el || !names_el) return {};
-  PDR_ASSIGN_OR_RETURN(const std::size_t n, attribute_count(*ids_el, "NumberOfTuples"));
-  std::vector<int> ids;
-  std::vector<std::string> names;
-  PDR_TRY(read_array(*ids_el, n, ids, "boundary id"));
-  PDR_TRY(read_strings(*names_el, n, names));
-  for (std::size_t i = 0; i < n; ++i) mesh.boundary_names[ids[i]] = std::move(names[i]);
+  for (const std::string what : {"boundary", "region"}) {
+    PDR_ASSIGN_OR_RETURN(const std::optional<Element> ids_el, named_array(*field, what + "_ids"));
+    PDR_ASSIGN_OR_RETURN(const std::optional<Element> names_el, named_array(*field, what + "_names"));
+    if (!ids_el || !names_el) continue;
+    PDR_ASSIGN_OR_RETURN(const std::size_t n, attribute_count(*ids_el, "NumberOfTuples"));
+    std::vector<int> ids;
+    std::vector<std::string> names;
+    PDR_TRY(read_array(*ids_el, n, ids, (what + " id").c_str()));
+    PDR_TRY(read_strings(*names_el, n, names));
+    auto& map = what == "boundary" ? mesh.boundary_names : mesh.region_names;
+    for (std::size_t i = 0; i < n; ++i) map[ids[i]] = std::move(names[i]);
+  }
   return {};
 }
 

@@ -197,6 +197,12 @@ ValidationReport validate_mesh(const VolumeMesh& mesh, const SurfaceMesh* surfac
   // goes in slices of points (whole chunks), so that one slice's faces (16
   // bytes each) are held at a time rather than four per tet.
   std::vector<Tri> boundary;  // derived: faces of exactly one tet, outward
+  // Faces two tets of different regions share (canonical, oriented out of the
+  // first tet), sorted: where the interfaces between regions may lie.
+  const bool has_regions = !mesh.tet_regions.empty() && mesh.tet_regions.size() == nt;
+  if (!mesh.tet_regions.empty() && !has_regions)
+    rec.add("regions", "{} tet regions for {} tets", mesh.tet_regions.size(), nt);
+  std::vector<Tri> between;
   std::size_t unique_faces = 0;
   const std::size_t slices = options.face_slices > 0 ? options.face_slices : nt >= kSlicedTets ? 4 : 1;
   const std::size_t per_slice = detail::chunk_count(detail::chunk_count(np, kItemGrain), slices) * kItemGrain;
@@ -205,7 +211,7 @@ ValidationReport validate_mesh(const VolumeMesh& mesh, const SurfaceMesh* surfac
     const detail::Buckets<detail::FaceRef> faces = detail::faces_by_smallest_point(T, lo, hi);
     const auto oriented = [&](const detail::FaceRef& r) { return topo::face_of(T[r.tet], static_cast<int>(r.slot)); };
     const std::size_t chunks = detail::chunk_count(hi - lo, kItemGrain);
-    std::vector<std::vector<Tri>> chunk_boundary(chunks);
+    std::vector<std::vector<Tri>> chunk_boundary(chunks), chunk_between(chunks);
     std::vector<std::size_t> chunk_unique(chunks, 0);
     scan(rec, "conformity", hi - lo, kItemGrain, [&](ChunkLog& log, std::size_t chunk, std::size_t local) {
       const auto& F = faces.items;
@@ -221,6 +227,8 @@ ValidationReport validate_mesh(const VolumeMesh& mesh, const SurfaceMesh* surfac
           if (face_key(oriented(F[i])).even == face_key(oriented(F[i + 1])).even) {
             log.add("tets {} and {} overlap across face ({}, {}, {}) at {}", F[i].tet, F[i + 1].tet, a, b, c,
                     point_str(P[a]));
+          } else if (has_regions && mesh.tet_regions[F[i].tet] != mesh.tet_regions[F[i + 1].tet]) {
+            chunk_between[chunk].push_back(canonical(oriented(F[i])));
           }
         } else {
           log.add("face ({}, {}, {}) at {} is shared by {} tets", a, b, c, point_str(P[a]), j - i);
@@ -230,9 +238,22 @@ ValidationReport validate_mesh(const VolumeMesh& mesh, const SurfaceMesh* surfac
     });
     std::vector<Tri> part = concatenate(chunk_boundary);
     boundary.insert(boundary.end(), part.begin(), part.end());
+    part = concatenate(chunk_between);
+    between.insert(between.end(), part.begin(), part.end());
     unique_faces += std::accumulate(chunk_unique.begin(), chunk_unique.end(), std::size_t{0});
   }
   report.boundary_faces = boundary.size();
+  tbb::parallel_sort(between.begin(), between.end());
+  // Whether triangle t (either orientation) is a face between two regions.
+  const auto is_between = [&](const Tri& t) {
+    return std::binary_search(between.begin(), between.end(), canonical(t)) ||
+           std::binary_search(between.begin(), between.end(), canonical(Tri{t[0], t[2], t[1]}));
+  };
+  if (has_regions) {
+    std::vector<int> ids(mesh.tet_regions);
+    std::sort(ids.begin(), ids.end());
+    report.regions = static_cast<std::size_t>(std::unique(ids.begin(), ids.end()) - ids.begin());
+  }
 
   // 4. Points: used, and no two with the same coordinates. (The parallel sorts
   // here and below use total orders, ties broken by an index, so they give
@@ -359,6 +380,7 @@ ValidationReport validate_mesh(const VolumeMesh& mesh, const SurfaceMesh* surfac
     std::vector<Tri> derived = tabulate<Tri>(boundary.size(), [&](std::size_t f) { return canonical(boundary[f]); });
     tbb::parallel_sort(derived.begin(), derived.end());
     std::vector<std::vector<std::pair<Tri, int>>> chunk_declared(detail::chunk_count(mesh.boundary.size(), kItemGrain));
+    std::vector<std::size_t> chunk_interfaces(chunk_declared.size(), 0);
     scan(rec, "boundary", mesh.boundary.size(), kItemGrain, [&](ChunkLog& log, std::size_t chunk, std::size_t f) {
       const Tri& t = mesh.boundary[f];
       if (t[0] >= np || t[1] >= np || t[2] >= np) {
@@ -368,27 +390,35 @@ ValidationReport validate_mesh(const VolumeMesh& mesh, const SurfaceMesh* surfac
       const Tri c = canonical(t);
       chunk_declared[chunk].emplace_back(c, f < mesh.boundary_ids.size() ? mesh.boundary_ids[f] : 0);
       if (!std::binary_search(derived.begin(), derived.end(), c)) {
-        log.add("listed boundary face {} ({}, {}, {}) at {} is not an outward boundary face of the tets", f, t[0], t[1],
-                t[2], point_str(P[t[0]]));
+        if (is_between(t)) {
+          ++chunk_interfaces[chunk];
+        } else {
+          log.add("listed boundary face {} ({}, {}, {}) at {} is not an outward boundary face of the tets{}", f, t[0],
+                  t[1], t[2], point_str(P[t[0]]), has_regions ? " nor a face between two regions" : "");
+        }
       }
     });
     declared = concatenate(chunk_declared);
-    if (mesh.boundary.size() != boundary.size()) {
-      rec.add("boundary", "the mesh lists {} boundary faces, its tets have {}", mesh.boundary.size(), boundary.size());
+    report.interface_faces = std::accumulate(chunk_interfaces.begin(), chunk_interfaces.end(), std::size_t{0});
+    if (mesh.boundary.size() != boundary.size() + report.interface_faces) {
+      rec.add("boundary", "the mesh lists {} boundary faces, its tets have {}", mesh.boundary.size() - report.interface_faces,
+              boundary.size());
     }
     tbb::parallel_sort(declared.begin(), declared.end());  // equal items are identical: the order of std::sort
   }
 
   // 8. Against the input surface: same triangles, same orientation, same ids, same volume.
   if (surface != nullptr) {
-    report.enclosed_volume = enclosed_volume(*surface);
     const std::vector<Index> to_mesh = tabulate<Index>(surface->points.size(), [&](std::size_t i) {
       const Vec3& q = surface->points[i];
       const auto it = std::lower_bound(by_coord.begin(), by_coord.end(), q,
                                        [&](Index a, const Vec3& key) { return point_less(P[a], key); });
       return it != by_coord.end() && same_point(P[*it], q) ? *it : kNoIndex;
     });
+    // An input triangle on a face between two regions is an interface: not on
+    // the hull, and not a wall of the volume the tets fill.
     std::vector<std::vector<Tri>> chunk_expected(detail::chunk_count(surface->triangles.size(), kItemGrain));
+    std::vector<std::vector<std::size_t>> chunk_interface(chunk_expected.size());
     scan(rec, "surface", surface->triangles.size(), kItemGrain, [&](ChunkLog& log, std::size_t chunk, std::size_t f) {
       const Tri& t = surface->triangles[f];
       Tri m{};
@@ -402,7 +432,11 @@ ValidationReport validate_mesh(const VolumeMesh& mesh, const SurfaceMesh* surfac
         return;
       }
       const Tri c = canonical(m);
-      chunk_expected[chunk].push_back(c);
+      if (!between.empty() && is_between(m)) {
+        chunk_interface[chunk].push_back(f);
+      } else {
+        chunk_expected[chunk].push_back(c);
+      }
       if (!declared.empty() && f < surface->surface_ids.size()) {
         const auto it = std::lower_bound(declared.begin(), declared.end(), std::make_pair(c, std::numeric_limits<int>::min()));
         if (it != declared.end() && it->first == c && it->second != surface->surface_ids[f]) {
@@ -411,6 +445,15 @@ ValidationReport validate_mesh(const VolumeMesh& mesh, const SurfaceMesh* surfac
       }
     });
     std::vector<Tri> expected = concatenate(chunk_expected);
+    const std::vector<std::size_t> interface = concatenate(chunk_interface);
+    report.enclosed_volume = enclosed_volume(*surface);
+    for (std::size_t f : interface) {
+      const Tri& t = surface->triangles[f];
+      report.enclosed_volume -= dot(surface->points[t[0]], cross(surface->points[t[1]], surface->points[t[2]])) / 6.0;
+    }
+    if (!declared.empty() && interface.size() != report.interface_faces)
+      rec.add("regions", "the input has {} triangles between two regions, the mesh lists {}", interface.size(),
+              report.interface_faces);
     std::vector<Tri> actual = tabulate<Tri>(boundary.size(), [&](std::size_t f) { return canonical(boundary[f]); });
     tbb::parallel_sort(expected.begin(), expected.end());
     tbb::parallel_sort(actual.begin(), actual.end());
@@ -436,6 +479,7 @@ std::string format_validation(const ValidationReport& r) {
   std::string s = fmt::format("tets {}  points {}  boundary faces {}  volume {:.9g}", r.tets, r.points,
                               r.boundary_faces, r.volume);
   if (r.prisms + r.pyramids > 0) s += fmt::format("  prisms {}  pyramids {}", r.prisms, r.pyramids);
+  if (r.regions > 0) s += fmt::format("  regions {}  interface faces {}", r.regions, r.interface_faces);
   if (r.enclosed_volume != 0) s += fmt::format("  enclosed {:.9g}", r.enclosed_volume);
   s += fmt::format("\nEuler characteristic: volume {}, boundary {}\n", r.euler_volume, r.euler_boundary);
   if (r.ok()) return s + "valid\n";

@@ -12,11 +12,13 @@
 #include <array>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <iterator>
 #include <limits>
 #include <optional>
 #include <span>
 #include <tuple>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -72,6 +74,17 @@ struct SizeBounds {
   AngleRange limits{};
   bool room = true;
 };
+
+/// The local attempts whose failures the optimizer remembers (Optimizer::failed_before):
+/// per tet, the flips of the reconnection, a sliver's insertion and the repair and
+/// absorption operations; per point, the moves of the smoothing, the angle, margin
+/// (a bad tet's point, or a ring point) and size polish.
+enum class Attempt : unsigned char { kFlips, kSliver, kRepair, kAbsorb, kSmooth, kAngle, kMargin, kRing, kSize };
+inline constexpr std::size_t kAttempts = static_cast<std::size_t>(Attempt::kSize) + 1;
+
+/// The parameters an attempt depends on beyond its tets (a floor, the mesh's
+/// extremes, a search length): a failure counts only under the same ones.
+using AttemptKey = std::array<double, 4>;
 
 /// The cap repair's view of a bad tet (Optimizer::cap_kind).
 enum class CapKind { kNone, kCap, kFreeApex };
@@ -130,8 +143,11 @@ class RangeTree {
  public:
   static constexpr Index kRangeBlock = 8;
 
-  /// Measures every block (in parallel on a large mesh).
-  void build(const TetMesh& m) {
+  /// Measures every block (in parallel on a large mesh), handing each live
+  /// tet's angles to visit(t, range) on the way (the first scan of bad tets
+  /// reads them too, so the mesh is measured once).
+  template <class Visit>
+  void build(const TetMesh& m, Visit&& visit) {
     const Index blocks = (m.num_slots() + kRangeBlock - 1) / kRangeBlock;
     cap_ = 1;
     while (cap_ < blocks) cap_ *= 2;
@@ -139,7 +155,7 @@ class RangeTree {
     is_dirty_.assign(cap_, 0);
     dirty_.clear();
     const auto scan = [&](const tbb::blocked_range<Index>& r) {
-      for (Index b = r.begin(); b < r.end(); ++b) node_[cap_ + b] = measure_block(m, b);
+      for (Index b = r.begin(); b < r.end(); ++b) node_[cap_ + b] = measure_block(m, b, visit);
     };
     const tbb::blocked_range<Index> all(0, blocks, 512);
     if (m.num_slots() < kParallelTets) {
@@ -187,12 +203,17 @@ class RangeTree {
   static constexpr AngleRange kNeutral{180.0, 0.0};
 
   static AngleRange measure_block(const TetMesh& m, Index b) {
+    return measure_block(m, b, [](Index, const AngleRange&) {});
+  }
+  template <class Visit>
+  static AngleRange measure_block(const TetMesh& m, Index b, Visit&& visit) {
     AngleRange r = kNeutral;
     const Index end = std::min(m.num_slots(), (b + 1) * kRangeBlock);
     for (Index t = b * kRangeBlock; t < end; ++t) {
       if (!m.alive(t)) continue;
       const auto p = corners(m, m.tet(t));
       const AngleRange a = dihedral_range(p[0], p[1], p[2], p[3]);
+      visit(t, a);
       r.min = std::min(r.min, a.min);
       r.max = std::max(r.max, a.max);
     }
@@ -270,9 +291,13 @@ class Optimizer {
   };
 
   // state.cpp
+  bool failed_before(Attempt a, Index i) const;
+  void remember_failure(Attempt a, Index i);
+  void attempt_key(Attempt a, const AttemptKey& key);
   Badness badness(Index t) const;
   Badness compute_badness(Index t) const;
-  std::vector<unsigned char> bad_flags() const;
+  Badness badness_of(const AngleRange& r) const;
+  std::vector<unsigned char> bad_flags();
   const std::vector<Index>& bad_tets();
   AngleRange angles();
   Index any_tet(Index v);
@@ -583,6 +608,22 @@ class Optimizer {
   std::vector<Index> moved_list_;    ///< the points of moved_, in the order first moved
   std::vector<Tri> surface_keys_;    ///< repair_caps: the surface triangles, sorted keys
   bool surface_keys_known_ = false;
+  /// The work queue's memory. clock_ counts the tets touched (touch); stamp_
+  /// holds per point the clock when a tet holding it was last created or
+  /// moved. A failed attempt notes the clock (Failures::at, per slot or
+  /// point); it is not made again while no point of its tet (or the point
+  /// itself, whose star holds every tet it reads) has a later stamp and the
+  /// parameters are the same: it would fail again, so rounds cost what
+  /// changed since the last one, not what is bad.
+  /// (A map, as few slots or points ever fail; it is only looked up, never walked.)
+  struct Failures {
+    std::unordered_map<Index, std::uint64_t> at;  ///< slot or point -> the clock at its failure
+    std::uint64_t from = 0;  ///< failures before this clock were under other parameters
+    AttemptKey key{};
+  };
+  std::array<Failures, kAttempts> failed_{};
+  std::vector<std::uint64_t> stamp_;
+  std::uint64_t clock_ = 1;
 };
 
 /// The interior repair's criterion (repair rounds): a new tet scores its
@@ -607,6 +648,8 @@ class Optimizer::RepairCriterion final {
     return true;
   }
   void done(std::span<const Index>, std::span<const double>) const {}
+  /// What its decisions depend on beyond the tets (Optimizer::attempt_key).
+  AttemptKey key() const { return {surface_floor_, 0.0, 0.0, 0.0}; }
   /// The floors bar() found, per class.
   const ClassFloors& floors() const { return floors_; }
   double surface_floor() const { return surface_floor_; }
@@ -640,6 +683,8 @@ class Optimizer::AbsorbCriterion final {
   }
   bool accepts(std::span<const Tet>) const { return true; }
   void done(std::span<const Index>, std::span<const double>) const {}
+  /// What its decisions depend on beyond the tets (Optimizer::attempt_key).
+  AttemptKey key() const { return {extremes_.min, extremes_.max, 0.0, 0.0}; }
 
  private:
   const Optimizer& o_;

@@ -20,8 +20,14 @@ std::size_t Optimizer::polish_angles() {
   std::sort(wanted.begin(), wanted.end());
   wanted.erase(std::unique(wanted.begin(), wanted.end()), wanted.end());
   std::size_t moved = 0;
-  for (Index v : wanted)
-    if ((v >= fixed_.size() || !fixed_[v]) && polish_point(v, first_tet(v))) ++moved;
+  for (Index v : wanted) {
+    if ((v < fixed_.size() && fixed_[v]) || failed_before(Attempt::kAngle, v)) continue;
+    if (polish_point(v, first_tet(v))) {
+      ++moved;
+    } else {
+      remember_failure(Attempt::kAngle, v);
+    }
+  }
   st_.points_moved += moved;
   return moved;
 }
@@ -52,6 +58,16 @@ std::size_t Optimizer::polish_margins(double end, bool extremes, int layers) {
     wanted.erase(std::unique(wanted.begin(), wanted.end()), wanted.end());
     for (Index v : wanted) marks_[v] = 1;
     const AngleRange mesh = angles();  // the extremes as the round begins
+    attempt_key(Attempt::kMargin, {end, extremes ? 1.0 : 0.0, mesh.min, mesh.max});
+    attempt_key(Attempt::kRing, {end, extremes ? 1.0 : 0.0, mesh.min, mesh.max});
+    // A point's move, unless it failed before with nothing changed around it.
+    const auto move = [&](Index v, bool ring) {
+      const Attempt a = ring ? Attempt::kRing : Attempt::kMargin;
+      if (failed_before(a, v)) return false;
+      if (margin_point(v, first_tet(v), end, ring, extremes, mesh)) return true;
+      remember_failure(a, v);
+      return false;
+    };
     // The ring: the free points of the links of the free wanted points that
     // are not wanted themselves; each deeper layer, those of the links of the
     // last layer's points not taken yet. Sets: the walks' order does not matter.
@@ -77,9 +93,9 @@ std::size_t Optimizer::polish_margins(double end, bool extremes, int layers) {
     std::sort(ring.begin(), ring.end());
     std::size_t now = 0;
     for (Index v : ring)
-      if (margin_point(v, first_tet(v), end, /*ring=*/true, extremes, mesh)) ++now;
+      if (move(v, /*ring=*/true)) ++now;
     for (Index v : wanted)
-      if (!fixed_[v] && margin_point(v, first_tet(v), end, /*ring=*/false, extremes, mesh)) ++now;
+      if (!fixed_[v] && move(v, /*ring=*/false)) ++now;
     for (Index v : wanted) marks_[v] = 0;
     for (Index v : ring) marks_[v] = 0;
     moved += now;

@@ -16,12 +16,14 @@ std::size_t Optimizer::reconnect(std::vector<Index> seeds) {
     const Index t = queue_[head];
     if (!m_.alive(t)) continue;
     const Badness b = badness(t);
-    if (b == Badness::kGood) continue;
-    if (try_flips(t) == Outcome::kDone) {
-      ++done;
-      ++flips_this_sweep_;
-      if (b == Badness::kSliver) ++st_.slivers_removed;
+    if (b == Badness::kGood || failed_before(Attempt::kFlips, t)) continue;
+    if (try_flips(t) != Outcome::kDone) {
+      remember_failure(Attempt::kFlips, t);
+      continue;
     }
+    ++done;
+    ++flips_this_sweep_;
+    if (b == Badness::kSliver) ++st_.slivers_removed;
   }
   st_.flips += done;
   return done;

@@ -29,11 +29,19 @@ double Optimizer::repair_floor() {
 template <class Criterion>
 std::size_t Optimizer::repair_flips(std::vector<Index> seeds, Criterion& criterion, RepairMoves moves) {
   std::size_t done = 0;
+  const Attempt kind = std::is_same_v<Criterion, AbsorbCriterion> ? Attempt::kAbsorb : Attempt::kRepair;
+  AttemptKey key = criterion.key();
+  key[2] = moves.insert ? 1.0 : 0.0;
+  key[3] = moves.collapse ? 1.0 : 0.0;
+  attempt_key(kind, key);
   for (std::size_t head = 0; head < seeds.size(); ++head) {
     if (flips_this_sweep_ >= flip_budget_) break;
     const Index t = seeds[head];
-    if (!m_.alive(t) || badness(t) == Badness::kGood || !free_tet(t)) continue;
-    if (repair_tet(t, criterion, moves) != Outcome::kDone) continue;
+    if (!m_.alive(t) || badness(t) == Badness::kGood || !free_tet(t) || failed_before(kind, t)) continue;
+    if (repair_tet(t, criterion, moves) != Outcome::kDone) {
+      remember_failure(kind, t);
+      continue;
+    }
     ++done;
     ++flips_this_sweep_;
     for (Index c : m_.last_created())

@@ -26,6 +26,7 @@ std::size_t Optimizer::polish_sizes(bool room) {
   bounds.room = room;
   bounds.mesh = angles();
   bounds.limits = {std::max(kRelaxedCapAngles[0], bounds.mesh.min), std::min(kRelaxedCapAngles[1], bounds.mesh.max)};
+  attempt_key(Attempt::kSize, {room ? 1.0 : 0.0, bounds.mesh.min, bounds.mesh.max, 0.0});
   for (int round = 0; round < kSizeRounds; ++round) {
     find_fixed();  // also sized for the points the last round's splits added
     h.resize(m_.num_points(), -1.0);
@@ -70,8 +71,14 @@ std::size_t Optimizer::polish_sizes(bool room) {
     std::sort(wanted.begin(), wanted.end());
     wanted.erase(std::unique(wanted.begin(), wanted.end()), wanted.end());
     std::size_t now = 0;
-    for (Index v : wanted)
-      if (fixed_[v] == 0 && size_point(v, first_tet(v), bounds)) ++now;
+    for (Index v : wanted) {
+      if (fixed_[v] != 0 || failed_before(Attempt::kSize, v)) continue;
+      if (size_point(v, first_tet(v), bounds)) {
+        ++now;
+      } else {
+        remember_failure(Attempt::kSize, v);
+      }
+    }
     moved += now;
     if (now + flipped + split == 0) break;
   }

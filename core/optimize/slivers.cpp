@@ -15,7 +15,11 @@ std::size_t Optimizer::insert_into_slivers() {
   std::size_t inserted = 0;
   for (Index t : slivers) {
     if (!m_.alive(t) || badness(t) != Badness::kSliver) continue;  // a flip took the slot
-    if (tally(LocalOperation::kInsertion, insert_into(t)) != Outcome::kDone) continue;
+    if (failed_before(Attempt::kSliver, t)) continue;
+    if (tally(LocalOperation::kInsertion, insert_into(t)) != Outcome::kDone) {
+      remember_failure(Attempt::kSliver, t);
+      continue;
+    }
     ++inserted;
     ++st_.slivers_removed;
     const auto created = m_.last_created();

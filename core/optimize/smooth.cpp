@@ -28,6 +28,7 @@ std::size_t Optimizer::smooth(const SmoothRule& rule) {
   std::size_t moved = 0;
   std::size_t retries =
       std::max(kSmoothRetriesMin, static_cast<std::size_t>(kSmoothRetries * m_.num_tets()));
+  attempt_key(Attempt::kSmooth, {rule.interior_only ? 1.0 : 0.0, rule.pin_fixed ? 1.0 : 0.0, rule.pin_floor, 0.0});
   for (int pass = 0; pass < kSmoothPasses && !todo.empty(); ++pass) {
     std::size_t moved_now = 0;
     next.clear();
@@ -36,7 +37,11 @@ std::size_t Optimizer::smooth(const SmoothRule& rule) {
         if (retries == 0) break;
         --retries;
       }
-      if (tally(LocalOperation::kMove, smooth_vertex(v, first_tet(v), rule)) != Outcome::kDone) continue;
+      if (failed_before(Attempt::kSmooth, v)) continue;
+      if (tally(LocalOperation::kMove, smooth_vertex(v, first_tet(v), rule)) != Outcome::kDone) {
+        remember_failure(Attempt::kSmooth, v);
+        continue;
+      }
       ++moved_now;
       for (const auto& s : star_)
         if (badness(s.first) != Badness::kGood)

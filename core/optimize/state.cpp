@@ -6,6 +6,32 @@
 
 namespace pdrmesh::optimize_detail {
 
+/// Whether attempt a on tet (or point) i failed under the present
+/// parameters and nothing it reads has changed since (failed_, stamp_).
+bool Optimizer::failed_before(Attempt a, Index i) const {
+  const Failures& f = failed_[static_cast<std::size_t>(a)];
+  const auto it = f.at.find(i);
+  if (it == f.at.end() || it->second < f.from) return false;
+  const auto later = [&](Index v) { return v < stamp_.size() && stamp_[v] > it->second; };
+  if (a >= Attempt::kSmooth) return !later(i);
+  for (Index v : m_.tet(i))
+    if (later(v)) return false;
+  return true;
+}
+
+/// Notes that attempt a on tet (or point) i failed now.
+void Optimizer::remember_failure(Attempt a, Index i) {
+  failed_[static_cast<std::size_t>(a)].at[i] = clock_;
+}
+
+/// The parameters of attempt a from now on; failures under other ones no longer count.
+void Optimizer::attempt_key(Attempt a, const AttemptKey& key) {
+  Failures& f = failed_[static_cast<std::size_t>(a)];
+  if (f.key == key) return;
+  f.key = key;
+  f.from = ++clock_;
+}
+
 /// The badness of the alive tet t, through known_ (see there).
 Badness Optimizer::badness(Index t) const {
   if (t >= known_.size()) known_.resize(m_.num_slots(), 0);  // never inside bad_flags' parallel scan
@@ -16,15 +42,27 @@ Badness Optimizer::badness(Index t) const {
 
 Badness Optimizer::compute_badness(Index t) const {
   const auto p = corners(m_, m_.tet(t));
-  const AngleRange r = dihedral_range(p[0], p[1], p[2], p[3]);
+  return badness_of(dihedral_range(p[0], p[1], p[2], p[3]));
+}
+
+/// The badness of a tet whose dihedral angles span r.
+Badness Optimizer::badness_of(const AngleRange& r) const {
   const bool small = r.min < o_.target_min_dihedral, large = r.max > o_.target_max_dihedral;
   if (small && large) return Badness::kSliver;
   return small || large ? Badness::kBad : Badness::kGood;
 }
 
-/// Per slot: 1 for a live bad tet (computed in parallel).
-std::vector<unsigned char> Optimizer::bad_flags() const {
+/// Per slot: 1 for a live bad tet (computed in parallel). The first call
+/// builds the angle tree (angles()) in the same pass, which notes every
+/// tet's badness in known_.
+std::vector<unsigned char> Optimizer::bad_flags() {
   if (known_.size() < m_.num_slots()) known_.resize(m_.num_slots(), 0);
+  if (!range_built_) {
+    range_.build(m_, [this](Index t, const AngleRange& r) {
+      known_[t] = static_cast<unsigned char>(1 + static_cast<int>(badness_of(r)));
+    });
+    range_built_ = true;
+  }
   std::vector<unsigned char> is_bad(m_.num_slots(), 0);
   const auto scan = [&](const tbb::blocked_range<Index>& r) {
     for (Index t = r.begin(); t < r.end(); ++t) is_bad[t] = m_.alive(t) && badness(t) != Badness::kGood ? 1 : 0;
@@ -68,7 +106,7 @@ const std::vector<Index>& Optimizer::bad_tets() {
 /// The mesh's extreme dihedral angles now (range_, built on first use).
 AngleRange Optimizer::angles() {
   if (!range_built_) {
-    range_.build(m_);
+    range_.build(m_, [](Index, const AngleRange&) {});
     range_built_ = true;
   }
   return range_.range(m_);
@@ -184,8 +222,14 @@ void Optimizer::forget_created() {
 }
 
 /// Slot t holds a new tet, or one whose points moved: its badness is
-/// unknown, and bad_tets() and angles() look at it again.
+/// unknown, bad_tets() and angles() look at it again, and its points get a
+/// new stamp (failed attempts around them may succeed now).
 void Optimizer::touch(Index t) {
+  ++clock_;
+  for (Index v : m_.tet(t)) {
+    if (v >= stamp_.size()) stamp_.resize(std::max<std::size_t>(v + 1, m_.num_points()), 0);
+    stamp_[v] = clock_;
+  }
   if (t < known_.size()) known_[t] = 0;
   if (bad_known_) touched_.push_back(t);
   if (range_built_) range_.touch(t);

@@ -92,6 +92,7 @@ struct RoundResult {
   std::size_t failed = 0;      ///< leaves kept unrefined after a kernel error
   std::string first_failure;   ///< the lowest such leaf's error
   double merge_s = 0;          ///< serial: merges and the final splice
+  double cpu_s = 0;            ///< process CPU seconds while the schedule ran
   ScheduleStats schedule;
   FixupStats fixups;
   RoundRecord record;
@@ -159,16 +160,21 @@ void grow_selection(const VolumeMesh& m, std::vector<char>& flag, int layers) {
 
 /// The optimization rounds' selection: the tets options.optimize_selects
 /// picks and their optimize_halo layers.
-std::vector<char> select_bad_tets(const VolumeMesh& m, const PdrOptions& options) {
+/// With `skip`, the tets it flags are no seeds (they may join a halo).
+std::vector<char> select_bad_tets(const VolumeMesh& m, const PdrOptions& options, int halo,
+                                  const std::vector<char>* skip = nullptr) {
   const auto& needs = options.optimize_selects;
   const std::vector<Vec3>& P = m.points;
   std::vector<char> flag(m.tets.size(), 0);
   tbb::parallel_for(std::size_t{0}, m.tets.size(), [&](std::size_t t) {
     const Tet& k = m.tets[t];
-    flag[t] = needs(P[k[0]], P[k[1]], P[k[2]], P[k[3]]) ? 1 : 0;
+    flag[t] = (skip == nullptr || !(*skip)[t]) && needs(P[k[0]], P[k[1]], P[k[2]], P[k[3]]) ? 1 : 0;
   });
-  grow_selection(m, flag, options.optimize_halo);
+  grow_selection(m, flag, halo);
   return flag;
+}
+std::vector<char> select_bad_tets(const VolumeMesh& m, const PdrOptions& options) {
+  return select_bad_tets(m, options, options.optimize_halo);
 }
 
 /// The interface rounds' selection: the tets with a point on a face between
@@ -216,7 +222,8 @@ struct Grid {
 /// moved point's is evaluated again.
 void splice(VolumeMesh& cur, const std::vector<LeafId>& leaves, std::vector<TaskResult>& results,
             std::vector<std::vector<Tet>>& kept, std::vector<Tet>& outside, std::vector<int>& outside_leaf,
-            const Grid* grid, std::vector<double>* sizes, const SizingField& sizing, RoundResult& rr) {
+            const Grid* grid, std::vector<double>* sizes, const SizingField& sizing, RoundResult& rr,
+            std::vector<char>* cored = nullptr, const std::vector<char>& outside_cored = {}) {
   const std::size_t n = results.size();
   std::vector<Vec3>& pts = cur.points;
   std::vector<std::size_t> tet_at(n + 1, outside.size()), point_at(n + 1, pts.size());
@@ -237,6 +244,10 @@ void splice(VolumeMesh& cur, const std::vector<LeafId>& leaves, std::vector<Task
   if (sizes != nullptr) sizes->resize(point_at[n]);
   std::copy(outside.begin(), outside.end(), cur.tets.begin());
   std::copy(outside_leaf.begin(), outside_leaf.end(), cur.tet_regions.begin());
+  if (cored != nullptr) {
+    cored->assign(tet_at[n], 0);
+    std::copy(outside_cored.begin(), outside_cored.end(), cored->begin());
+  }
   outside = {};
   outside_leaf = {};
   tbb::parallel_for(std::size_t{0}, n, [&](std::size_t l) {
@@ -263,8 +274,10 @@ void splice(VolumeMesh& cur, const std::vector<LeafId>& leaves, std::vector<Task
     std::fill(cur.tet_regions.begin() + static_cast<std::ptrdiff_t>(tet_at[l]),
               cur.tet_regions.begin() + static_cast<std::ptrdiff_t>(tet_at[l + 1]), static_cast<int>(leaves[l]));
     if (grid != nullptr) {
-      for (std::size_t t = tet_at[l]; t < tet_at[l] + r.output.tets.size(); ++t)
+      for (std::size_t t = tet_at[l]; t < tet_at[l] + r.output.tets.size(); ++t) {
         cur.tet_regions[t] = static_cast<int>(leaf_of_point(grid->box, grid->depth, tet_barycenter(cur, static_cast<Index>(t))));
+        if (cored != nullptr) (*cored)[t] = cur.tet_regions[t] == static_cast<int>(leaves[l]) ? 1 : 0;
+      }
     }
     r = TaskResult{};
     kept[l] = {};
@@ -288,6 +301,10 @@ struct RoundExtras {
   const Grid* grid = nullptr;                   ///< see splice
   std::vector<double>* sizes = nullptr;         ///< h per point of `cur`, kept up to date (see splice)
   std::size_t leaves_before = 0;                ///< leaves merged in this phase's earlier rounds (progress)
+  std::size_t tets_beside = 0;                  ///< tets of the whole mesh when `cur` is a part of it (progress)
+  /// Per tet of `cur`, kept up to date (with `grid` and `outside`): 1 when the
+  /// last task that had it made it in its own leaf (its core), else 0.
+  std::vector<char>* cored = nullptr;
 };
 Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const FaceIdTable& boundary,
                  const SizingField& sizing, const LeafKernel& kernel, const PdrOptions& options, bool fixups,
@@ -315,7 +332,7 @@ Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const
     rr.max_leaf_tets = std::max(rr.max_leaf_tets, sent.size());
     rr.record.tets_sent += sent.size();
   }
-  rr.record.tets = cur.tets.size();
+  rr.record.tets = extras.tets_beside + cur.tets.size();
   const std::span<const double> sizes =
       extras.sizes != nullptr ? std::span<const double>(*extras.sizes) : std::span<const double>();
   const std::vector<Index> rank = cost_ranks(cur, d, sizing, leaf_tets, sizes);
@@ -323,7 +340,7 @@ Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const
   Status error;
   std::atomic<bool> stop{false};
   std::size_t merged = 0;
-  std::size_t tet_count = cur.tets.size();
+  std::size_t tet_count = extras.tets_beside + cur.tets.size();
   const std::size_t before = extras.leaves_before;
   if (options.progress && !options.progress({phase, before, before + d.size(), tet_count})) {
     return cancelled(fmt::format("stopped before the {}", phase));
@@ -390,12 +407,20 @@ Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const
       stop = true;
     }
   };
+  const double cpu0 = process_cpu_seconds();
   rr.schedule = run_leaves<TaskResult>(d, std::max<std::size_t>(options.workers, 1), task, merge, options.policy, rank,
                                        options.concurrency);
+  rr.cpu_s = process_cpu_seconds() - cpu0;
   PDR_TRY(error);
 
   const auto t0 = Clock::now();
-  splice(cur, d.leaves, results, kept, outside, outside_leaf, extras.grid, extras.sizes, sizing, rr);
+  std::vector<char> outside_cored;
+  if (extras.cored != nullptr && extras.outside != nullptr) {
+    outside_cored.resize(extras.outside->size());
+    for (std::size_t i = 0; i < outside_cored.size(); ++i) outside_cored[i] = (*extras.cored)[(*extras.outside)[i]];
+  }
+  splice(cur, d.leaves, results, kept, outside, outside_leaf, extras.grid, extras.sizes, sizing, rr, extras.cored,
+         outside_cored);
   rr.merge_s += seconds_since(t0);
   rr.record.name = std::string(phase);
   rr.record.depth = d.depth;
@@ -409,6 +434,13 @@ Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const
 
 /// Sweeps of buffered rounds at most (PdrOptions::buffered).
 constexpr int kMaxSweeps = 3;
+/// The final optimization's grid is this many levels coarser than the
+/// refinement's: its tasks' selections (bad tets and their halo) and buffers
+/// reach several tets beyond a leaf, and in a grid as fine as the
+/// refinement's two buffers of one round would meet and block each other.
+/// Below depth 2 that grid would hold one leaf per colour (its tasks one
+/// after another, twice): one task over the selection is cheaper.
+constexpr int kFinalCoarsening = 3;
 
 /// The tasks of one buffered round (PdrOptions::buffered): the leaves of one
 /// colour (the parities of the grid coordinates, i&1 | (j&1)<<1 | (k&1)<<2),
@@ -424,13 +456,16 @@ struct BufferedRound {
   std::vector<Box> cores;      ///< per leaf: its box
 };
 /// m.tet_regions must hold the leaf of each tet's barycenter.
-/// Only leaves in `allowed` (ascending; null: all) get a task.
+/// Only leaves in `allowed` (ascending; null: all) get a task. With `selected`
+/// (one flag per tet), a leaf's core is its selected tets only; its buffer
+/// may take any tet.
 BufferedRound buffered_round(const VolumeMesh& m, const Box& box, int depth, int colour, int layers,
-                             const std::vector<LeafId>* allowed) {
+                             const std::vector<LeafId>* allowed, const std::vector<char>* selected = nullptr) {
   constexpr LeafId kNone = std::numeric_limits<LeafId>::max();
   constexpr LeafId kBlocked = kNone - 1;
   std::vector<LeafId> owner(m.tets.size(), kNone);
   tbb::parallel_for(std::size_t{0}, m.tets.size(), [&](std::size_t t) {
+    if (selected != nullptr && !(*selected)[t]) return;
     const auto l = static_cast<LeafId>(m.tet_regions[t]);
     const auto c = leaf_coords(l, depth);
     if (static_cast<int>((c[0] & 1U) | (c[1] & 1U) << 1 | (c[2] & 1U) << 2) != colour) return;
@@ -498,6 +533,81 @@ BufferedRound buffered_round(const VolumeMesh& m, const Box& box, int depth, int
   r.d.n2.assign(r.d.size(), {});
   for (LeafId l : r.d.leaves) r.cores.push_back(leaf_box(box, depth, l));
   return r;
+}
+
+/// Some tets of a mesh as a mesh of their own, for rounds that work on a small
+/// part of a large mesh: their scans and copies then cost what the part does.
+/// Points are renumbered in ascending global order; tet_regions and the
+/// boundary faces among the points come along.
+struct SubMesh {
+  VolumeMesh mesh;
+  std::vector<Index> global_points;  ///< global index of each of mesh.points
+  std::vector<Index> global_tets;    ///< global index of each of mesh.tets, ascending
+};
+
+SubMesh extract_tets(const VolumeMesh& m, const std::vector<char>& flag) {
+  constexpr std::size_t kGrain = 65536;
+  SubMesh sub;
+  sub.global_tets = detail::filter_indices(m.tets.size(), kGrain, [&](std::size_t t) { return flag[t] != 0; });
+  std::vector<Index> local(m.points.size(), kNoIndex);
+  tbb::parallel_for(std::size_t{0}, sub.global_tets.size(), [&](std::size_t i) {
+    for (Index v : m.tets[sub.global_tets[i]]) std::atomic_ref<Index>(local[v]).store(0, std::memory_order_relaxed);
+  });
+  sub.global_points =
+      detail::filter_indices(m.points.size(), kGrain, [&](std::size_t v) { return local[v] != kNoIndex; });
+  VolumeMesh& s = sub.mesh;
+  s.points.resize(sub.global_points.size());
+  tbb::parallel_for(std::size_t{0}, sub.global_points.size(), [&](std::size_t i) {
+    local[sub.global_points[i]] = static_cast<Index>(i);
+    s.points[i] = m.points[sub.global_points[i]];
+  });
+  s.tets.resize(sub.global_tets.size());
+  s.tet_regions.resize(sub.global_tets.size());
+  tbb::parallel_for(std::size_t{0}, sub.global_tets.size(), [&](std::size_t i) {
+    const Index t = sub.global_tets[i];
+    for (int k = 0; k < 4; ++k) s.tets[i][k] = local[m.tets[t][k]];
+    s.tet_regions[i] = m.tet_regions[t];
+  });
+  for (std::size_t f = 0; f < m.boundary.size(); ++f) {
+    const Tri& tri = m.boundary[f];
+    if (local[tri[0]] == kNoIndex || local[tri[1]] == kNoIndex || local[tri[2]] == kNoIndex) continue;
+    s.boundary.push_back({local[tri[0]], local[tri[1]], local[tri[2]]});
+    s.boundary_ids.push_back(m.boundary_ids[f]);
+  }
+  return sub;
+}
+
+/// Replaces the tets `sub` was extracted from by sub.mesh's: the other tets
+/// keep their order, sub.mesh's follow them; sub.mesh's points go back to
+/// their global indices, and its new points are appended in order.
+void put_back(VolumeMesh& m, SubMesh&& sub) {
+  const std::size_t n_old = sub.global_points.size();
+  const auto n_global = static_cast<Index>(m.points.size());
+  tbb::parallel_for(std::size_t{0}, n_old, [&](std::size_t i) { m.points[sub.global_points[i]] = sub.mesh.points[i]; });
+  m.points.insert(m.points.end(), sub.mesh.points.begin() + static_cast<std::ptrdiff_t>(n_old), sub.mesh.points.end());
+  // Compacts the tets that stay in place (serial, in one pass over memory
+  // already held: the mesh is never copied whole).
+  std::size_t w = 0, next = 0;
+  for (std::size_t t = 0; t < m.tets.size(); ++t) {
+    if (next < sub.global_tets.size() && sub.global_tets[next] == t) {
+      ++next;
+      continue;
+    }
+    m.tets[w] = m.tets[t];
+    m.tet_regions[w] = m.tet_regions[t];
+    ++w;
+  }
+  m.tets.resize(w + sub.mesh.tets.size());
+  m.tet_regions.resize(m.tets.size());
+  tbb::parallel_for(std::size_t{0}, sub.mesh.tets.size(), [&](std::size_t i) {
+    Tet g;
+    for (int k = 0; k < 4; ++k) {
+      const Index v = sub.mesh.tets[i][k];
+      g[k] = v < n_old ? sub.global_points[v] : n_global + (v - static_cast<Index>(n_old));
+    }
+    m.tets[w + i] = g;
+    m.tet_regions[w + i] = sub.mesh.tet_regions[i];
+  });
 }
 
 /// The leaves of m.tet_regions not in `done` (ascending), ascending.
@@ -618,6 +728,7 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
   prof = PdrProfile{};
   const int depth = plan.depth;
   prof.depth = depth;
+  prof.threads = static_cast<std::size_t>(tbb::this_task_arena::max_concurrency());
   const auto report = [&](std::string_view phase, std::size_t tets) {
     return !options.progress || options.progress({phase, 0, 0, tets});
   };
@@ -668,6 +779,7 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
     prof.fixup_unresolved += r.fixups.unresolved;
     prof.merge += r.merge_s;
     prof.task_busy += r.schedule.busy_s;
+    prof.task_cpu += r.cpu_s;
     prof.max_concurrency = std::max(prof.max_concurrency, r.schedule.max_concurrency);
     if (r.failed > 0 && prof.failed_leaves == 0) prof.first_failure = r.first_failure;
     prof.failed_leaves += r.failed;
@@ -789,7 +901,58 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
       last_box = depth > 0 ? box2 : box1;
       prof.optimization_leaves = seconds_since(t0);
     }
-    if (select) {
+    if (select && buffered) {
+      // The final pass, in rounds by colour as in the refinement (over a
+      // coarser grid: kFinalCoarsening; one leaf, one task, on small meshes):
+      // a leaf's task gets the selected tets whose barycenter it holds and
+      // optimize_buffer_layers of any tets around them, and may change all
+      // but its hull, so what the rounds' frozen hulls kept from them is
+      // reached with no task over the whole mesh. The rounds work on the
+      // selection and its buffer as a sub-mesh (its hull unchanged), put back
+      // into the mesh at the end: their scans cost what the selection does.
+      const auto tg = Clock::now();
+      const int final_depth = depth - kFinalCoarsening >= 2 ? depth - kFinalCoarsening : 0;
+      const auto sweep = [&]() -> Status {
+        const Grid grid{box1, final_depth};
+        auto td = Clock::now();
+        assign_leaves(cur, box1, final_depth);
+        // One leaf has no cuts for a buffer to cover.
+        const int buffer = final_depth > 0 ? options.optimize_buffer_layers : 0;
+        SubMesh sub = extract_tets(cur, select_bad_tets(cur, options, options.optimize_halo + buffer));
+        const FaceIdTable sub_boundary(sub.mesh.boundary, sub.mesh.boundary_ids);
+        prof.decomposition += seconds_since(td);
+        // With more than one leaf, a task changes tets of leaves whose round
+        // has passed (its buffer): a second sweep gives those a core again,
+        // and no seed to the bad tets a task already had in its core.
+        const int colours = final_depth > 0 ? 16 : 1;
+        std::vector<char> cored(sub.mesh.tets.size(), 0);
+        for (int colour = 0; colour < colours; ++colour) {
+          td = Clock::now();
+          const std::vector<char> selected =
+              select_bad_tets(sub.mesh, options, options.optimize_halo, colour >= 8 ? &cored : nullptr);
+          BufferedRound b =
+              buffered_round(sub.mesh, box1, final_depth, colour % 8, buffer, nullptr, &selected);
+          prof.decomposition += seconds_since(td);
+          if (b.d.size() == 0) continue;
+          RoundResult r;
+          PDR_TRY(run_round("final optimization", sub.mesh, std::move(b.d), sub_boundary, sizing,
+                            *options.optimize_kernel, options, false, r,
+                            {.outside = &b.outside,
+                             .cores = &b.cores,
+                             .grid = &grid,
+                             .tets_beside = cur.tets.size() - sub.global_tets.size(),
+                             .cored = &cored}));
+          account(std::move(r));
+        }
+        td = Clock::now();
+        put_back(cur, std::move(sub));
+        prof.merge += seconds_since(td);
+        return {};
+      };
+      PDR_TRY(step("final optimization", sweep));
+      assign_leaves(cur, box1, depth);  // the same again when resumed after it
+      prof.global_optimization = seconds_since(tg);
+    } else if (select) {
       // The final pass: one task over the whole mesh's selection (its hull
       // frozen), so what the rounds' frozen hulls kept from them is reached.
       // Its tets are then in the one leaf of a depth-0 grid; afterwards each
@@ -798,7 +961,7 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
       PDR_TRY(round("final optimization", box1, *options.optimize_kernel, false, 0, bad));
       assign_leaves(cur, last_box, depth);  // the same again when resumed after it
       prof.global_optimization = seconds_since(tg);
-    } else if (options.optimize) {
+    } else if (options.optimize && !select) {
       // The leaf of each tet is bookkeeping, not a material region: the
       // optimization must see one region, or it would treat every former leaf
       // interface as a constraint (no flip across it, its points fixed) and

@@ -50,6 +50,8 @@ auto outer_phase_fields(P& p) {
       {"write", &p.write},
       {"quality", &p.quality},
       {"wall", &p.wall},
+      {"cpu", &p.cpu},
+      {"task_cpu", &p.task_cpu},
   });
 }
 
@@ -63,6 +65,7 @@ std::string profile_to_json(const PdrProfile& p, std::size_t workers) {
   j["initial_tets"] = p.initial_tets;
   j["final_tets"] = p.final_tets;
   j["failed_leaves"] = p.failed_leaves;
+  j["threads"] = p.threads;
   json phases = json::object();
   for (const auto& [name, field] : phase_fields(p)) phases[name] = *field;
   for (const auto& [name, field] : outer_phase_fields(p)) phases[name] = *field;
@@ -87,6 +90,7 @@ Result<PdrProfile> profile_from_json(std::string_view text) {
     p.initial_tets = j.at("initial_tets").get<std::size_t>();
     p.final_tets = j.at("final_tets").get<std::size_t>();
     p.failed_leaves = j.value("failed_leaves", std::size_t{0});
+    p.threads = j.value("threads", std::size_t{0});
     const json& phases = j.at("phases");
     for (const auto& [name, field] : phase_fields(p)) *field = phases.at(name).get<double>();
     for (const auto& [name, field] : outer_phase_fields(p)) *field = phases.value(name, 0.0);
@@ -124,6 +128,28 @@ double serial_seconds(const PdrProfile& p) {
   double rounds = 0;
   for (const RoundRecord& r : p.rounds) rounds += r.wall_s;
   return std::max(0.0, (p.wall > 0 ? p.wall : p.total) - rounds);
+}
+
+double SerialModel::at(std::size_t cores) const {
+  const double p = static_cast<double>(std::max<std::size_t>(cores, 1));
+  return tetgen_s + (cores <= 1 ? background_s : 0.0) + serial_s + parallel_s / p;
+}
+
+SerialModel serial_model(const PdrProfile& p) {
+  SerialModel m;
+  const double outside_wall = serial_seconds(p);
+  if (p.cpu <= 0 || p.threads < 2) {
+    m.serial_s = outside_wall;
+    return m;
+  }
+  m.tetgen_s = std::min(p.initial, outside_wall);
+  m.background_s = p.background;
+  const double wall = std::max(0.0, outside_wall - m.tetgen_s);
+  const double cpu = std::max(0.0, p.cpu - p.task_cpu - p.initial - p.background);
+  const double t = static_cast<double>(p.threads);
+  m.parallel_s = std::clamp((cpu - wall) * t / (t - 1), 0.0, cpu);
+  m.serial_s = cpu - m.parallel_s;
+  return m;
 }
 
 Result<RoundRecord> refine_round(const RoundRecord& r, int k) {
@@ -167,10 +193,10 @@ Result<RoundRecord> refine_round(const RoundRecord& r, int k) {
   return out;
 }
 
-ProjectedRun project_run(const std::vector<RoundRecord>& rounds, double serial_s, std::size_t workers) {
+ProjectedRun project_run(const std::vector<RoundRecord>& rounds, const SerialModel& outside, std::size_t workers) {
   ProjectedRun p;
   p.workers = std::max<std::size_t>(workers, 1);
-  double one = serial_s;
+  double one = outside.at(1);
   for (const RoundRecord& r : rounds) {
     const ReplayResult rr = replay_schedule(r.n1, r.task_s, p.workers, SchedulePolicy::kDynamic, {}, r.rank);
     p.leaf_total_s += rr.total_s;
@@ -178,7 +204,7 @@ ProjectedRun project_run(const std::vector<RoundRecord>& rounds, double serial_s
     one += rr.total_s;
   }
   p.leaf_speedup = p.leaf_makespan_s > 0 ? p.leaf_total_s / p.leaf_makespan_s : 1.0;
-  p.run_s = serial_s + p.leaf_makespan_s;
+  p.run_s = outside.at(p.workers) + p.leaf_makespan_s;
   p.run_speedup = p.run_s > 0 ? one / p.run_s : 1.0;
   return p;
 }

@@ -14,6 +14,7 @@
 #include "pdrmesh/leaf_kernels.hpp"
 #include "pdrmesh/pdr.hpp"
 #include "pdrmesh/quality.hpp"
+#include "pdrmesh/regions.hpp"
 #include "pdrmesh/surface_ids.hpp"
 #include "pdrmesh/tet_mesh.hpp"
 #include "pdrmesh/stopwatch.hpp"
@@ -41,8 +42,11 @@ std::optional<PdrPlan> plan_from_surface(const SurfaceMesh& surface, const Paral
 }
 }  // namespace
 
-Result<SerialResult> mesh_serial(const SurfaceMesh& surface, const SerialOptions& options,
-                                 const RefineProgress& progress) {
+namespace {
+
+/// mesh_serial of a surface that is one region.
+Result<SerialResult> mesh_serial_one(const SurfaceMesh& surface, const SerialOptions& options,
+                                     const RefineProgress& progress) {
   PDR_TRY(validate(options.sizing));
   PDR_TRY(validate(options.refine));
   if (options.optimize) PDR_TRY(validate(*options.optimize));
@@ -90,6 +94,51 @@ Result<SerialResult> mesh_serial(const SurfaceMesh& surface, const SerialOptions
   return out;
 }
 
+}  // namespace
+
+Result<SerialResult> mesh_serial(const SurfaceMesh& surface, const SerialOptions& options,
+                                 const RefineProgress& progress) {
+  PDR_ASSIGN_OR_RETURN(const std::vector<SurfaceRegion> regions, surface_regions(surface));
+  if (regions.empty()) return mesh_serial_one(surface, options, progress);
+  // Each region on its own, within what is left of the time limit.
+  const auto start = Clock::now();
+  SerialResult out;
+  std::vector<VolumeMesh> parts;
+  for (const SurfaceRegion& r : regions) {
+    SerialOptions o = options;
+    if (options.time_limit_s > 0) {
+      o.time_limit_s = options.time_limit_s - seconds_since(start);
+      if (!(o.time_limit_s > 0))
+        return deadline_exceeded(fmt::format("the time limit ran out before region {} was meshed", r.id));
+    }
+    PDR_ASSIGN_OR_RETURN(SerialResult part, mesh_serial_one(r.domain, o, progress));
+    out.seconds_initial += part.seconds_initial;
+    out.seconds_sizing += part.seconds_sizing;
+    out.seconds_refine += part.seconds_refine;
+    out.seconds_optimize += part.seconds_optimize;
+    out.refine.passes.insert(out.refine.passes.end(), part.refine.passes.begin(), part.refine.passes.end());
+    out.refine.points_added += part.refine.points_added;
+    out.refine.seconds += part.refine.seconds;
+    out.refine.stopped_at_deadline = out.refine.stopped_at_deadline || part.refine.stopped_at_deadline;
+    // The optimization's summary: the first region's, with the extremes of all.
+    if (parts.empty()) {
+      out.optimize = part.optimize;
+    } else {
+      OptimizeStats& s = out.optimize;
+      s.min_dihedral_before = std::min(s.min_dihedral_before, part.optimize.min_dihedral_before);
+      s.min_dihedral_after = std::min(s.min_dihedral_after, part.optimize.min_dihedral_after);
+      s.max_dihedral_before = std::max(s.max_dihedral_before, part.optimize.max_dihedral_before);
+      s.max_dihedral_after = std::max(s.max_dihedral_after, part.optimize.max_dihedral_after);
+      s.bad_before += part.optimize.bad_before;
+      s.bad_after += part.optimize.bad_after;
+      s.seconds += part.optimize.seconds;
+    }
+    parts.push_back(std::move(part.mesh));
+  }
+  PDR_ASSIGN_OR_RETURN(out.mesh, merge_regions(surface, regions, std::move(parts)));
+  return out;
+}
+
 Status optimize_volume(VolumeMesh& mesh, const SizingField& sizing, const OptimizeOptions& options) {
   PDR_ASSIGN_OR_RETURN(TetMesh tets, TetMesh::from_volume_mesh(mesh));
   PDR_TRY(pdrmesh::optimize(tets, &sizing, options).status());
@@ -129,10 +178,9 @@ Result<ParallelResult> serial_as_parallel(const SurfaceMesh& surface, const Para
   return out;
 }
 
-}  // namespace
-
-Result<ParallelResult> mesh_parallel(const SurfaceMesh& surface, const ParallelOptions& options,
-                                     const LeafKernel* kernel, const LeafKernel* optimize_kernel) {
+/// mesh_parallel of a surface that is one region.
+Result<ParallelResult> mesh_parallel_one(const SurfaceMesh& surface, const ParallelOptions& options,
+                                         const LeafKernel* kernel, const LeafKernel* optimize_kernel) {
   PDR_TRY(validate(options.sizing));
   if (options.optimize) PDR_TRY(validate(*options.optimize));
   std::unique_ptr<LeafKernel> native;
@@ -221,6 +269,62 @@ Result<ParallelResult> mesh_parallel(const SurfaceMesh& surface, const ParallelO
   out.profile.background = background_s;
   out.profile.sizing = build_s;
   out.profile.overlapped = overlapped_s;
+  return out;
+}
+
+/// Adds a region's profile to the whole run's: times and counts summed, the
+/// depth and the concurrency the largest, the rounds in region order.
+void add_profile(PdrProfile& all, PdrProfile&& p) {
+  for (auto m : {&PdrProfile::initial, &PdrProfile::decomposition, &PdrProfile::fixups, &PdrProfile::partition_swap,
+                 &PdrProfile::boundary_extraction, &PdrProfile::leaves, &PdrProfile::merge,
+                 &PdrProfile::interface_round, &PdrProfile::optimization, &PdrProfile::optimization_leaves,
+                 &PdrProfile::task_busy, &PdrProfile::global_optimization, &PdrProfile::total,
+                 &PdrProfile::background, &PdrProfile::sizing, &PdrProfile::overlapped, &PdrProfile::task_cpu})
+    all.*m += p.*m;
+  for (auto m : {&PdrProfile::initial_tets, &PdrProfile::leaf_count, &PdrProfile::interface_leaf_count,
+                 &PdrProfile::fixup_swaps, &PdrProfile::fixup_moves, &PdrProfile::fixup_unresolved,
+                 &PdrProfile::interior_points, &PdrProfile::final_tets, &PdrProfile::failed_leaves})
+    all.*m += p.*m;
+  all.depth = std::max(all.depth, p.depth);
+  all.max_leaf_tets = std::max(all.max_leaf_tets, p.max_leaf_tets);
+  all.max_concurrency = std::max(all.max_concurrency, p.max_concurrency);
+  all.threads = std::max(all.threads, p.threads);
+  if (all.first_failure.empty()) all.first_failure = std::move(p.first_failure);
+  for (RoundRecord& r : p.rounds) all.rounds.push_back(std::move(r));
+}
+
+}  // namespace
+
+Result<ParallelResult> mesh_parallel(const SurfaceMesh& surface, const ParallelOptions& options,
+                                     const LeafKernel* kernel, const LeafKernel* optimize_kernel) {
+  PDR_ASSIGN_OR_RETURN(const std::vector<SurfaceRegion> regions, surface_regions(surface));
+  if (regions.empty()) {
+    // The engine's tet_regions are the leaves that made the tets: bookkeeping,
+    // not material regions, so they do not leave the pipeline.
+    PDR_ASSIGN_OR_RETURN(ParallelResult one, mesh_parallel_one(surface, options, kernel, optimize_kernel));
+    one.mesh.tet_regions.clear();
+    return one;
+  }
+  // Each region through the whole parallel method with the same workers, one
+  // after the other. A checkpoint holds one engine run's state, so a run of
+  // several regions writes none and cannot resume from one.
+  if (options.pdr.resume != nullptr)
+    return invalid_input(fmt::format("{}: a surface of {} regions cannot resume from a checkpoint", surface.name,
+                                     regions.size()));
+  ParallelOptions o = options;
+  o.pdr.checkpoint = nullptr;
+  ParallelResult out;
+  std::vector<VolumeMesh> parts;
+  for (const SurfaceRegion& r : regions) {
+    PDR_ASSIGN_OR_RETURN(ParallelResult part, mesh_parallel_one(r.domain, o, kernel, optimize_kernel));
+    add_profile(out.profile, std::move(part.profile));
+    out.boundary_points += part.boundary_points;
+    out.seconds_sizing += part.seconds_sizing;
+    parts.push_back(std::move(part.mesh));
+  }
+  PDR_ASSIGN_OR_RETURN(out.mesh, merge_regions(surface, regions, std::move(parts)));
+  out.profile.final_tets = out.mesh.tets.size();
+  out.profile.interior_points = out.mesh.points.size() - surface.points.size();
   return out;
 }
 

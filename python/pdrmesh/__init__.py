@@ -161,7 +161,7 @@ def mesh(points, triangles=None, surface_ids=None, *, names: Optional[dict] = No
          hmin: Optional[float] = None, hmax: Optional[float] = None, growth: float = 1.2,
          max_tets: Optional[float] = None, workers: int = 0, depth: Optional[int] = None,
          kernel: str = "native", optimize: bool = True, time_limit: Optional[float] = None,
-         validate: bool = True) -> Mesh:
+         validate: bool = True, farfield: Optional[float] = None, farfield_shape: str = "box") -> Mesh:
     """Meshes the volume inside a closed surface: points (N x 3) and triangles (M x 3), or a
     Surface, or a surface file's path. The options are those of `pdrmesh mesh` and `run`:
     size a length or a percentage of the bounding-box diagonal ("1%"; default: the surface's own
@@ -169,11 +169,14 @@ def mesh(points, triangles=None, surface_ids=None, *, names: Optional[dict] = No
     time_limit in seconds. workers=0 is the serial mesher (`pdrmesh mesh`); workers=N >= 1 the
     parallel method on N threads (`pdrmesh run --workers N`, with depth and kernel), whose
     result is the same for every N. The mesh is validated against the surface before it is
-    returned (validate=False skips that)."""
+    returned (validate=False skips that). farfield=D (`--farfield D`) meshes the space between
+    the surface (the body) and a box (farfield_shape="box": boundary names inlet at -x, outlet
+    at +x, sides) or a sphere ("sphere": farfield) D body lengths away; the body is "wall"
+    unless named."""
     s = _surface(points, triangles, surface_ids, names)
     d = _pdrmesh.mesh(s.points, s.triangles, s.surface_ids, s.names or None, _size_text(size), hmin, hmax,
                       float(growth), max_tets, int(workers), depth, kernel, bool(optimize), time_limit,
-                      bool(validate))
+                      bool(validate), None if farfield is None else float(farfield), str(farfield_shape))
     return _mesh_from_dict(d)
 
 

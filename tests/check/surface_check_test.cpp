@@ -169,18 +169,34 @@ TEST(SurfaceCheck, InwardCavityInsideCubeIsMeshable) {
   EXPECT_TRUE(r.components[1].outward);
 }
 
-TEST(SurfaceCheck, OutwardCavityIsInward) {
+TEST(SurfaceCheck, OutwardShellInsideIsAnInterface) {
   SurfaceMesh s = box({0, 0, 0}, {3, 3, 3});
   add_box(s, {1, 1, 1}, {2, 2, 2}, /*outward=*/true);
   const SurfaceReport r = check_surface(s);
-  expect_only(r, DefectKind::kInwardOrientation, 1);
+  EXPECT_TRUE(r.meshable()) << format_report(r, "two regions");
   ASSERT_EQ(r.components.size(), 2u);
   EXPECT_EQ(r.components[1].nesting_depth, 1);
-  EXPECT_FALSE(r.components[1].outward);
-  EXPECT_TRUE(r.components[0].outward);
+  EXPECT_EQ(r.components[1].parent, 0u);
+  EXPECT_TRUE(r.components[1].interface);
+  EXPECT_TRUE(r.components[1].outward);
+  EXPECT_FALSE(r.components[0].interface);
+  EXPECT_EQ(r.components[0].parent, kNoIndex);
+}
+
+TEST(SurfaceCheck, InwardShellInsideACavityIsInward) {
+  SurfaceMesh s = box({0, 0, 0}, {7, 7, 7});
+  add_box(s, {1, 1, 1}, {6, 6, 6}, false);
+  add_box(s, {2, 2, 2}, {5, 5, 5}, false);
+  const SurfaceReport r = check_surface(s);
+  expect_only(r, DefectKind::kInwardOrientation, 1);
+  ASSERT_EQ(r.components.size(), 3u);
+  EXPECT_EQ(r.components[2].parent, 1u);
+  EXPECT_FALSE(r.components[2].outward);
+  EXPECT_TRUE(r.components[1].outward);
   const auto d = defects_of(r, DefectKind::kInwardOrientation);
   ASSERT_EQ(d.size(), 1u);
-  EXPECT_EQ(d[0]->triangles, std::vector<Index>{12});
+  EXPECT_EQ(d[0]->triangles, std::vector<Index>{24});
+  EXPECT_NE(d[0]->message.find("cavity of component 1"), std::string::npos) << d[0]->message;
 }
 
 TEST(SurfaceCheck, NestingThreeDeepAlternates) {
@@ -192,6 +208,8 @@ TEST(SurfaceCheck, NestingThreeDeepAlternates) {
   EXPECT_TRUE(r.meshable()) << format_report(r, "nested");
   ASSERT_EQ(r.components.size(), 4u);
   for (int c = 0; c < 4; ++c) EXPECT_EQ(r.components[c].nesting_depth, c);
+  for (Index c = 1; c < 4; ++c) EXPECT_EQ(r.components[c].parent, c - 1);
+  for (int c = 0; c < 4; ++c) EXPECT_FALSE(r.components[c].interface);
 }
 
 TEST(SurfaceCheck, TorusBlockHasGenusOne) {

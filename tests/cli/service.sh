@@ -2,7 +2,7 @@
 # The service end to end with real processes on loopback (a coordinator, no
 # workers: leaves run in its process): `pdrmesh submit --wait -o` gives the same
 # bytes as `pdrmesh run` with the same options; every format fetched validates
-# against the surface; --json parses; the client config file, the
+# against the surface; --json parses; --farfield as in run; the client config file, the
 # environment and flags in their order of precedence; delete; exit codes.
 # Usage: service.sh PDRMESH COORDINATOR SURFACE [MESH OPTIONS...]
 set -euo pipefail
@@ -49,6 +49,20 @@ expect_exit 65 "$pdrmesh" submit "$surface" --names "$tmp/bad-names.txt"
 grep -q 'bad-names.txt:1:' "$tmp/err"
 "$pdrmesh" delete "$named_id" > /dev/null
 echo "ok: names reach the job's SU2 markers and .mapbc"
+
+# External flow (--farfield): the coordinator makes the same domain as pdrmesh run.
+far=(--farfield 3 --farfield-shape sphere)
+far_id=$("$pdrmesh" submit "$surface" "${options[@]}" "${far[@]}" --wait -o "$tmp/far.su2" 2>/dev/null)
+"$pdrmesh" run -q "$surface" "${options[@]}" "${far[@]}" -o "$tmp/run-far.su2"
+cmp "$tmp/far.su2" "$tmp/run-far.su2"
+[[ $(grep '^MARKER_TAG=' "$tmp/far.su2" | paste -sd' ') == "MARKER_TAG= wall MARKER_TAG= farfield" ]]
+"$pdrmesh" status "$far_id" --json | python3 -c '
+import json, sys
+o = json.load(sys.stdin)["options"]
+assert o["farfield"] == 3 and o["farfield_shape"] == "sphere", o'
+"$pdrmesh" delete "$far_id" > /dev/null
+expect_exit 64 "$pdrmesh" submit "$surface" --farfield 0.5
+echo "ok: a --farfield job is byte-identical to pdrmesh run --farfield"
 
 "$pdrmesh" status "$id" --json | json_field leaves_total > /dev/null
 "$pdrmesh" list --json | python3 -c 'import json,sys; j=json.load(sys.stdin); assert len(j["jobs"])==1, j'

@@ -86,6 +86,34 @@ TEST(PdrProfile, WholeRunPhasesRoundTripAndSetTheSerialShare) {
   EXPECT_DOUBLE_EQ(serial_seconds(*older), 10.0);
 }
 
+TEST(PdrProfile, TheWorkOutsideTheTasksSplitsIntoTetgenSerialAndParallel) {
+  PdrProfile p = sample_profile();
+  p.wall = 58;  // 18 s outside the rounds' 40 s
+  p.initial = 4;
+  p.background = 3;
+  p.threads = 2;
+  p.task_cpu = 70;
+  // Besides TetGen, 14 s of wall and 26 CPU seconds: 2 s serial and 24 s of
+  // parallel work on 2 threads.
+  p.cpu = 70 + 4 + 3 + 26;
+  Result<PdrProfile> back = profile_from_json(profile_to_json(p, 2));
+  ASSERT_TRUE(back.ok()) << back.status().to_string();
+  EXPECT_EQ(back->threads, 2u);
+  EXPECT_EQ(back->cpu, p.cpu);
+  EXPECT_EQ(back->task_cpu, 70.0);
+  const SerialModel m = serial_model(*back);
+  EXPECT_DOUBLE_EQ(m.tetgen_s, 4.0);
+  EXPECT_NEAR(m.serial_s, 2.0, 1e-9);
+  EXPECT_NEAR(m.parallel_s, 24.0, 1e-9);
+  EXPECT_NEAR(m.at(1), 4 + 3 + 2 + 24, 1e-9);
+  EXPECT_NEAR(m.at(2), 18.0, 1e-9);  // what was measured
+  EXPECT_NEAR(m.at(16), 4 + 2 + 1.5, 1e-9);
+  // Without CPU figures, all of it is serial.
+  p.cpu = 0;
+  EXPECT_DOUBLE_EQ(serial_model(p).at(16), 18.0);
+  EXPECT_DOUBLE_EQ(serial_model(p).at(1), 18.0);
+}
+
 TEST(PdrProfile, RejectsBadFiles) {
   EXPECT_FALSE(profile_from_json("not json").ok());
   EXPECT_FALSE(profile_from_json("{\"version\": 2}").ok());
@@ -123,13 +151,13 @@ TEST(PdrProfile, DeeperRoundsKeepTheWorkAndGiveEightTimesTheLeaves) {
 TEST(PdrProfile, ProjectionIsBoundedByWorkersAndAmdahl) {
   const PdrProfile p = sample_profile();
   const double serial = 5;
-  const ProjectedRun one = project_run(p.rounds, serial, 1);
+  const ProjectedRun one = project_run(p.rounds, SerialModel{.serial_s = serial}, 1);
   EXPECT_NEAR(one.leaf_speedup, 1.0, 1e-12);
   EXPECT_NEAR(one.run_speedup, 1.0, 1e-12);
   EXPECT_NEAR(one.run_s, serial + one.leaf_total_s, 1e-9);
   double last = 0;
   for (std::size_t w : {2u, 4u, 8u, 16u}) {
-    const ProjectedRun r = project_run(p.rounds, serial, w);
+    const ProjectedRun r = project_run(p.rounds, SerialModel{.serial_s = serial}, w);
     EXPECT_LE(r.leaf_speedup, static_cast<double>(w) + 1e-9) << w;
     EXPECT_GE(r.leaf_speedup, 1.0) << w;
     EXPECT_LE(r.run_speedup, (serial + r.leaf_total_s) / serial) << w;  // Amdahl
@@ -138,7 +166,7 @@ TEST(PdrProfile, ProjectionIsBoundedByWorkersAndAmdahl) {
     last = r.run_speedup;
   }
   // A 4^3 grid holds at most 8 disjoint lock sets ({L} and its 26 neighbours).
-  EXPECT_LE(project_run(p.rounds, 0, 64).leaf_speedup, 8.0 + 1e-9);
+  EXPECT_LE(project_run(p.rounds, SerialModel{}, 64).leaf_speedup, 8.0 + 1e-9);
 }
 
 }  // namespace

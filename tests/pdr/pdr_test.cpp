@@ -56,10 +56,12 @@ const Sphere* sphere() {
   return s ? &*s : nullptr;
 }
 
-void expect_valid(const VolumeMesh& m, const SurfaceMesh& s) {
+/// Valid against `s`; run_pdr's meshes hold the leaf of every tet, and
+/// mesh_parallel's (`pipeline`) none, the surface being one region.
+void expect_valid(const VolumeMesh& m, const SurfaceMesh& s, bool pipeline = false) {
   const ValidationReport rep = validate_mesh(m, &s);
   EXPECT_TRUE(rep.ok()) << format_validation(rep);
-  EXPECT_EQ(m.tet_regions.size(), m.tets.size());
+  EXPECT_EQ(m.tet_regions.size(), pipeline ? 0 : m.tets.size());
 }
 
 /// Depth 2 with a lighter initial mesh than the default (about 60 tets per
@@ -364,14 +366,16 @@ TEST(Pdr, OptimizationTasksGetOnlyTheSelectedTetsAndTheirHalo) {
   EXPECT_EQ(none->points, plain->points);
   EXPECT_EQ(tets_beyond(*none, -1e9), tets_beyond(*plain, -1e9));
 
-  // The tets with a corner in the first fifth along x, with one vertex layer:
-  // the tasks (three rounds, the last over the whole mesh) get tets near
-  // that slab only, and nothing far beyond it changes.
+  // The tets with a corner in the first fifth along x, with one vertex layer
+  // (and one buffer layer in the final pass): the tasks (three rounds, the
+  // last over one leaf, the whole grid at depth 2) get tets near that slab
+  // only, and nothing far beyond it changes.
   const Box bb = sp->surface.bounds();
   const double lo = bb.lo[0], w = bb.hi[0] - bb.lo[0];
   const RecordingKernel near(nudging_hook());
   o.optimize_kernel = &near;
   o.optimize_halo = 1;
+  o.optimize_buffer_layers = 1;
   o.optimize_selects = [x0 = lo + 0.2 * w](const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
     return std::min({a[0], b[0], c[0], d[0]}) < x0;
   };
@@ -389,6 +393,45 @@ TEST(Pdr, OptimizationTasksGetOnlyTheSelectedTetsAndTheirHalo) {
   ASSERT_FALSE(prof.rounds.empty());
   EXPECT_EQ(prof.rounds.back().name, "final optimization");
   EXPECT_EQ(prof.rounds.back().leaves.size(), 1u);
+}
+
+TEST(Pdr, TheFinalOptimizationRunsAsBufferedTasksOnACoarserGrid) {
+  // sphere966 at depth 5 with the real refiner and optimizer: the final pass
+  // goes in two sweeps of colour rounds over the depth-2 grid, each task a
+  // leaf's selected tets with a buffer around them, and no task gets the
+  // whole mesh's selection; the result is valid and the same for any workers.
+  const Sphere* sp = sphere();
+  ASSERT_NE(sp, nullptr) << "sphere966.mesh not readable";
+  const std::unique_ptr<LeafKernel> kernel = make_leaf_kernel("native").value();
+  const std::unique_ptr<LeafKernel> optimizer = make_leaf_kernel("optimize").value();
+  PdrOptions o = depth2(1);
+  o.depth = 5;
+  o.optimize_kernel = optimizer.get();
+  o.optimize_selects = [](const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
+    const AngleRange r = dihedral_range(a, b, c, d);
+    return r.min < 15 || r.max > 150;
+  };
+  PdrProfile prof;
+  Result<VolumeMesh> one = run_pdr(sp->surface, *sp->sizing, *kernel, o, &prof);
+  ASSERT_TRUE(one.ok()) << one.status().to_string();
+  expect_valid(*one, sp->surface);
+  std::size_t final_rounds = 0, final_tasks = 0, final_sent = 0;
+  for (const RoundRecord& r : prof.rounds) {
+    if (r.name != "final optimization") continue;
+    ++final_rounds;
+    final_tasks += r.leaves.size();
+    final_sent = std::max(final_sent, r.tets_sent);
+    EXPECT_EQ(r.depth, 2);
+    EXPECT_LT(r.tets_sent, r.tets) << "a round got every tet of the mesh";
+  }
+  EXPECT_GT(final_rounds, 8u) << "two sweeps of colour rounds";
+  EXPECT_GT(final_tasks, final_rounds) << "several tasks a round";
+  EXPECT_GT(final_sent, 0u);
+  o.workers = 3;
+  Result<VolumeMesh> three = run_pdr(sp->surface, *sp->sizing, *kernel, o, nullptr);
+  ASSERT_TRUE(three.ok()) << three.status().to_string();
+  EXPECT_EQ(one->points, three->points);
+  EXPECT_EQ(one->tets, three->tets);
 }
 
 TEST(Pdr, InterfaceRoundsGetOnlyTheTetsNearTheLastInterfaces) {
@@ -721,10 +764,10 @@ TEST(Pdr, ASurfaceTooSmallForLeafTasksGetsTheSerialMesh) {
   o.pdr.workers = 2;
   Result<ParallelResult> run = mesh_parallel(sp->surface, o);
   ASSERT_TRUE(run.ok()) << run.status().to_string();
-  expect_valid(run->mesh, sp->surface);
+  expect_valid(run->mesh, sp->surface, true);
   EXPECT_EQ(run->profile.depth, 0);
   EXPECT_EQ(run->profile.leaf_count, 1u);
-  EXPECT_EQ(run->mesh.tet_regions, std::vector<int>(run->mesh.tets.size(), 0));
+  EXPECT_TRUE(run->mesh.tet_regions.empty());  // one region: none
   Result<SerialResult> serial = mesh_serial(sp->surface, SerialOptions{});
   ASSERT_TRUE(serial.ok()) << serial.status().to_string();
   EXPECT_EQ(run->mesh.points, serial->mesh.points);
@@ -752,7 +795,7 @@ TEST(Pdr, MeshParallelIsByteIdenticalWithTheInitialMeshBesideTheSizing) {
     Result<ParallelResult> r = mesh_parallel(sp->surface, o, &kernel);
     ASSERT_TRUE(r.ok()) << r.status().to_string();
     if (w == 1) {
-      expect_valid(r->mesh, sp->surface);
+      expect_valid(r->mesh, sp->surface, true);
       EXPECT_EQ(r->profile.overlapped, 0.0);
       ref = meshb_bytes(r->mesh, "pdr_mp1");
       continue;
@@ -777,7 +820,7 @@ TEST(Pdr, TheOptimizeKernelIsMeshParallelsOwnOptimization) {
   ASSERT_TRUE(own.ok()) << own.status().to_string();
   Result<ParallelResult> given = mesh_parallel(sp->surface, o, nullptr, optimizer.get());
   ASSERT_TRUE(given.ok()) << given.status().to_string();
-  expect_valid(given->mesh, sp->surface);
+  expect_valid(given->mesh, sp->surface, true);
   EXPECT_EQ(meshb_bytes(given->mesh, "pdr_opt_given"), meshb_bytes(own->mesh, "pdr_opt_own"));
   // The optimization did change the mesh, so the comparison says something.
   o.optimize.reset();
@@ -808,7 +851,7 @@ TEST(Pdr, OptimizationLeafTasksRemovePointsAndKeepTheIndices) {
   ASSERT_TRUE(kept.ok()) << kept.status().to_string();
   EXPECT_GT(removed.load(), 0u);
   EXPECT_EQ(kept->profile.failed_leaves, 0u) << kept->profile.first_failure;
-  expect_valid(kept->mesh, hinge);
+  expect_valid(kept->mesh, hinge, true);
   // The profile counts the points of the result, after the removals.
   EXPECT_EQ(kept->profile.interior_points, kept->mesh.points.size() - hinge.points.size());
   Result<ParallelResult> own = mesh_parallel(hinge, o);
@@ -822,7 +865,7 @@ TEST(Pdr, OptimizationLeafTasksRemovePointsAndKeepTheIndices) {
   EXPECT_GE(refused->profile.failed_leaves, 1u);
   EXPECT_NE(refused->profile.first_failure.find("dropped input points"), std::string::npos)
       << refused->profile.first_failure;
-  expect_valid(refused->mesh, hinge);
+  expect_valid(refused->mesh, hinge, true);
 }
 
 TEST(Pdr, ResumingFromEachRoundsCheckpointGivesTheSameBytes) {
@@ -843,7 +886,7 @@ TEST(Pdr, ResumingFromEachRoundsCheckpointGivesTheSameBytes) {
   };
   Result<ParallelResult> whole = mesh_parallel(sp->surface, o);
   ASSERT_TRUE(whole.ok()) << whole.status().to_string();
-  expect_valid(whole->mesh, sp->surface);
+  expect_valid(whole->mesh, sp->surface, true);
   const std::string want = meshb_bytes(whole->mesh, "pdr_resume_whole");
   EXPECT_EQ(names, (std::vector<std::string>{"refinement", "optimization", "shifted optimization",
                                              "final optimization"}));

@@ -164,6 +164,21 @@ class Surfaces(unittest.TestCase):
         report = pdrmesh.validate(m, s)
         self.assertTrue(report["valid"], report["text"])
 
+    def test_farfield_meshes_the_space_around_a_body(self):
+        if not DATA:
+            self.skipTest("PDRMESH_TEST_DATA is not set")
+        s = pdrmesh.read_surface(os.path.join(DATA, "sphere966.stl"))
+        m = pdrmesh.mesh(s, farfield=4, farfield_shape="sphere")
+        self.assertEqual(m.boundary_names, {1: "wall", 2: "farfield"})
+        self.assertEqual(sorted(np.unique(m.boundary_ids)), [1, 2])
+        self.assertEqual(np.count_nonzero(m.boundary_ids == 1), len(s.triangles))
+        report = pdrmesh.validate(m)
+        self.assertTrue(report["valid"], report["text"])
+        with self.assertRaisesRegex(ValueError, "over 0.5 and at most 1000"):
+            pdrmesh.mesh(s, farfield=0.5)
+        with self.assertRaisesRegex(ValueError, "farfield_shape must be 'box' or 'sphere'"):
+            pdrmesh.mesh(s, farfield=4, farfield_shape="cone")
+
     def test_check_reports_a_hole_with_its_place(self):
         points, triangles = icosphere(1)
         report = pdrmesh.check(points, triangles[1:])

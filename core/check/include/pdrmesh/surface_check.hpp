@@ -63,9 +63,15 @@ struct ComponentReport {
   /// only computed for closed, manifold, oriented components without degenerate
   /// triangles, 0 otherwise.
   int nesting_depth = 0;
-  /// Volume sign right for the depth (positive at even depth, negative at odd);
+  /// The closed component directly enclosing this one (kNoIndex: none, or not analysed).
+  Index parent = kNoIndex;
+  /// Orientation valid for the nesting: positive volume (the shell holds
+  /// material), or negative (a cavity) directly inside a positive parent;
   /// false when the nesting could not be analysed.
   bool outward = false;
+  /// Positive inside a positive parent: the interface between two regions
+  /// (regions.hpp) rather than a cavity.
+  bool interface = false;
   Index first_triangle = kNoIndex;  ///< lowest triangle index in the component
 };
 

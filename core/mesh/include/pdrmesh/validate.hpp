@@ -29,6 +29,8 @@ struct ValidationReport {
   std::size_t prisms = 0, pyramids = 0;  ///< of a mixed mesh (mixed_cells.hpp)
   std::size_t points = 0;
   std::size_t boundary_faces = 0;
+  std::size_t regions = 0;          ///< distinct tet regions (0: the mesh carries none)
+  std::size_t interface_faces = 0;  ///< listed boundary faces between two tets of different regions
   double volume = 0;           ///< sum of tet volumes
   double enclosed_volume = 0;  ///< of the surface, when one was given
   long long euler_volume = 0;   ///< V - E + F - T of the tet mesh
@@ -49,6 +51,10 @@ struct ValidationReport {
 /// With a surface: the boundary equals the surface triangulation exactly (same
 /// coordinates, same triangles, same orientation, and the same ids when the mesh
 /// carries them) and the volume equals the enclosed volume.
+/// With regions (mesh.tet_regions): a listed boundary face may also be an
+/// interface, a face shared by two tets of different regions (either
+/// orientation); an input triangle on such a face is one, every one of them
+/// must be listed, and its shell's volume is not counted in the enclosed volume.
 /// A mesh with prisms or pyramids goes to validate_mixed_mesh (mixed_cells.hpp).
 /// Runs in parallel (oneTBB, fixed chunks): the report, messages and volume bits
 /// included, is the same for any number of threads.

@@ -15,7 +15,10 @@ namespace pdrmesh {
 /// (the VTK/Gmsh/Medit convention). `boundary` lists the boundary triangles
 /// oriented outward with one `boundary_ids` entry each; `tet_regions` is
 /// empty or holds one integer per tet (a region, or the octree leaf that made it).
-/// `boundary_names` names some boundary ids (carried from the input surface).
+/// `boundary_names` names some boundary ids (carried from the input surface),
+/// `region_names` some region ids (regions.hpp). A mesh of several regions
+/// lists their interfaces in `boundary` too: faces shared by two tets of
+/// different regions, each once, with their input surface ids.
 /// `prisms` and `pyramids` are empty in a tetrahedral mesh; a mixed mesh (prism
 /// boundary layers) holds them beside the tets, numbered and checked as
 /// mixed_cells.hpp draws them.
@@ -26,6 +29,7 @@ struct VolumeMesh {
   std::vector<int> boundary_ids;
   std::vector<int> tet_regions;
   std::map<int, std::string> boundary_names;
+  std::map<int, std::string> region_names;
   std::vector<Prism> prisms;
   std::vector<Pyramid> pyramids;
 
@@ -37,6 +41,12 @@ struct VolumeMesh {
 inline std::string boundary_name(const std::map<int, std::string>& names, int id) {
   const auto it = names.find(id);
   return it != names.end() ? it->second : "surface_" + std::to_string(id);
+}
+
+/// The name a format writes for region `id`: its entry in `names`, else "region_<id>".
+inline std::string region_name(const std::map<int, std::string>& names, int id) {
+  const auto it = names.find(id);
+  return it != names.end() ? it->second : "region_" + std::to_string(id);
 }
 
 }  // namespace pdrmesh

@@ -31,7 +31,11 @@
 // the list of bad tets is the last one merged with those, and the mesh's
 // extreme angles come from a tree over blocks of slots measured again only
 // where tets changed. Star walks start from a tet kept per point as operations
-// create tets. So the cost of a call follows the bad region, not the mesh.
+// create tets. A local attempt that failed (a tet's flips, insertion or repair, a
+// point's move) is not made again in a later round while no tet holding its points
+// has changed and the parameters it reads (a floor, the mesh's extremes) are the
+// same: it would fail again, bit for bit. So the cost of a call follows the bad
+// region and what the operations change, not the mesh or the number of rounds.
 //
 // Steps
 // -----

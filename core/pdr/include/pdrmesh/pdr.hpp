@@ -173,15 +173,22 @@ struct PdrOptions {
   /// only its tets within optimize_halo vertex layers of such a tet (the others
   /// stay as they are; the selection's outer faces are frozen like any leaf
   /// hull, and a leaf with no selected tet runs no task), and the final pass
-  /// over the merged mesh is one more such task over one leaf, the whole mesh,
-  /// with optimize_kernel, instead of `optimize`. The work then follows the
-  /// bad tets, not the mesh size (fandisk at depth 2: the optimization phase
-  /// took 0.12-0.13 s instead of 1.5-1.6 s, with the same tets and angles).
+  /// runs optimize_kernel instead of `optimize`: as one task over the whole
+  /// selection, or, with buffered rounds at depth 5 or more (large meshes,
+  /// where that task would be the run's long pole), in colour rounds over a
+  /// grid three levels coarser than the refinement's, two sweeps (a task's
+  /// buffer changes tets of leaves whose round has passed; the second sweep
+  /// seeds only the bad tets no task has had in its core since). The work
+  /// then follows the bad tets, not the mesh size.
   std::function<bool(const Vec3&, const Vec3&, const Vec3&, const Vec3&)> optimize_selects;
   /// Vertex layers around the selected tets: with 1, every point of a bad tet
   /// has its whole star in the task (it may move); 2 also lets the points of
   /// its neighbours move and their edges flip.
   int optimize_halo = 2;
+  /// The final pass's buffer: a task gets its leaf's selected tets and this
+  /// many vertex layers of any tets around them, and may change all of them
+  /// but its hull.
+  int optimize_buffer_layers = 2;
   /// A leaf whose kernel fails (is_kernel_failure: a TetGen crash on its hull,
   /// say) is kept as it was, unrefined, and counted in
   /// PdrProfile::failed_leaves; false: the run fails. A task that could not be
@@ -241,6 +248,9 @@ struct PdrProfile {
   double write = 0;            ///< writing the result (CLI)
   double quality = 0;          ///< the quality summary (CLI)
   double wall = 0;             ///< the whole run as measured by its caller; 0: total
+  double cpu = 0;              ///< process CPU seconds of the whole run (its caller; 0: not measured)
+  double task_cpu = 0;         ///< process CPU seconds while the leaf schedules ran
+  std::size_t threads = 0;     ///< threads the run's parallel steps had (0: not recorded)
   // Counts.
   int depth = 0;
   std::size_t initial_tets = 0;

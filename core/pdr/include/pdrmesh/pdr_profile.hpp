@@ -6,10 +6,9 @@
 // table, to judge scaling beyond the cores at hand.
 //
 // Projection. For P workers, each round's leaf tasks are replayed (kDynamic,
-// the run's priorities) and the run's serial work (initial mesh,
-// decomposition, fix-ups, merges, the global optimization: everything outside
-// the tasks) is added unchanged:
-//   projected(P) = serial + sum over rounds of makespan_r(P)
+// the run's priorities) and the run's work outside the tasks (initial mesh,
+// decomposition, merges, validation, ...) is added as SerialModel says:
+//   projected(P) = outside(P) + sum over rounds of makespan_r(P)
 //   leaf speedup = sum of task seconds / sum of makespans
 //   run speedup  = projected(1) / projected(P).
 // Merges, locking and thread start-up inside the rounds count as free. A
@@ -43,6 +42,22 @@ Result<PdrProfile> profile_from_json(std::string_view json);
 /// wall time of its rounds' leaf schedules (never below 0).
 double serial_seconds(const PdrProfile& profile);
 
+/// The run's time outside the leaf schedules on P cores. The initial TetGen
+/// mesh is serial (the background mesh runs beside it from 2 cores on). The
+/// rest (decomposition, merges, validation, quality, writing, ...) is split
+/// by Amdahl's law from its wall and CPU time on the measured run's T threads:
+/// wall = s + w / T and cpu = s + w give its serial seconds s and its
+/// parallel work w, and it takes s + w / P on P cores. Without CPU figures
+/// (older profiles, one thread) everything outside the tasks counts as serial.
+struct SerialModel {
+  double tetgen_s = 0;      ///< the initial mesh (serial)
+  double background_s = 0;  ///< the background mesh, beside the initial one from 2 cores on
+  double serial_s = 0;      ///< the rest's serial seconds
+  double parallel_s = 0;    ///< the rest's parallel work, CPU seconds
+  double at(std::size_t cores) const;
+};
+SerialModel serial_model(const PdrProfile& profile);
+
 /// A round made 8^k times finer: every leaf at depth d becomes its 8^k
 /// children at depth d + k, each with 1/8^k of the leaf's task time and rank
 /// order kept (children of a leaf in grid order); N1 recomputed (grid_n1).
@@ -58,8 +73,8 @@ struct ProjectedRun {
   double run_speedup = 0;      ///< run_s(1 worker) / run_s
 };
 
-/// The projection above for `workers`, the rounds already refined/scaled as
-/// wanted; `serial_s` the serial seconds to add.
-ProjectedRun project_run(const std::vector<RoundRecord>& rounds, double serial_s, std::size_t workers);
+/// The projection above for `workers` (as many cores), the rounds already
+/// refined/scaled as wanted.
+ProjectedRun project_run(const std::vector<RoundRecord>& rounds, const SerialModel& outside, std::size_t workers);
 
 }  // namespace pdrmesh

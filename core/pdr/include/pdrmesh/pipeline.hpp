@@ -34,7 +34,7 @@ struct SerialOptions {
 };
 
 struct SerialResult {
-  VolumeMesh mesh;  ///< boundary = the surface's triangles, ids and names; tet_regions empty
+  VolumeMesh mesh;  ///< boundary = the surface's triangles, ids and names; tet_regions empty or the regions
   RefineStats refine;
   OptimizeStats optimize;  ///< zero when the optimization did not run
   double seconds_initial = 0, seconds_sizing = 0, seconds_refine = 0, seconds_optimize = 0;
@@ -44,6 +44,8 @@ struct SerialResult {
 /// core: tetrahedralize -> SizingField::build(surface, initial mesh) ->
 /// TetMesh::from_volume_mesh -> refine -> optimize -> to_volume_mesh. The boundary is the
 /// input triangulation, frozen throughout, with the surface's ids (any int: surface_ids.hpp).
+/// A surface of several regions (regions.hpp) is meshed region by region and
+/// merged: tet_regions the region ids, the interfaces in the boundary.
 Result<SerialResult> mesh_serial(const SurfaceMesh& checked_surface, const SerialOptions& options,
                                  const RefineProgress& progress = {});
 
@@ -57,7 +59,7 @@ struct ParallelOptions {
 };
 
 struct ParallelResult {
-  VolumeMesh mesh;  ///< validates against the surface; tet_regions: the leaf that made each tet
+  VolumeMesh mesh;  ///< validates against the surface; tet_regions: empty, or the regions (regions.hpp)
   PdrProfile profile;
   std::size_t boundary_points = 0;  ///< points of the point distribution function
   double seconds_sizing = 0;        ///< background mesh and point distribution function
@@ -72,6 +74,8 @@ struct ParallelResult {
 /// compute the same, as make_leaf_kernel("optimize") does for the default
 /// OptimizeOptions, whether
 /// it runs the task here or on a remote worker (the coordinator's dispatch).
+/// Several regions: each through the method in turn, merged as by mesh_serial
+/// (no checkpoint is written, and options.pdr.resume is refused).
 Result<ParallelResult> mesh_parallel(const SurfaceMesh& checked_surface, const ParallelOptions& options,
                                      const LeafKernel* kernel = nullptr, const LeafKernel* optimize_kernel = nullptr);
 
