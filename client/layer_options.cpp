@@ -31,7 +31,7 @@ void LayerArgs::add_to(CLI::App* cmd) {
              "with --layers: the stack of layers is at most this thick (compressed where it would be more)", kLength);
   cmd->add_option("--layers-on", on,
                   "with --layers: the surfaces that grow layers, by boundary name or id, comma-separated "
-                  "(default: every surface)")
+                  "(default: every surface; with --farfield every surface of the body)")
       ->delimiter(',')
       ->type_name("NAMES");
 }
@@ -49,12 +49,13 @@ void LayerArgs::check(const CLI::App& cmd, const std::string& output) const {
                             mixed_volume_suffixes()));
 }
 
-Result<LayerOptions> LayerArgs::resolve(const SurfaceMesh& surface) const {
+Result<LayerOptions> LayerArgs::resolve(const SurfaceMesh& surface, const std::vector<int>& default_walls) const {
   LayerOptions o;
   o.layers = layers;
   o.first_height = first_height;
   o.growth_ratio = growth_ratio;
   if (max_thickness > 0) o.max_thickness = max_thickness;
+  if (on.empty()) o.walls = default_walls;
   const std::set<int> ids(surface.surface_ids.begin(), surface.surface_ids.end());
   for (const std::string& name : on) {
     int found = 0;

@@ -28,8 +28,10 @@ struct LayerArgs {
   void check(const CLI::App& cmd, const std::string& output) const;
   /// The layer options for `surface`: --layers-on names resolved to surface
   /// ids (a name of surface_names, "surface_<id>", or the id itself);
-  /// invalid_input naming an unknown one and the names there are.
-  Result<LayerOptions> resolve(const SurfaceMesh& surface) const;
+  /// invalid_input naming an unknown one and the names there are. Without
+  /// --layers-on the walls are `default_walls` (empty: every surface; with
+  /// --farfield the body's ids, so that the far-field patches grow none).
+  Result<LayerOptions> resolve(const SurfaceMesh& surface, const std::vector<int>& default_walls = {}) const;
 };
 
 }  // namespace pdrmesh::cli

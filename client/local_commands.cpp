@@ -14,6 +14,7 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <set>
 #include <string>
 
 #include "exit_codes.hpp"
@@ -121,10 +122,11 @@ std::vector<RegionCount> region_counts(const VolumeMesh& mesh) {
 
 /// Reads and checks a surface, with the names of a --names file (`names_path`,
 /// empty: none), and with `farfield` the domain around it (farfield.hpp) in its
-/// place; on failure prints why and returns the exit code.
+/// place, `body_ids` (when given) set to the body's surface ids; on failure
+/// prints why and returns the exit code.
 int load_checked_surface(const std::string& path, const std::string& names_path,
                          const std::optional<FarfieldOptions>& farfield, Progress& progress, SurfaceMesh& out,
-                         StepTimes* times = nullptr) {
+                         StepTimes* times = nullptr, std::vector<int>* body_ids = nullptr) {
   auto t = Clock::now();
   auto surface = read_surface(path);
   if (!surface.ok()) return fail(surface.status());
@@ -137,6 +139,11 @@ int load_checked_surface(const std::string& path, const std::string& names_path,
     progress.say("far field: a {} {:g} body lengths (L = {:.6g}) from the body, {} triangles of about {:.6g}",
                  to_string(farfield->shape), farfield->distance, domain->body_length, domain->farfield_triangles,
                  domain->farfield_size);
+    if (body_ids) {  // the body's triangles come first, the far field's last
+      const auto& ids = domain->surface.surface_ids;
+      const std::set<int> body(ids.begin(), ids.end() - static_cast<std::ptrdiff_t>(domain->farfield_triangles));
+      body_ids->assign(body.begin(), body.end());
+    }
     *surface = std::move(domain->surface);
   }
   if (!surface->surface_names.empty()) progress.say("{}", names_line(surface->surface_names));
@@ -269,10 +276,11 @@ struct MeshArgs {
   FarfieldArgs farfield;
 };
 
-/// `mesh --layers`: prisms on the walls, the serial pipeline for the rest.
-int run_mesh_layered(const MeshArgs& a, const SurfaceMesh& surface, SerialOptions options, Outcome& outcome,
-                     Progress& progress) {
-  auto layers = a.layers.resolve(surface);
+/// `mesh --layers`: prisms on the walls (by default every surface but the far
+/// field's: `body_ids` with --farfield), the serial pipeline for the rest.
+int run_mesh_layered(const MeshArgs& a, const SurfaceMesh& surface, const std::vector<int>& body_ids,
+                     SerialOptions options, Outcome& outcome, Progress& progress) {
+  auto layers = a.layers.resolve(surface, body_ids);
   if (!layers.ok()) return fail(layers.status());
   if (!a.growth_given && layers->growth_ratio > 1) options.sizing.growth = layers->growth_ratio;
   auto result = mesh_serial_layered(surface, *layers, options, [&progress](const RefinePassStats& p) {
@@ -293,7 +301,9 @@ int run_mesh(const MeshArgs& a) {
   Progress progress(a.quiet);
   const auto start = Clock::now();
   SurfaceMesh surface;
-  if (int code = load_checked_surface(a.surface, a.names, a.farfield.options(), progress, surface); code != kExitOk)
+  std::vector<int> body_ids;
+  if (int code = load_checked_surface(a.surface, a.names, a.farfield.options(), progress, surface, nullptr, &body_ids);
+      code != kExitOk)
     return code;
   // The time limit counts from the start: what reading and checking took is gone.
   const double left_s = a.time_limit_s > 0 ? a.time_limit_s - seconds_since(start) : 0;
@@ -319,7 +329,7 @@ int run_mesh(const MeshArgs& a) {
   if (Status s = a.size.check_tet_limit(surface, options.sizing, true); !s.ok()) return fail(s);
   options.time_limit_s = left_s;
   if (a.no_optimize) options.optimize.reset();
-  if (a.layers.layers > 0) return run_mesh_layered(a, surface, options, outcome, progress);
+  if (a.layers.layers > 0) return run_mesh_layered(a, surface, body_ids, options, outcome, progress);
   auto result = mesh_serial(surface, options, [&progress](const RefinePassStats& p) {
     progress.say("pass {}: {} candidates, {} inserted, {} flips, {} tets", p.pass, p.candidates, p.inserted,
                  p.flips, p.tets);
@@ -343,6 +353,8 @@ struct RunArgs {
   bool quiet = false;
   bool json = false;
   RunOptionArgs mesh;
+  LayerArgs layers;
+  bool growth_given = false;  ///< --growth on the command line (else the layers' ratio continues)
 };
 
 /// The whole run's profile: every step from reading the surface to the
@@ -392,9 +404,16 @@ int run_run(const RunArgs& a) {
   Progress progress(a.quiet);
   SurfaceMesh surface;
   StepTimes times;
+  std::vector<int> body_ids;
   const int loaded =
-      load_checked_surface(a.surface, a.mesh.names, a.mesh.farfield.options(), progress, surface, &times);
+      load_checked_surface(a.surface, a.mesh.names, a.mesh.farfield.options(), progress, surface, &times, &body_ids);
   if (loaded != kExitOk) return loaded;
+  std::optional<LayerOptions> layers;
+  if (a.layers.layers > 0) {
+    auto resolved = a.layers.resolve(surface, body_ids);
+    if (!resolved.ok()) return fail(resolved.status());
+    layers = *resolved;
+  }
 
   auto kernel = make_leaf_kernel(a.mesh.kernel);
   if (!kernel.ok()) return fail(kernel.status());
@@ -403,6 +422,7 @@ int run_run(const RunArgs& a) {
   outcome.size = options.sizing.size;
   progress.say("{}", outcome.size_line);
   if (Status s = a.mesh.size.check_tet_limit(surface, options.sizing, true); !s.ok()) return fail(s);
+  if (layers && !a.growth_given && layers->growth_ratio > 1) options.sizing.growth = layers->growth_ratio;
   options.pdr.workers = a.workers;
   if (a.time_limit_s > 0) options.pdr.tetgen_time_limit_s = std::min(options.pdr.tetgen_time_limit_s, a.time_limit_s);
   progress.update({"sizing"});
@@ -417,11 +437,33 @@ int run_run(const RunArgs& a) {
     progress.update({std::string(p.phase), p.leaves_done, p.leaves_total, p.tets});
     return true;
   };
-  auto result = mesh_parallel(surface, options, kernel->get());
+  // With layers: the layers made serially as `mesh` makes them, the tets that
+  // fill the rest by the parallel method.
+  std::optional<LayeredParallelResult> layered;
+  Result<ParallelResult> result = ParallelResult{};
+  if (layers) {
+    auto r = mesh_parallel_layered(surface, *layers, options, kernel->get());
+    if (r.ok()) {
+      layered = std::move(r).value();
+      result = std::move(layered->fill);
+    } else {
+      result = r.status();
+    }
+  } else {
+    result = mesh_parallel(surface, options, kernel->get());
+  }
   progress.finish();
   if (!result.ok()) return fail_run(result.status(), a.time_limit_s, timed_out);
   if (deadline && Clock::now() >= *deadline)
     return fail_run(deadline_exceeded("it ran out before the mesh was done"), a.time_limit_s);
+  if (layered) {
+    const LayeredResult& l = layered->layered;
+    progress.say("layers: {} on {} wall triangles ({} points), stack {:.4g} to {:.4g} thick, {} stacks compressed "
+                 "({:.2f} s)",
+                 layers->layers, l.wall_triangles, l.wall_points, l.thickness_min, l.thickness_max,
+                 l.compressed_points, l.seconds_layers);
+    result->mesh = std::move(layered->layered.mesh);
+  }
   const VolumeMesh& mesh = result->mesh;
   PdrProfile& profile = result->profile;
   progress.say("point distribution function built from {} boundary points", result->boundary_points);
@@ -616,11 +658,14 @@ void add_local_commands(CLI::App& app, int& exit_code) {
     cmd->add_flag("-q,--quiet", a->quiet, "no progress or summary on stderr");
     cmd->add_flag("--json", a->json, json_help);
     a->mesh.add_to(cmd);
+    a->layers.add_to(cmd);
     cmd->footer(help_footer({{"pdrmesh run part.stl -o part.meshb --workers 8", "the parallel method on 8 threads"},
                              {"pdrmesh run part.stl -o part.vtu --size 0.5% --depth 2 --profile",
                               "a finer mesh over a 4x4x4 octree, with the time of each phase"}}));
-    cmd->callback([&exit_code, a] {
+    cmd->callback([&exit_code, a, cmd] {
       a->mesh.size.check();
+      a->layers.check(*cmd, a->output);
+      a->growth_given = cmd->count("--growth") > 0;
       exit_code = run_run(*a);
     });
   }

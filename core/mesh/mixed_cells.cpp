@@ -9,8 +9,10 @@
 #include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <tuple>
 
 #include "pdrmesh/predicates.hpp"
+#include "pdrmesh/topology.hpp"
 
 namespace pdrmesh {
 namespace {
@@ -103,6 +105,100 @@ VolumeMesh split_to_tets(const VolumeMesh& mesh) {
     for (const Tet& t : prism_tets(p)) out.tets.push_back(t);
   for (const Pyramid& p : mesh.pyramids)
     for (const Tet& t : pyramid_tets(p)) out.tets.push_back(t);
+  return out;
+}
+
+Result<MixedCellFaces> mixed_cell_faces(const VolumeMesh& mesh) {
+  // Every cell's outward faces with their sorted points as key; equal keys
+  // meet after the sort, the lower cell first: a pair is an internal face
+  // owned by the lower cell, a single face is on the hull.
+  struct Ref {
+    std::array<Index, 4> key, face;
+    Index cell;
+    int local;
+  };
+  const std::size_t np = mesh.points.size();
+  const auto out_of_range = [&](const auto& cells, const char* kind) -> Status {
+    for (std::size_t c = 0; c < cells.size(); ++c)
+      for (Index v : cells[c])
+        if (v >= np) return invalid_input(fmt::format("{} {} refers to point {} of {}", kind, c, v, np));
+    return {};
+  };
+  PDR_TRY(out_of_range(mesh.tets, "tet"));
+  PDR_TRY(out_of_range(mesh.prisms, "prism"));
+  PDR_TRY(out_of_range(mesh.pyramids, "pyramid"));
+  std::vector<Ref> refs;
+  refs.reserve(4 * mesh.tets.size() + 5 * (mesh.prisms.size() + mesh.pyramids.size()));
+  const auto add = [&](std::array<Index, 4> face, std::size_t cell, int local) {
+    std::array<Index, 4> key = face;
+    std::sort(key.begin(), key.end());  // kNoIndex, a triangle's fourth, stays last
+    refs.push_back({key, face, static_cast<Index>(cell), local});
+  };
+  const auto tri = [](const auto& cell, const int (&f)[3]) {
+    return std::array<Index, 4>{cell[f[0]], cell[f[1]], cell[f[2]], kNoIndex};
+  };
+  const auto quad = [](const auto& cell, const int (&f)[4]) {
+    return std::array<Index, 4>{cell[f[0]], cell[f[1]], cell[f[2]], cell[f[3]]};
+  };
+  std::size_t c = 0;
+  for (const Tet& t : mesh.tets) {
+    for (int f = 0; f < 4; ++f) {
+      const Tri x = topo::face_of(t, f);
+      add({x[0], x[1], x[2], kNoIndex}, c, f);
+    }
+    ++c;
+  }
+  for (const Prism& p : mesh.prisms) {
+    add(tri(p, mixed::kPrismTriangles[0]), c, 0);
+    add(tri(p, mixed::kPrismTriangles[1]), c, 1);
+    for (int q = 0; q < 3; ++q) add(quad(p, mixed::kPrismQuads[q]), c, 2 + q);
+    ++c;
+  }
+  for (const Pyramid& p : mesh.pyramids) {
+    add(quad(p, mixed::kPyramidBase), c, 0);
+    for (int t = 0; t < 4; ++t) add(tri(p, mixed::kPyramidTriangles[t]), c, 1 + t);
+    ++c;
+  }
+  std::sort(refs.begin(), refs.end(), [](const Ref& a, const Ref& b) {
+    return std::tie(a.key, a.cell, a.local) < std::tie(b.key, b.cell, b.local);
+  });
+  std::vector<std::array<std::size_t, 2>> internal;  // (owner ref, neighbour ref)
+  std::vector<std::size_t> hull;
+  for (std::size_t i = 0; i < refs.size();) {
+    std::size_t e = i + 1;
+    while (e < refs.size() && refs[e].key == refs[i].key) ++e;
+    if (e - i == 1) {
+      hull.push_back(i);
+    } else if (e - i == 2 && refs[i].cell != refs[i + 1].cell) {
+      internal.push_back({i, i + 1});
+    } else {
+      const auto& k = refs[i].key;
+      return invalid_input(fmt::format("face ({}, {}, {}{}) is in {} cell faces (cells {} and {}, ...); a face "
+                                       "belongs to one or two cells",
+                                       k[0], k[1], k[2], k[3] == kNoIndex ? "" : fmt::format(", {}", k[3]), e - i,
+                                       refs[i].cell, refs[i + 1].cell));
+    }
+    i = e;
+  }
+  std::sort(internal.begin(), internal.end(), [&](const auto& x, const auto& y) {
+    return std::tie(refs[x[0]].cell, refs[x[1]].cell) < std::tie(refs[y[0]].cell, refs[y[1]].cell);
+  });
+  std::sort(hull.begin(), hull.end(), [&](std::size_t x, std::size_t y) {
+    return std::tie(refs[x].cell, refs[x].local) < std::tie(refs[y].cell, refs[y].local);
+  });
+  MixedCellFaces out;
+  out.faces.reserve(internal.size() + hull.size());
+  out.owner.reserve(internal.size() + hull.size());
+  out.neighbour.reserve(internal.size());
+  for (const auto& [o, n] : internal) {
+    out.faces.push_back(refs[o].face);
+    out.owner.push_back(refs[o].cell);
+    out.neighbour.push_back(refs[n].cell);
+  }
+  for (std::size_t h : hull) {
+    out.faces.push_back(refs[h].face);
+    out.owner.push_back(refs[h].cell);
+  }
   return out;
 }
 

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: AGPL-3.0-or-later
-// The serial pipeline with prism layers (see layered_pipeline.hpp).
+// The pipelines with prism layers (see layered_pipeline.hpp).
 #include "pdrmesh/layered_pipeline.hpp"
 
 #include <fmt/format.h>
@@ -7,12 +7,21 @@
 #include <algorithm>
 #include <chrono>
 #include <utility>
+#include <vector>
+
+#include "pdrmesh/regions.hpp"
 
 namespace pdrmesh {
+namespace {
 
-Result<LayeredResult> mesh_serial_layered(const SurfaceMesh& surface, const LayerOptions& layer_options,
-                                          const SerialOptions& options, const RefineProgress& progress) {
-  LayeredResult out;
+/// The layers of `surface`, their figures into `out`.
+Result<LayerMesh> grow_checked(const SurfaceMesh& surface, const LayerOptions& layer_options,
+                               LayeredResult& out) {
+  // Regions (regions.hpp) would lose their tet_regions in the merge below.
+  PDR_ASSIGN_OR_RETURN(const std::vector<SurfaceRegion> regions, surface_regions(surface));
+  if (!regions.empty())
+    return invalid_input(fmt::format("{}: prism layers in a surface of {} regions are not supported yet",
+                                     surface.name, regions.size()));
   const auto t = std::chrono::steady_clock::now();
   PDR_ASSIGN_OR_RETURN(LayerMesh layers, grow_layers(surface, layer_options));
   out.seconds_layers = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
@@ -22,10 +31,12 @@ Result<LayeredResult> mesh_serial_layered(const SurfaceMesh& surface, const Laye
   out.thickness_min = layers.thickness_min;
   out.thickness_max = layers.thickness_max;
   out.shrink_rounds = layers.shrink_rounds;
+  return layers;
+}
 
-  PDR_ASSIGN_OR_RETURN(out.fill, mesh_serial(layers.fill, options, progress));
-  VolumeMesh& fill = out.fill.mesh;
-
+/// The mixed mesh of `layers` and `fill`, a tet mesh of layers.fill, into `mesh`.
+Status merge_layers_and_fill(const SurfaceMesh& surface, LayerMesh& layers, const VolumeMesh& fill,
+                             VolumeMesh& mesh) {
   // The fill's points: those of its boundary are layer (or surface) points,
   // found by their exact coordinates; the others are new, appended in order.
   std::vector<Index> by_coord(layers.fill.points.size());
@@ -54,7 +65,6 @@ Result<LayeredResult> mesh_serial_layered(const SurfaceMesh& surface, const Laye
     for (Index v : k) mark(to_mixed[v]);
   for (const Prism& p : layers.prisms)
     for (Index v : p) mark(v);
-  VolumeMesh& mesh = out.mesh;
   for (Index v = 0; v < points.size(); ++v)
     if (renumber[v] != kNoIndex) {
       renumber[v] = static_cast<Index>(mesh.points.size());
@@ -77,7 +87,29 @@ Result<LayeredResult> mesh_serial_layered(const SurfaceMesh& surface, const Laye
   }
   mesh.boundary_ids = surface.surface_ids;
   mesh.boundary_names = surface.surface_names;
-  fill = VolumeMesh{};
+  return {};
+}
+
+}  // namespace
+
+Result<LayeredResult> mesh_serial_layered(const SurfaceMesh& surface, const LayerOptions& layer_options,
+                                          const SerialOptions& options, const RefineProgress& progress) {
+  LayeredResult out;
+  PDR_ASSIGN_OR_RETURN(LayerMesh layers, grow_checked(surface, layer_options, out));
+  PDR_ASSIGN_OR_RETURN(out.fill, mesh_serial(layers.fill, options, progress));
+  PDR_TRY(merge_layers_and_fill(surface, layers, out.fill.mesh, out.mesh));
+  out.fill.mesh = VolumeMesh{};
+  return out;
+}
+
+Result<LayeredParallelResult> mesh_parallel_layered(const SurfaceMesh& surface, const LayerOptions& layer_options,
+                                                    const ParallelOptions& options, const LeafKernel* kernel,
+                                                    const LeafKernel* optimize_kernel) {
+  LayeredParallelResult out;
+  PDR_ASSIGN_OR_RETURN(LayerMesh layers, grow_checked(surface, layer_options, out.layered));
+  PDR_ASSIGN_OR_RETURN(out.fill, mesh_parallel(layers.fill, options, kernel, optimize_kernel));
+  PDR_TRY(merge_layers_and_fill(surface, layers, out.fill.mesh, out.layered.mesh));
+  out.fill.mesh = VolumeMesh{};
   return out;
 }
 

@@ -10,11 +10,14 @@
 #include <algorithm>
 #include <array>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <set>
 
+#include "pdrmesh/farfield.hpp"
 #include "pdrmesh/layered_pipeline.hpp"
 #include "pdrmesh/mixed_cells.hpp"
+#include "pdrmesh/topology.hpp"
 #include "pdrmesh/validate.hpp"
 #include "pdrmesh/volume_io.hpp"
 #include "test_fixtures.hpp"
@@ -158,6 +161,103 @@ TEST(Layers, MixedMeshIsWrittenInFormatsThatHoldPrismsAndReadBackFromMedit) {
   EXPECT_TRUE(validate_mesh(*back, &sphere).ok());
 }
 
+TEST(Layers, FarfieldBodyGrowsLayersIntoTheFluidAndTheFarFieldNone) {
+  const SurfaceMesh sphere = fixtures::corpus_surface("sphere966");
+  FarfieldOptions far;
+  far.distance = 5;
+  auto domain = make_farfield(sphere, far);
+  ASSERT_TRUE(domain.ok()) << domain.status().to_string();
+  // The body's triangles come first in the domain, the far field's last.
+  const std::size_t n = sphere.triangles.size();
+  ASSERT_EQ(domain->surface.triangles.size(), n + domain->farfield_triangles);
+  LayerOptions o = five_layers(0.05);
+  const auto& ids = domain->surface.surface_ids;
+  const std::set<int> body_ids(ids.begin(), ids.begin() + static_cast<std::ptrdiff_t>(n));
+  o.walls.assign(body_ids.begin(), body_ids.end());
+  const LayeredResult r = mesh_layered(domain->surface, o);
+  ASSERT_EQ(r.mesh.prisms.size(), 5 * n);
+  // Every first-layer prism stands on a body triangle: the reversed body's
+  // triangles are the bottoms, none of the far field's.
+  std::set<Tri> body, bottoms;
+  for (std::size_t t = 0; t < n; ++t) body.insert(topo::sorted_key(domain->surface.triangles[t]));
+  for (const Prism& p : r.mesh.prisms) bottoms.insert(topo::sorted_key(Tri{p[0], p[1], p[2]}));
+  std::size_t on_body = 0;
+  for (const Tri& t : bottoms) on_body += body.count(t);
+  EXPECT_EQ(on_body, n) << "each body triangle carries a stack";
+  for (std::size_t t = n; t < domain->surface.triangles.size(); ++t)
+    EXPECT_EQ(bottoms.count(topo::sorted_key(domain->surface.triangles[t])), 0u) << "far-field triangle " << t;
+  const LayerReport layers = measure_layers(r.mesh);
+  EXPECT_EQ(layers.stacks, n);
+  EXPECT_EQ(layers.min_layers, 5u);
+  // Into the fluid: every layer point lies farther from the sphere's centre
+  // than any of the sphere's own points.
+  const Box box = sphere.bounds();
+  const Vec3 c = 0.5 * (box.lo + box.hi);
+  double radius = 0;
+  for (const Vec3& x : sphere.points) radius = std::max(radius, norm(x - c));
+  for (const Prism& p : r.mesh.prisms)
+    for (int i = 3; i < 6; ++i) EXPECT_GT(norm(r.mesh.points[p[i]] - c), radius);
+}
+
+/// A cell's vertex centroid.
+template <class Cell>
+Vec3 centroid(const std::vector<Vec3>& points, const Cell& c) {
+  Vec3 x{0, 0, 0};
+  for (Index v : c) x = x + points[v];
+  return (1.0 / static_cast<double>(c.size())) * x;
+}
+
+TEST(Layers, PolyMeshFacesOfTheMixedMeshAreTrianglesAndQuadsOutOfTheirOwners) {
+  const SurfaceMesh sphere = fixtures::corpus_surface("sphere966");
+  const VolumeMesh& mesh = sphere_layers().mesh;
+  auto cf = mixed_cell_faces(mesh);
+  ASSERT_TRUE(cf.ok()) << cf.status().to_string();
+  std::vector<Vec3> centre;
+  for (const Tet& t : mesh.tets) centre.push_back(centroid(mesh.points, t));
+  for (const Prism& p : mesh.prisms) centre.push_back(centroid(mesh.points, p));
+  std::vector<int> faces_of(centre.size(), 0);
+  std::size_t quads = 0;
+  for (std::size_t f = 0; f < cf->faces.size(); ++f) {
+    const auto& q = cf->faces[f];
+    const int k = q[3] == kNoIndex ? 3 : 4;
+    quads += k == 4 ? 1 : 0;
+    Vec3 normal{0, 0, 0}, mid{0, 0, 0};  // Newell's normal of the polygon
+    for (int i = 0; i < k; ++i) {
+      normal = normal + cross(mesh.points[q[i]], mesh.points[q[(i + 1) % k]]);
+      mid = mid + (1.0 / k) * mesh.points[q[i]];
+    }
+    EXPECT_GT(dot(normal, mid - centre[cf->owner[f]]), 0) << "face " << f << " points out of its owner";
+    ++faces_of[cf->owner[f]];
+    if (f < cf->internal()) {
+      EXPECT_LT(cf->owner[f], cf->neighbour[f]);
+      if (f > 0) {
+        EXPECT_LT(std::make_pair(cf->owner[f - 1], cf->neighbour[f - 1]),
+                  std::make_pair(cf->owner[f], cf->neighbour[f]));
+      }
+      EXPECT_GT(dot(normal, centre[cf->neighbour[f]] - mid), 0) << "face " << f << " points into its neighbour";
+      ++faces_of[cf->neighbour[f]];
+    } else {
+      EXPECT_EQ(k, 3) << "hull face " << f << ": the hull is the sphere's triangles";
+    }
+  }
+  for (std::size_t c = 0; c < faces_of.size(); ++c) EXPECT_EQ(faces_of[c], c < mesh.tets.size() ? 4 : 5) << c;
+  EXPECT_EQ(quads, 3 * mesh.prisms.size() / 2) << "every prism side is shared with the next stack";
+  EXPECT_EQ(cf->faces.size() - cf->internal(), sphere.triangles.size());
+
+  const auto dir = temp_path("case") / "constant" / "polyMesh";
+  ASSERT_TRUE(write_volume(mesh, dir).ok());
+  std::ifstream in(dir / "faces");
+  std::string line;
+  std::size_t quad_lines = 0, triangle_lines = 0;
+  while (std::getline(in, line)) {
+    quad_lines += line.rfind("4(", 0) == 0 ? 1 : 0;
+    triangle_lines += line.rfind("3(", 0) == 0 ? 1 : 0;
+  }
+  std::filesystem::remove_all(temp_path("case"));
+  EXPECT_EQ(quad_lines, quads);
+  EXPECT_EQ(triangle_lines + quad_lines, cf->faces.size());
+}
+
 TEST(Layers, BoxGrowsFiveLayersAcrossItsEdgesAndCorners) {
   const SurfaceMesh box = voxel_surface({{0, 0, 0}}, 4, 1);
   const LayeredResult r = mesh_layered(box, five_layers(0.01));
@@ -213,6 +313,16 @@ TEST(Layers, RefusesWallsThatMeetTrianglesWithoutLayers) {
   EXPECT_EQ(r.status().code(), StatusCode::kInvalidInput);
   EXPECT_NE(r.status().message().find("surface id 1 (with layers) meets surface id"), std::string::npos)
       << r.status().message();
+}
+
+TEST(Layers, RefusesASurfaceOfSeveralRegions) {
+  // A small box inside a big one, both outward: two regions (regions.hpp).
+  const SurfaceMesh two =
+      joined(voxel_surface({{0, 0, 0}}, 2, 1, 4), voxel_surface({{0, 0, 0}}, 2, 2, 1, {1.5, 1.5, 1.5}));
+  auto r = mesh_serial_layered(two, five_layers(0.05), SerialOptions{});
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.status().code(), StatusCode::kInvalidInput);
+  EXPECT_NE(r.status().message().find("2 regions"), std::string::npos) << r.status().message();
 }
 
 TEST(Layers, RefusesBadOptions) {

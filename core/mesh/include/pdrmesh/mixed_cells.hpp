@@ -29,10 +29,12 @@
 // diagonal a neighbour or a solver picks.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <string>
 #include <vector>
 
+#include "pdrmesh/status.hpp"
 #include "pdrmesh/surface.hpp"
 #include "pdrmesh/types.hpp"
 #include "pdrmesh/validate.hpp"
@@ -73,6 +75,23 @@ VolumeMesh split_to_tets(const VolumeMesh& mesh);
 /// validate_mesh calls this for a mesh with prisms or pyramids.
 ValidationReport validate_mixed_mesh(const VolumeMesh& mesh, const SurfaceMesh* surface,
                                      const ValidationOptions& options);
+
+/// The faces of a mixed mesh as a finite-volume solver sees them, in the order
+/// cell_faces (cell_faces.hpp) gives a tet mesh's: cells are the tets, then the
+/// prisms, then the pyramids; the faces two cells share by ascending (owner,
+/// neighbour), owner the lower cell, then the faces of one cell by ascending
+/// (cell, local face). Each face is oriented out of its owner; a triangle has
+/// face[3] == kNoIndex.
+struct MixedCellFaces {
+  std::vector<std::array<Index, 4>> faces;
+  std::vector<Index> owner;      ///< one per face
+  std::vector<Index> neighbour;  ///< one per internal face
+  std::size_t internal() const { return neighbour.size(); }
+};
+
+/// The faces of a mixed mesh of positive cells. An index out of range, or a
+/// face in three or more cells, is `invalid_input` naming it.
+Result<MixedCellFaces> mixed_cell_faces(const VolumeMesh& mesh);
 
 /// What the CFD user reads of prism layers: stacks of prisms grown from
 /// boundary triangles, found by walking from a boundary triangle through

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: AGPL-3.0-or-later
-// The serial pipeline with prism boundary layers: grow_layers (layers.hpp),
-// then mesh_serial (pipeline.hpp) of what the layers leave (their top and the
-// walls without layers), then one mixed mesh of both.
+// The pipelines with prism boundary layers: grow_layers (layers.hpp), then
+// mesh_serial or mesh_parallel (pipeline.hpp) of what the layers leave (their
+// top and the walls without layers), then one mixed mesh of both.
 #pragma once
 
 #include "pdrmesh/layers.hpp"
@@ -26,8 +26,21 @@ struct LayeredResult {
 /// is that of the top's own triangles and grows by options.sizing.growth (the
 /// caller sets it to continue the layers' growth). The mixed mesh's points are
 /// the surface's used points first, in their order, then the layer points, then
-/// the fill's inner points.
+/// the fill's inner points. A surface of several regions (regions.hpp) is
+/// refused (invalid_input): layers there are not supported yet.
 Result<LayeredResult> mesh_serial_layered(const SurfaceMesh& checked_surface, const LayerOptions& layers,
                                           const SerialOptions& options, const RefineProgress& progress = {});
+
+struct LayeredParallelResult {
+  LayeredResult layered;  ///< the mixed mesh and the layer figures (its `fill` unused)
+  ParallelResult fill;    ///< the tet fill's figures and profile (its mesh moved into layered.mesh)
+};
+
+/// mesh_serial_layered with the tet fill through mesh_parallel (`kernel` and
+/// `optimize_kernel` as there): the same layers, made serially, so the prisms
+/// and the points under them are the serial path's, byte for byte.
+Result<LayeredParallelResult> mesh_parallel_layered(const SurfaceMesh& checked_surface, const LayerOptions& layers,
+                                                    const ParallelOptions& options, const LeafKernel* kernel = nullptr,
+                                                    const LeafKernel* optimize_kernel = nullptr);
 
 }  // namespace pdrmesh
