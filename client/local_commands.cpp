@@ -14,16 +14,20 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <set>
 #include <string>
 
 #include "exit_codes.hpp"
+#include "layer_options.hpp"
 #include "options.hpp"
 #include "progress_display.hpp"
 #include "run_options.hpp"
 #include "pdrmesh/boundary_names.hpp"
 #include "pdrmesh/boundary_names_io.hpp"
 #include "pdrmesh/farfield.hpp"
+#include "pdrmesh/layered_pipeline.hpp"
 #include "pdrmesh/leaf_kernels.hpp"
+#include "pdrmesh/mixed_cells.hpp"
 #include "pdrmesh/pdr_profile.hpp"
 #include "pdrmesh/optimize.hpp"
 #include "pdrmesh/pdr.hpp"
@@ -118,11 +122,12 @@ std::vector<RegionCount> region_counts(const VolumeMesh& mesh) {
 
 /// Reads and checks a surface, with the names of a --names file (`names_path`,
 /// empty: none), and with `farfield` the domain around it (farfield.hpp) in its
-/// place, `body_diagonal` then the body's bounding-box diagonal (0 without);
-/// on failure prints why and returns the exit code.
+/// place, `body_diagonal` then the body's bounding-box diagonal (0 without)
+/// and `body_ids` (when given) the body's surface ids; on failure prints why
+/// and returns the exit code.
 int load_checked_surface(const std::string& path, const std::string& names_path,
                          const std::optional<FarfieldOptions>& farfield, Progress& progress, SurfaceMesh& out,
-                         double& body_diagonal, StepTimes* times = nullptr) {
+                         double& body_diagonal, StepTimes* times = nullptr, std::vector<int>* body_ids = nullptr) {
   body_diagonal = 0;
   auto t = Clock::now();
   auto surface = read_surface(path);
@@ -137,6 +142,11 @@ int load_checked_surface(const std::string& path, const std::string& names_path,
     progress.say("far field: a {} {:g} body lengths (L = {:.6g}) from the body, {} triangles of about {:.6g}",
                  to_string(farfield->shape), farfield->distance, domain->body_length, domain->farfield_triangles,
                  domain->farfield_size);
+    if (body_ids) {  // the body's triangles come first, the far field's last
+      const auto& ids = domain->surface.surface_ids;
+      const std::set<int> body(ids.begin(), ids.end() - static_cast<std::ptrdiff_t>(domain->farfield_triangles));
+      body_ids->assign(body.begin(), body.end());
+    }
     *surface = std::move(domain->surface);
   }
   if (!surface->surface_names.empty()) progress.say("{}", names_line(surface->surface_names));
@@ -167,6 +177,7 @@ void print_result_json(const Outcome& o, const VolumeMesh& mesh, const QualityRe
                       {"tets", mesh.tets.size()},
                       {"points", mesh.points.size()},
                       {"quality", nlohmann::json::parse(quality_to_json(q))}};
+  if (mesh.mixed()) j["layers"] = nlohmann::json::parse(layers_to_json(measure_layers(mesh)));
   fmt::print("{}\n", j.dump());
 }
 
@@ -213,7 +224,7 @@ int finish(const VolumeMesh& mesh, const SurfaceMesh& surface, const Outcome& o,
   if (!staged.ok()) return fail(staged.status());
   if (Status s = staged->commit(); !s.ok()) return fail(s);
   progress.say("wrote {}", *o.output);
-  if (!quiet) fmt::print(stderr, "{}", format_quality(quality));
+  if (!quiet) fmt::print(stderr, "{}{}", format_quality(quality), format_layers(measure_layers(mesh)));
   if (o.json) print_result_json(o, mesh, quality);
   return kExitOk;
 }
@@ -263,15 +274,40 @@ struct MeshArgs {
   bool no_optimize = false;
   SizeArgs size;
   std::string names;  ///< --names FILE; empty: none
+  LayerArgs layers;
+  bool growth_given = false;  ///< --growth on the command line (else the layers' ratio continues)
   FarfieldArgs farfield;
 };
+
+/// `mesh --layers`: prisms on the walls (by default every surface but the far
+/// field's: `body_ids` with --farfield), the serial pipeline for the rest.
+int run_mesh_layered(const MeshArgs& a, const SurfaceMesh& surface, const std::vector<int>& body_ids,
+                     SerialOptions options, Outcome& outcome, Progress& progress) {
+  auto layers = a.layers.resolve(surface, body_ids);
+  if (!layers.ok()) return fail(layers.status());
+  if (!a.growth_given && layers->growth_ratio > 1) options.sizing.growth = layers->growth_ratio;
+  auto result = mesh_serial_layered(surface, *layers, options, [&progress](const RefinePassStats& p) {
+    progress.say("pass {}: {} candidates, {} inserted, {} flips, {} tets", p.pass, p.candidates, p.inserted,
+                 p.flips, p.tets);
+  });
+  if (!result.ok()) return fail_run(result.status(), a.time_limit_s);
+  progress.say("layers: {} on {} wall triangles ({} points), stack {:.4g} to {:.4g} thick, {} stacks compressed "
+               "({:.2f} s)",
+               layers->layers, result->wall_triangles, result->wall_points, result->thickness_min,
+               result->thickness_max, result->compressed_points, result->seconds_layers);
+  progress.say("mixed mesh: {} prisms, {} tets, {} points", result->mesh.prisms.size(), result->mesh.tets.size(),
+               result->mesh.points.size());
+  return finish(result->mesh, surface, outcome, !a.no_validate, progress, a.quiet);
+}
 
 int run_mesh(const MeshArgs& a) {
   Progress progress(a.quiet);
   const auto start = Clock::now();
   SurfaceMesh surface;
   double body_diagonal = 0;
-  if (int code = load_checked_surface(a.surface, a.names, a.farfield.options(), progress, surface, body_diagonal);
+  std::vector<int> body_ids;
+  if (int code = load_checked_surface(a.surface, a.names, a.farfield.options(), progress, surface, body_diagonal,
+                                      nullptr, &body_ids);
       code != kExitOk)
     return code;
   // The time limit counts from the start: what reading and checking took is gone.
@@ -298,6 +334,7 @@ int run_mesh(const MeshArgs& a) {
   if (Status s = a.size.check_tet_limit(surface, options.sizing, true); !s.ok()) return fail(s);
   options.time_limit_s = left_s;
   if (a.no_optimize) options.optimize.reset();
+  if (a.layers.layers > 0) return run_mesh_layered(a, surface, body_ids, options, outcome, progress);
   auto result = mesh_serial(surface, options, [&progress](const RefinePassStats& p) {
     progress.say("pass {}: {} candidates, {} inserted, {} flips, {} tets", p.pass, p.candidates, p.inserted,
                  p.flips, p.tets);
@@ -321,6 +358,8 @@ struct RunArgs {
   bool quiet = false;
   bool json = false;
   RunOptionArgs mesh;
+  LayerArgs layers;
+  bool growth_given = false;  ///< --growth on the command line (else the layers' ratio continues)
 };
 
 /// The whole run's profile: every step from reading the surface to the
@@ -371,9 +410,16 @@ int run_run(const RunArgs& a) {
   SurfaceMesh surface;
   StepTimes times;
   double body_diagonal = 0;
+  std::vector<int> body_ids;
   const int loaded = load_checked_surface(a.surface, a.mesh.names, a.mesh.farfield.options(), progress, surface,
-                                          body_diagonal, &times);
+                                          body_diagonal, &times, &body_ids);
   if (loaded != kExitOk) return loaded;
+  std::optional<LayerOptions> layers;
+  if (a.layers.layers > 0) {
+    auto resolved = a.layers.resolve(surface, body_ids);
+    if (!resolved.ok()) return fail(resolved.status());
+    layers = *resolved;
+  }
 
   auto kernel = make_leaf_kernel(a.mesh.kernel);
   if (!kernel.ok()) return fail(kernel.status());
@@ -382,6 +428,7 @@ int run_run(const RunArgs& a) {
   outcome.size = options.sizing.size;
   progress.say("{}", outcome.size_line);
   if (Status s = a.mesh.size.check_tet_limit(surface, options.sizing, true); !s.ok()) return fail(s);
+  if (layers && !a.growth_given && layers->growth_ratio > 1) options.sizing.growth = layers->growth_ratio;
   options.pdr.workers = a.workers;
   if (a.time_limit_s > 0) options.pdr.tetgen_time_limit_s = std::min(options.pdr.tetgen_time_limit_s, a.time_limit_s);
   progress.update({"sizing"});
@@ -396,11 +443,33 @@ int run_run(const RunArgs& a) {
     progress.update({std::string(p.phase), p.leaves_done, p.leaves_total, p.tets});
     return true;
   };
-  auto result = mesh_parallel(surface, options, kernel->get());
+  // With layers: the layers made serially as `mesh` makes them, the tets that
+  // fill the rest by the parallel method.
+  std::optional<LayeredParallelResult> layered;
+  Result<ParallelResult> result = ParallelResult{};
+  if (layers) {
+    auto r = mesh_parallel_layered(surface, *layers, options, kernel->get());
+    if (r.ok()) {
+      layered = std::move(r).value();
+      result = std::move(layered->fill);
+    } else {
+      result = r.status();
+    }
+  } else {
+    result = mesh_parallel(surface, options, kernel->get());
+  }
   progress.finish();
   if (!result.ok()) return fail_run(result.status(), a.time_limit_s, timed_out);
   if (deadline && Clock::now() >= *deadline)
     return fail_run(deadline_exceeded("it ran out before the mesh was done"), a.time_limit_s);
+  if (layered) {
+    const LayeredResult& l = layered->layered;
+    progress.say("layers: {} on {} wall triangles ({} points), stack {:.4g} to {:.4g} thick, {} stacks compressed "
+                 "({:.2f} s)",
+                 layers->layers, l.wall_triangles, l.wall_points, l.thickness_min, l.thickness_max,
+                 l.compressed_points, l.seconds_layers);
+    result->mesh = std::move(layered->layered.mesh);
+  }
   const VolumeMesh& mesh = result->mesh;
   PdrProfile& profile = result->profile;
   progress.say("point distribution function built from {} boundary points", result->boundary_points);
@@ -430,6 +499,24 @@ int run_run(const RunArgs& a) {
 int run_quality(const std::string& path, bool json, const std::string& svg) {
   auto mesh = read_volume(path);
   if (!mesh.ok()) return fail(mesh.status());
+  if (mesh->mixed()) {
+    // The tet measures below cover the tets alone; the prisms get the layer figures.
+    const LayerReport layers = measure_layers(*mesh);
+    const QualityReport q = measure_quality(*mesh, /*interior=*/true);
+    if (json) {
+      auto j = nlohmann::json::parse(quality_to_json(q));
+      j["layers"] = nlohmann::json::parse(layers_to_json(layers));
+      j["openfoam"] = {{"error", "not measured on a mesh with prisms or pyramids"}};
+      fmt::print("{}\n", j.dump());
+    } else {
+      fmt::print("{}{}", format_quality(q), format_layers(layers));
+      fmt::print("OpenFOAM (checkMesh) figures not measured: the mesh has prisms or pyramids\n");
+    }
+    if (!svg.empty()) {
+      if (Status s = write_text(svg, quality_histogram_svg(q, path)); !s.ok()) return fail(s);
+    }
+    return kExitOk;
+  }
   const QualityReport q = measure_quality(*mesh, /*interior=*/true);
   // checkMesh's figures need every face in one or two tets; on a mesh where
   // that fails the rest of the report still prints, with the reason.
@@ -537,7 +624,10 @@ void add_local_commands(CLI::App& app, int& exit_code) {
     cmd->add_flag("-q,--quiet", a->quiet, "no progress or summary on stderr");
     cmd->add_flag("--json", a->json, json_help);
     cmd->add_flag("--no-validate", a->no_validate, "skip validating the result before writing it");
+    a->layers.add_to(cmd);
     cmd->footer(help_footer({{"pdrmesh mesh part.stl -o part.vtu", "mesh with the spacing the surface's triangles give"},
+                             {"pdrmesh mesh duct.stl -o duct.su2 --layers 10 --first-height 1e-4 --growth-ratio 1.2",
+                              "ten prism layers on the walls, then tets"},
                              {"pdrmesh mesh part.stl -o part.msh --size 1% --time-limit 600",
                               "edges about 1% of the bounding-box diagonal; stop after 10 minutes"},
                              {"pdrmesh mesh part.ply -o part.su2 --names names.txt",
@@ -550,6 +640,9 @@ void add_local_commands(CLI::App& app, int& exit_code) {
                       "the initial mesh is not refined");
       if (cmd->count("--max-volume") > 0 && !a->no_refine)
         usage_error("--max-volume: only with --no-refine (the refined mesh follows --size)");
+      if (a->layers.layers > 0 && a->no_refine) usage_error("--layers: not with --no-refine");
+      a->layers.check(*cmd, a->output);
+      a->growth_given = cmd->count("--growth") > 0;
       exit_code = run_mesh(*a);
     });
   }
@@ -571,11 +664,14 @@ void add_local_commands(CLI::App& app, int& exit_code) {
     cmd->add_flag("-q,--quiet", a->quiet, "no progress or summary on stderr");
     cmd->add_flag("--json", a->json, json_help);
     a->mesh.add_to(cmd);
+    a->layers.add_to(cmd);
     cmd->footer(help_footer({{"pdrmesh run part.stl -o part.meshb --workers 8", "the parallel method on 8 threads"},
                              {"pdrmesh run part.stl -o part.vtu --size 0.5% --depth 2 --profile",
                               "a finer mesh over a 4x4x4 octree, with the time of each phase"}}));
-    cmd->callback([&exit_code, a] {
+    cmd->callback([&exit_code, a, cmd] {
       a->mesh.size.check();
+      a->layers.check(*cmd, a->output);
+      a->growth_given = cmd->count("--growth") > 0;
       exit_code = run_run(*a);
     });
   }

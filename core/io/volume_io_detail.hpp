@@ -211,6 +211,8 @@ Status write_gmsh(const VolumeMesh& mesh, const std::filesystem::path& path);
 Result<VolumeMesh> read_gmsh(std::string_view text, const std::string& name);
 
 Status write_su2(const VolumeMesh& mesh, const std::filesystem::path& path);
+/// A mesh with prisms or pyramids in `format` (volume_io_mixed.cpp); unsupported for formats that hold tets only.
+Status write_mixed(const VolumeMesh& mesh, VolumeFormat format, const std::filesystem::path& path);
 Result<VolumeMesh> read_su2(std::string_view text, const std::string& name);
 
 Status write_cgns(const VolumeMesh& mesh, const std::filesystem::path& path);

@@ -3,23 +3,27 @@
 // neighbour and boundary (and cellZones when the tets carry two or more
 // regions), each an ASCII FoamFile dictionary.
 //
-// Cells are the tets in mesh order, points the mesh's points. Faces follow
-// cell_faces (cell_faces.hpp): the internal faces in upper-triangular order,
-// then the hull faces grouped into one patch per boundary id (ascending id,
-// mesh order within an id), each face oriented out of its owner. A hull face
-// that no boundary triangle names goes into a last patch "defaultFaces"
-// (blockMesh's name for it). Patch names are boundary_name() made into
-// OpenFOAM words; every patch is of type `patch`.
+// Cells are the tets in mesh order (then, in a mesh with prism layers, the
+// prisms and the pyramids), points the mesh's points. Faces follow cell_faces
+// (cell_faces.hpp; mixed_cell_faces in mixed_cells.hpp, where a face is a
+// triangle or a quad): the internal faces in upper-triangular order, then the
+// hull faces grouped into one patch per boundary id (ascending id, mesh order
+// within an id), each face oriented out of its owner. A hull face that no
+// boundary triangle names goes into a last patch "defaultFaces" (blockMesh's
+// name for it). Patch names are boundary_name() made into OpenFOAM words;
+// every patch is of type `patch`.
 #include <fmt/compile.h>
 
 #include <algorithm>
 #include <cctype>
 #include <map>
+#include <optional>
 #include <set>
 #include <string>
 #include <tuple>
 
 #include "pdrmesh/cell_faces.hpp"
+#include "pdrmesh/mixed_cells.hpp"
 #include "pdrmesh/topology.hpp"
 #include "volume_io_detail.hpp"
 
@@ -78,11 +82,26 @@ struct FoamPatch {
   std::size_t start = 0, count = 0;
 };
 
-}  // namespace
+// A face as a triangle (a quad is none), and a face in the faces file.
+std::optional<Tri> as_triangle(const Tri& f) { return f; }
+std::optional<Tri> as_triangle(const std::array<Index, 4>& f) {
+  if (f[3] != kNoIndex) return std::nullopt;
+  return Tri{f[0], f[1], f[2]};
+}
+void put_face(fmt::memory_buffer& b, const Tri& t) {
+  fmt::format_to(std::back_inserter(b), FMT_COMPILE("3({} {} {})\n"), t[0], t[1], t[2]);
+}
+void put_face(fmt::memory_buffer& b, const std::array<Index, 4>& f) {
+  if (f[3] == kNoIndex)
+    fmt::format_to(std::back_inserter(b), FMT_COMPILE("3({} {} {})\n"), f[0], f[1], f[2]);
+  else
+    fmt::format_to(std::back_inserter(b), FMT_COMPILE("4({} {} {} {})\n"), f[0], f[1], f[2], f[3]);
+}
 
-Status write_foam(const VolumeMesh& mesh, const std::filesystem::path& dir) {
-  PDR_ASSIGN_OR_RETURN(CellFaces cf, cell_faces(mesh.tets, mesh.points.size()));
-  if (mesh.tets.empty()) return invalid_input("an OpenFOAM polyMesh needs at least one tet");
+/// The polyMesh of `mesh` with its `ncells` cells and their faces `cf`
+/// (CellFaces or MixedCellFaces).
+template <class Faces>
+Status write_foam_faces(const VolumeMesh& mesh, const Faces& cf, std::size_t ncells, const std::filesystem::path& dir) {
 
   // Each hull face's boundary id, from the boundary triangle with its points
   // (the first one, should a file list a triangle twice); none: defaultFaces.
@@ -100,9 +119,10 @@ Status write_foam(const VolumeMesh& mesh, const std::filesystem::path& dir) {
   std::vector<HullFace> hull;
   hull.reserve(cf.faces.size() - internal);
   for (std::size_t f = internal; f < cf.faces.size(); ++f) {
-    const Tri key = topo::sorted_key(cf.faces[f]);
+    const std::optional<Tri> t = as_triangle(cf.faces[f]);
+    const Tri key = t ? topo::sorted_key(*t) : Tri{};
     const auto it = std::lower_bound(named.begin(), named.end(), std::make_pair(key, std::size_t{0}));
-    if (it != named.end() && it->first == key)
+    if (t && it != named.end() && it->first == key)
       hull.push_back({true, mesh.boundary_ids[it->second], it->second, f});
     else
       hull.push_back({false, 0, f, f});
@@ -149,13 +169,12 @@ Status write_foam(const VolumeMesh& mesh, const std::filesystem::path& dir) {
     foam_header(out.buf(), "faceList", "faces");
     auto it = std::back_inserter(out.buf());
     fmt::format_to(it, "{}\n(\n", cf.faces.size());
-    const auto face = [&](const Tri& t) { fmt::format_to(it, FMT_COMPILE("3({} {} {})\n"), t[0], t[1], t[2]); };
     for (std::size_t f = 0; f < internal; ++f) {
-      face(cf.faces[f]);
+      put_face(out.buf(), cf.faces[f]);
       PDR_TRY(out.maybe_flush());
     }
     for (const HullFace& h : hull) {
-      face(cf.faces[h.face]);
+      put_face(out.buf(), cf.faces[h.face]);
       PDR_TRY(out.maybe_flush());
     }
     fmt::format_to(it, ")\n");
@@ -163,7 +182,7 @@ Status write_foam(const VolumeMesh& mesh, const std::filesystem::path& dir) {
   };
   PDR_TRY(write_foam_file(dir / "faces", faces));
   const std::string note = fmt::format("nPoints:{}  nCells:{}  nFaces:{}  nInternalFaces:{}", mesh.points.size(),
-                                       mesh.tets.size(), cf.faces.size(), internal);
+                                       ncells, cf.faces.size(), internal);
   PDR_TRY(write_foam_labels(dir / "owner", "owner", note, owner));
   PDR_TRY(write_foam_labels(dir / "neighbour", "neighbour", note, cf.neighbour));
 
@@ -199,6 +218,19 @@ Status write_foam(const VolumeMesh& mesh, const std::filesystem::path& dir) {
     fmt::format_to(it, ")\n");
     return {};
   });
+}
+
+}  // namespace
+
+Status write_foam(const VolumeMesh& mesh, const std::filesystem::path& dir) {
+  const std::size_t cells = mesh.tets.size() + mesh.prisms.size() + mesh.pyramids.size();
+  if (mesh.mixed()) {
+    PDR_ASSIGN_OR_RETURN(MixedCellFaces cf, mixed_cell_faces(mesh));
+    return write_foam_faces(mesh, cf, cells, dir);
+  }
+  PDR_ASSIGN_OR_RETURN(CellFaces cf, cell_faces(mesh.tets, mesh.points.size()));
+  if (cells == 0) return invalid_input("an OpenFOAM polyMesh needs at least one tet");
+  return write_foam_faces(mesh, cf, cells, dir);
 }
 
 }  // namespace pdrmesh::volio

@@ -139,8 +139,25 @@ Result<VolumeMesh> read_medit(std::string_view text, const std::string& name) {
         for (Index& v : mesh.tets[i]) PDR_TRY(in.index(v, 1, np, "tetrahedron vertex"));
         PDR_TRY(in.integer(refs[i], "tetrahedron ref"));
       }
-    } else if (iequals(kw, "Quadrilaterals") || iequals(kw, "Prisms") || iequals(kw, "Hexahedra") ||
-               iequals(kw, "Pyramids")) {
+    } else if (iequals(kw, "Prisms") || iequals(kw, "Pyramids")) {
+      if (!have_vertices) return in.error(fmt::format("{} before Vertices", std::string(kw)));
+      const bool prisms = iequals(kw, "Prisms");
+      if (prisms ? !mesh.prisms.empty() : !mesh.pyramids.empty())
+        return in.error(fmt::format("second {} section", std::string(kw)));
+      std::size_t n = 0;
+      PDR_TRY(in.count(n, prisms ? 7 : 6, "element count"));
+      const std::size_t np = mesh.points.size();
+      int ref = 0;
+      if (prisms) mesh.prisms.resize(n);
+      else mesh.pyramids.resize(n);
+      for (std::size_t i = 0; i < n; ++i) {
+        if (prisms)
+          for (Index& v : mesh.prisms[i]) PDR_TRY(in.index(v, 1, np, "prism vertex"));
+        else
+          for (Index& v : mesh.pyramids[i]) PDR_TRY(in.index(v, 1, np, "pyramid vertex"));
+        PDR_TRY(in.integer(ref, "element ref"));
+      }
+    } else if (iequals(kw, "Quadrilaterals") || iequals(kw, "Hexahedra")) {
       const std::size_t at = in.last_token_start();
       std::size_t n = 0;
       PDR_TRY(in.count(n, 1, "element count"));

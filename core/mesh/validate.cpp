@@ -22,6 +22,7 @@
 #include <oneapi/tbb/parallel_sort.h>
 
 #include "pdrmesh/fixed_chunks.hpp"
+#include "pdrmesh/mixed_cells.hpp"
 
 #include "pdrmesh/predicates.hpp"
 #include "pdrmesh/topology.hpp"
@@ -152,6 +153,7 @@ double enclosed_volume(const SurfaceMesh& surface) {
 // as one serial pass would give.
 ValidationReport validate_mesh(const VolumeMesh& mesh, const SurfaceMesh* surface,
                                const ValidationOptions& options) {
+  if (mesh.mixed()) return validate_mixed_mesh(mesh, surface, options);
   ValidationReport report;
   Recorder rec(report, options.max_messages_per_check);
   const auto& P = mesh.points;
@@ -476,6 +478,7 @@ ValidationReport validate_mesh(const VolumeMesh& mesh, const SurfaceMesh* surfac
 std::string format_validation(const ValidationReport& r) {
   std::string s = fmt::format("tets {}  points {}  boundary faces {}  volume {:.9g}", r.tets, r.points,
                               r.boundary_faces, r.volume);
+  if (r.prisms + r.pyramids > 0) s += fmt::format("  prisms {}  pyramids {}", r.prisms, r.pyramids);
   if (r.regions > 0) s += fmt::format("  regions {}  interface faces {}", r.regions, r.interface_faces);
   if (r.enclosed_volume != 0) s += fmt::format("  enclosed {:.9g}", r.enclosed_volume);
   s += fmt::format("\nEuler characteristic: volume {}, boundary {}\n", r.euler_volume, r.euler_boundary);

@@ -65,13 +65,8 @@ PY
 patches() { sed -n 's/^    \([^ {}]\+\)$/\1/p' "$1/boundary" | paste -sd' '; }
 
 if [[ $mode == --openfoam ]]; then
-  for bashrc in /usr/share/openfoam/etc/bashrc /usr/lib/openfoam/openfoam*/etc/bashrc; do
-    if [[ -f $bashrc ]]; then
-      # No arguments: the bashrc reads its own as settings to look up (minutes of searching).
-      set +u; set --; source "$bashrc" >/dev/null 2>&1 || true; set -u
-      break
-    fi
-  done
+  source "$(dirname "$0")/openfoam_lib.sh"
+  openfoam_env
   missing=()
   command -v checkMesh >/dev/null || missing+=("checkMesh")
   command -v potentialFoam >/dev/null || missing+=("potentialFoam")

@@ -28,24 +28,9 @@ tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
 # OpenFOAM: checkMesh reads system/controlDict, fvSchemes and fvSolution besides
 # constant/polyMesh, and its own etc/ through the environment of OpenFOAM's bashrc.
 "$pdrmesh" convert "$tmp/m.meshb" "$tmp/case/constant/polyMesh"
-mkdir -p "$tmp/case/system"
-cat >"$tmp/case/system/controlDict" <<'DICT'
-FoamFile { version 2.0; format ascii; class dictionary; object controlDict; }
-application checkMesh; startFrom startTime; startTime 0; stopAt endTime; endTime 1;
-deltaT 1; writeControl timeStep; writeInterval 1;
-DICT
-cat >"$tmp/case/system/fvSchemes" <<'DICT'
-FoamFile { version 2.0; format ascii; class dictionary; object fvSchemes; }
-ddtSchemes {} gradSchemes {} divSchemes {} laplacianSchemes {} interpolationSchemes {} snGradSchemes {}
-DICT
-echo 'FoamFile { version 2.0; format ascii; class dictionary; object fvSolution; }' >"$tmp/case/system/fvSolution"
-for bashrc in /usr/share/openfoam/etc/bashrc /usr/lib/openfoam/openfoam*/etc/bashrc; do
-  if [[ -f $bashrc ]]; then
-    # No arguments: the bashrc reads its own as settings to look up (minutes of searching).
-    set +u; set --; source "$bashrc" >/dev/null 2>&1 || true; set -u
-    break
-  fi
-done
+source "$(dirname "$0")/openfoam_lib.sh"
+checkmesh_case "$tmp/case"
+openfoam_env
 checkMesh -case "$tmp/case" -noFunctionObjects >"$tmp/checkMesh.log" 2>&1 || {
   cat "$tmp/checkMesh.log"; echo "checkMesh failed"; exit 1; }
 grep -q "^Mesh OK\." "$tmp/checkMesh.log" || { cat "$tmp/checkMesh.log"; echo "checkMesh: not 'Mesh OK.'"; exit 1; }

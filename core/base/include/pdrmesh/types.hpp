@@ -19,6 +19,8 @@ inline constexpr Index kNoIndex = std::numeric_limits<Index>::max();
 using Vec3 = std::array<double, 3>;
 using Tri = std::array<Index, 3>;  ///< a triangle: three point indices
 using Tet = std::array<Index, 4>;  ///< a tetrahedron: four point indices (see topology.hpp)
+using Prism = std::array<Index, 6>;    ///< a prism (wedge): six point indices (see mixed_cells.hpp)
+using Pyramid = std::array<Index, 5>;  ///< a pyramid: quad base, then apex (see mixed_cells.hpp)
 
 inline Vec3 operator+(const Vec3& a, const Vec3& b) { return {a[0] + b[0], a[1] + b[1], a[2] + b[2]}; }
 inline Vec3 operator-(const Vec3& a, const Vec3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }

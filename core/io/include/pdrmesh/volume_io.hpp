@@ -68,6 +68,13 @@ Result<VolumeFormat> volume_format_from_path(const std::filesystem::path& path);
 /// ".mesh .meshb .vtu .ugrid .lb8.ugrid .b8.ugrid .msh .su2 .cgns polyMesh", for help texts.
 std::string_view volume_format_suffixes();
 
+/// Whether `format` holds prisms and pyramids (a mixed mesh, VolumeMesh::mixed()):
+/// Medit ASCII, VTU (written as ascii), UGRID, Gmsh, SU2 and OpenFOAM polyMesh.
+/// The others refuse a mixed mesh with `unsupported`.
+bool holds_mixed(VolumeFormat format);
+/// ".mesh, .vtu, .msh, .ugrid (.lb8.ugrid, .b8.ugrid), .su2 or polyMesh", for messages.
+std::string_view mixed_volume_suffixes();
+
 /// Writes `mesh` in the format named by the suffix of `path`, atomically: the
 /// bytes go to a hidden file beside `path` (".NAME.PID.partial") that is
 /// renamed onto `path` once complete, so a failed or interrupted write never
@@ -135,8 +142,8 @@ Result<std::map<int, std::string>> parse_mapbc(std::string_view text, const std:
 
 /// Reads a volume mesh in the format named by the suffix of `path`. Malformed
 /// files give `invalid_input` naming file:line (text) or the byte offset
-/// (binary); meshes with other element kinds (hexahedra, prisms, quads, ...)
-/// and the written-only formats (CGNS, polyMesh) give `unsupported`. A UGRID
+/// (binary); meshes with other element kinds (hexahedra, quads; prisms and
+/// pyramids except in Medit .mesh, which reads them) and the written-only formats (CGNS, polyMesh) give `unsupported`. A UGRID
 /// file's names come from its .mapbc when there is one (an id there that the
 /// mesh lacks is an error).
 Result<VolumeMesh> read_volume(const std::filesystem::path& path);

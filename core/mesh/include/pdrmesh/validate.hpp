@@ -26,6 +26,7 @@ struct ValidationOptions {
 
 struct ValidationReport {
   std::size_t tets = 0;
+  std::size_t prisms = 0, pyramids = 0;  ///< of a mixed mesh (mixed_cells.hpp)
   std::size_t points = 0;
   std::size_t boundary_faces = 0;
   std::size_t regions = 0;          ///< distinct tet regions (0: the mesh carries none)
@@ -54,6 +55,7 @@ struct ValidationReport {
 /// interface, a face shared by two tets of different regions (either
 /// orientation); an input triangle on such a face is one, every one of them
 /// must be listed, and its shell's volume is not counted in the enclosed volume.
+/// A mesh with prisms or pyramids goes to validate_mixed_mesh (mixed_cells.hpp).
 /// Runs in parallel (oneTBB, fixed chunks): the report, messages and volume bits
 /// included, is the same for any number of threads.
 ValidationReport validate_mesh(const VolumeMesh& mesh, const SurfaceMesh* surface = nullptr,

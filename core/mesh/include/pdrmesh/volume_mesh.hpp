@@ -19,6 +19,9 @@ namespace pdrmesh {
 /// `region_names` some region ids (regions.hpp). A mesh of several regions
 /// lists their interfaces in `boundary` too: faces shared by two tets of
 /// different regions, each once, with their input surface ids.
+/// `prisms` and `pyramids` are empty in a tetrahedral mesh; a mixed mesh (prism
+/// boundary layers) holds them beside the tets, numbered and checked as
+/// mixed_cells.hpp draws them.
 struct VolumeMesh {
   std::vector<Vec3> points;
   std::vector<Tet> tets;
@@ -27,6 +30,10 @@ struct VolumeMesh {
   std::vector<int> tet_regions;
   std::map<int, std::string> boundary_names;
   std::map<int, std::string> region_names;
+  std::vector<Prism> prisms;
+  std::vector<Pyramid> pyramids;
+
+  bool mixed() const { return !prisms.empty() || !pyramids.empty(); }
 };
 
 /// The name a format writes for boundary id `id`: its entry in `names`, else

@@ -1,0 +1,86 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+#include "layer_options.hpp"
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include <algorithm>
+#include <charconv>
+#include <set>
+
+#include "options.hpp"
+#include "pdrmesh/boundary_names.hpp"
+#include "pdrmesh/volume_io.hpp"
+#include "pdrmesh/volume_mesh.hpp"
+
+namespace pdrmesh::cli {
+namespace {
+
+inline constexpr Accepts kLayers{"a whole number from 1 to 1000", "N", 1, 1000, false, true};
+inline constexpr Accepts kRatio{"a growth ratio from 1 to 10 (1.2: each layer 20% higher than the one below)", "RATIO",
+                                1, 10, false};
+
+}  // namespace
+
+void LayerArgs::add_to(CLI::App* cmd) {
+  add_number(cmd, "--layers", layers, "prism layers grown from the walls before the tets fill the rest", kLayers);
+  add_number(cmd, "--first-height", first_height, "with --layers: the height of the first layer", kLength);
+  add_number(cmd, "--growth-ratio", growth_ratio, "with --layers: each layer's height over the one below", kRatio)
+      ->capture_default_str();
+  add_number(cmd, "--layers-max-thickness", max_thickness,
+             "with --layers: the stack of layers is at most this thick (compressed where it would be more)", kLength);
+  cmd->add_option("--layers-on", on,
+                  "with --layers: the surfaces that grow layers, by boundary name or id, comma-separated "
+                  "(default: every surface; with --farfield every surface of the body)")
+      ->delimiter(',')
+      ->type_name("NAMES");
+}
+
+void LayerArgs::check(const CLI::App& cmd, const std::string& output) const {
+  if (layers == 0) {
+    for (const char* o : {"--first-height", "--growth-ratio", "--layers-max-thickness", "--layers-on"})
+      if (cmd.count(o) > 0) usage_error(fmt::format("{}: only with --layers", o));
+    return;
+  }
+  if (cmd.count("--first-height") == 0) usage_error("--layers: give the first layer's height with --first-height");
+  const auto format = volume_format_from_path(output);
+  if (format.ok() && !holds_mixed(*format))
+    usage_error(fmt::format("--layers: {} cannot hold prisms; write a mesh with layers as {}", output,
+                            mixed_volume_suffixes()));
+}
+
+Result<LayerOptions> LayerArgs::resolve(const SurfaceMesh& surface, const std::vector<int>& default_walls) const {
+  LayerOptions o;
+  o.layers = layers;
+  o.first_height = first_height;
+  o.growth_ratio = growth_ratio;
+  if (max_thickness > 0) o.max_thickness = max_thickness;
+  if (on.empty()) o.walls = default_walls;
+  const std::set<int> ids(surface.surface_ids.begin(), surface.surface_ids.end());
+  for (const std::string& name : on) {
+    int found = 0;
+    bool matched = false;
+    for (int id : ids) {
+      const auto it = surface.surface_names.find(id);
+      int number = 0;
+      const auto [end, ec] = std::from_chars(name.data(), name.data() + name.size(), number);
+      const bool as_number = ec == std::errc() && end == name.data() + name.size() && number == id;
+      if ((it != surface.surface_names.end() && it->second == name) || is_default_boundary_name(id, name) || as_number) {
+        found = id;
+        matched = true;
+        break;
+      }
+    }
+    if (!matched) {
+      std::vector<std::string> known;
+      for (int id : ids) known.push_back(fmt::format("{} ({})", boundary_name(surface.surface_names, id), id));
+      return invalid_input(fmt::format("--layers-on: {} names no surface of {}; its surfaces are {}", name, surface.name,
+                                       fmt::join(known, ", ")));
+    }
+    o.walls.push_back(found);
+  }
+  PDR_TRY(validate(o));
+  return o;
+}
+
+}  // namespace pdrmesh::cli

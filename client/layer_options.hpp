@@ -1,0 +1,37 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// The prism-layer options of `pdrmesh mesh` (--layers, --first-height,
+// --growth-ratio, --layers-max-thickness, --layers-on) and their checks.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include <string>
+#include <vector>
+
+#include "pdrmesh/layers.hpp"
+#include "pdrmesh/status.hpp"
+#include "pdrmesh/surface.hpp"
+
+namespace pdrmesh::cli {
+
+struct LayerArgs {
+  int layers = 0;  ///< 0: no layers
+  double first_height = 0;
+  double growth_ratio = 1.2;
+  double max_thickness = 0;  ///< 0: no cap
+  std::vector<std::string> on;  ///< boundary names or ids; empty: every surface
+
+  void add_to(CLI::App* cmd);
+  /// Usage errors across options, after parsing: --first-height needed with
+  /// --layers, the other layer options only with it, and an output format
+  /// that holds prisms.
+  void check(const CLI::App& cmd, const std::string& output) const;
+  /// The layer options for `surface`: --layers-on names resolved to surface
+  /// ids (a name of surface_names, "surface_<id>", or the id itself);
+  /// invalid_input naming an unknown one and the names there are. Without
+  /// --layers-on the walls are `default_walls` (empty: every surface; with
+  /// --farfield the body's ids, so that the far-field patches grow none).
+  Result<LayerOptions> resolve(const SurfaceMesh& surface, const std::vector<int>& default_walls = {}) const;
+};
+
+}  // namespace pdrmesh::cli

@@ -1,0 +1,296 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// Writers of mixed meshes (tets, prisms, pyramids: VolumeMesh::mixed()) in the
+// formats that hold prisms: Medit .mesh, VTK XML .vtu (ascii), Gmsh 4.1 .msh,
+// UGRID (ascii and C-binary) and SU2. The tet-only writers stay as they are;
+// write_format sends a mixed mesh here, and the other formats refuse it.
+//
+// Vertex orders (our order is VTK's, mixed_cells.hpp):
+//  - VTK (.vtu), SU2 and Gmsh: ours (wedge 13 / prism 6, pyramid 14 / 7); SU2
+//    uses VTK's type numbers and windings.
+//  - Medit: Prisms and Pyramids in the same order as Gmsh, which reads and
+//    writes them unpermuted.
+//  - UGRID: a mirror of VTK's (nasa/refine ref_export.c, VTK_WEDGE_ORDER and
+//    VTK_PYRAMID_ORDER): prism (1, 0, 2, 4, 3, 5), pyramid (1, 0, 4, 2, 3)
+//    of our vertices.
+#include <fmt/compile.h>
+
+#include <algorithm>
+#include <numeric>
+
+#include "pdrmesh/boundary_names.hpp"
+#include "volume_io_detail.hpp"
+
+namespace pdrmesh::volio {
+namespace {
+
+Status check_cells(const VolumeMesh& mesh) {
+  const std::size_t n = mesh.points.size();
+  for (std::size_t c = 0; c < mesh.prisms.size(); ++c)
+    for (Index v : mesh.prisms[c])
+      if (v >= n) return invalid_input(fmt::format("prism {} refers to point {} of {}", c, v, n));
+  for (std::size_t c = 0; c < mesh.pyramids.size(); ++c)
+    for (Index v : mesh.pyramids[c])
+      if (v >= n) return invalid_input(fmt::format("pyramid {} refers to point {} of {}", c, v, n));
+  return {};
+}
+
+/// Boundary triangle positions grouped by id (ascending), mesh order within an id.
+std::vector<std::size_t> by_id(const VolumeMesh& mesh) {
+  std::vector<std::size_t> order(mesh.boundary.size());
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b) { return mesh.boundary_ids[a] < mesh.boundary_ids[b]; });
+  return order;
+}
+
+template <std::size_t K>
+void put_cell(fmt::memory_buffer& b, const std::array<Index, K>& c, Index base) {
+  auto it = std::back_inserter(b);
+  for (std::size_t i = 0; i < K; ++i) fmt::format_to(it, FMT_COMPILE("{}{}"), i ? " " : "", c[i] + base);
+}
+
+Status write_mixed_medit(const VolumeMesh& mesh, const std::filesystem::path& path) {
+  OutputFile out(path);
+  PDR_TRY(out.open());
+  auto& b = out.buf();
+  auto it = std::back_inserter(b);
+  fmt::format_to(it, "MeshVersionFormatted 2\n\nDimension 3\n\nVertices\n{}\n", mesh.points.size());
+  for (const Vec3& p : mesh.points) fmt::format_to(it, FMT_COMPILE("{} {} {} 0\n"), p[0], p[1], p[2]);
+  fmt::format_to(it, "\nTriangles\n{}\n", mesh.boundary.size());
+  for (std::size_t i = 0; i < mesh.boundary.size(); ++i) {
+    put_cell(b, mesh.boundary[i], 1);
+    fmt::format_to(it, " {}\n", mesh.boundary_ids[i]);
+    PDR_TRY(out.maybe_flush());
+  }
+  const auto section = [&](const char* name, const auto& cells) -> Status {
+    if (cells.empty()) return {};
+    fmt::format_to(it, "\n{}\n{}\n", name, cells.size());
+    for (const auto& c : cells) {
+      put_cell(b, c, 1);
+      fmt::format_to(it, " 0\n");
+      PDR_TRY(out.maybe_flush());
+    }
+    return {};
+  };
+  PDR_TRY(section("Tetrahedra", mesh.tets));
+  PDR_TRY(section("Prisms", mesh.prisms));
+  PDR_TRY(section("Pyramids", mesh.pyramids));
+  fmt::format_to(it, "\nEnd\n");
+  return out.close();
+}
+
+Status write_mixed_vtu(const VolumeMesh& mesh, const std::filesystem::path& path) {
+  const std::size_t nt = mesh.tets.size(), nq = mesh.prisms.size(), ny = mesh.pyramids.size(),
+                    nb = mesh.boundary.size();
+  OutputFile out(path);
+  PDR_TRY(out.open());
+  auto& b = out.buf();
+  auto it = std::back_inserter(b);
+  fmt::format_to(it,
+                 "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" "
+                 "header_type=\"UInt64\">\n  <UnstructuredGrid>\n    <Piece NumberOfPoints=\"{}\" NumberOfCells=\"{}\">\n"
+                 "      <Points>\n        <DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"ascii\">\n",
+                 mesh.points.size(), nt + nq + ny + nb);
+  for (const Vec3& p : mesh.points) fmt::format_to(it, FMT_COMPILE("{} {} {}\n"), p[0], p[1], p[2]);
+  fmt::format_to(it, "        </DataArray>\n      </Points>\n      <Cells>\n"
+                     "        <DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">\n");
+  const auto cells = [&](const auto& list) -> Status {
+    for (const auto& c : list) {
+      put_cell(b, c, 0);
+      b.push_back('\n');
+      PDR_TRY(out.maybe_flush());
+    }
+    return {};
+  };
+  PDR_TRY(cells(mesh.tets));
+  PDR_TRY(cells(mesh.prisms));
+  PDR_TRY(cells(mesh.pyramids));
+  PDR_TRY(cells(mesh.boundary));
+  fmt::format_to(it, "        </DataArray>\n        <DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">\n");
+  std::size_t offset = 0;
+  const auto offsets = [&](std::size_t n, std::size_t k) {
+    for (std::size_t i = 0; i < n; ++i) fmt::format_to(it, FMT_COMPILE("{}\n"), offset += k);
+  };
+  offsets(nt, 4);
+  offsets(nq, 6);
+  offsets(ny, 5);
+  offsets(nb, 3);
+  fmt::format_to(it, "        </DataArray>\n        <DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">\n");
+  const auto types = [&](std::size_t n, int type) {
+    for (std::size_t i = 0; i < n; ++i) fmt::format_to(it, FMT_COMPILE("{}\n"), type);
+  };
+  types(nt, 10);
+  types(nq, 13);
+  types(ny, 14);
+  types(nb, 5);
+  fmt::format_to(it, "        </DataArray>\n      </Cells>\n      <CellData Scalars=\"surface_id\">\n"
+                     "        <DataArray type=\"Int32\" Name=\"surface_id\" format=\"ascii\">\n");
+  types(nt + nq + ny, 0);
+  for (int id : mesh.boundary_ids) fmt::format_to(it, FMT_COMPILE("{}\n"), id);
+  fmt::format_to(it, "        </DataArray>\n      </CellData>\n    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n");
+  return out.close();
+}
+
+Status write_mixed_gmsh(const VolumeMesh& mesh, const std::filesystem::path& path) {
+  const std::size_t np = mesh.points.size();
+  const std::vector<std::size_t> order = by_id(mesh);
+  const std::vector<int> ids = distinct(mesh.boundary_ids);
+  Box box;
+  for (const Vec3& p : mesh.points) box.add(p);
+  OutputFile out(path);
+  PDR_TRY(out.open());
+  auto& b = out.buf();
+  auto it = std::back_inserter(b);
+  // Physical and entity tags: surface k (ids ascending) is k + 1; the volume is 1.
+  const int volume_physical = static_cast<int>(ids.size()) + 1;
+  fmt::format_to(it, "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$PhysicalNames\n{}\n", ids.size() + 1);
+  for (std::size_t k = 0; k < ids.size(); ++k)
+    fmt::format_to(it, "2 {} \"{}\"\n", k + 1, boundary_name(mesh.boundary_names, ids[k]));
+  fmt::format_to(it, "3 {} \"volume\"\n$EndPhysicalNames\n$Entities\n0 0 {} 1\n", volume_physical, ids.size());
+  const std::string bounds = fmt::format("{} {} {} {} {} {}", box.lo[0], box.lo[1], box.lo[2], box.hi[0], box.hi[1], box.hi[2]);
+  for (std::size_t k = 0; k < ids.size(); ++k) fmt::format_to(it, "{} {} 1 {} 0\n", k + 1, bounds, k + 1);
+  fmt::format_to(it, "1 {} 1 {} 0\n$EndEntities\n", bounds, volume_physical);
+  fmt::format_to(it, "$Nodes\n1 {} 1 {}\n3 1 0 {}\n", np, np, np);
+  for (std::size_t i = 1; i <= np; ++i) fmt::format_to(it, FMT_COMPILE("{}\n"), i);
+  for (const Vec3& p : mesh.points) fmt::format_to(it, FMT_COMPILE("{} {} {}\n"), p[0], p[1], p[2]);
+  const std::size_t ncells = mesh.tets.size() + mesh.prisms.size() + mesh.pyramids.size() + mesh.boundary.size();
+  const std::size_t blocks = (mesh.tets.empty() ? 0 : 1) + (mesh.prisms.empty() ? 0 : 1) +
+                             (mesh.pyramids.empty() ? 0 : 1) + ids.size();
+  fmt::format_to(it, "$EndNodes\n$Elements\n{} {} 1 {}\n", blocks, ncells, ncells);
+  std::size_t tag = 0;
+  const auto block = [&](int dim, std::size_t entity, int type, const auto& list) -> Status {
+    if (list.empty()) return {};
+    fmt::format_to(it, "{} {} {} {}\n", dim, entity, type, list.size());
+    for (const auto& c : list) {
+      fmt::format_to(it, FMT_COMPILE("{} "), ++tag);
+      put_cell(b, c, 1);
+      b.push_back('\n');
+      PDR_TRY(out.maybe_flush());
+    }
+    return {};
+  };
+  PDR_TRY(block(3, 1, 4, mesh.tets));
+  PDR_TRY(block(3, 1, 6, mesh.prisms));
+  PDR_TRY(block(3, 1, 7, mesh.pyramids));
+  std::size_t k = 0;
+  for (std::size_t s = 0; s < ids.size(); ++s) {
+    std::vector<Tri> tris;
+    for (; k < order.size() && mesh.boundary_ids[order[k]] == ids[s]; ++k) tris.push_back(mesh.boundary[order[k]]);
+    PDR_TRY(block(2, s + 1, 2, tris));
+  }
+  fmt::format_to(it, "$EndElements\n");
+  return out.close();
+}
+
+Status write_mixed_su2(const VolumeMesh& mesh, const std::filesystem::path& path) {
+  OutputFile out(path);
+  PDR_TRY(out.open());
+  auto& b = out.buf();
+  auto it = std::back_inserter(b);
+  fmt::format_to(it, "% SU2 mesh written by pdrmesh\nNDIME= 3\nNELEM= {}\n",
+                 mesh.tets.size() + mesh.prisms.size() + mesh.pyramids.size());
+  std::size_t index = 0;
+  const auto cells = [&](int type, const auto& list) -> Status {
+    for (const auto& c : list) {
+      fmt::format_to(it, FMT_COMPILE("{} "), type);
+      put_cell(b, c, 0);
+      fmt::format_to(it, FMT_COMPILE(" {}\n"), index++);
+      PDR_TRY(out.maybe_flush());
+    }
+    return {};
+  };
+  PDR_TRY(cells(10, mesh.tets));
+  PDR_TRY(cells(13, mesh.prisms));
+  PDR_TRY(cells(14, mesh.pyramids));
+  fmt::format_to(it, "NPOIN= {}\n", mesh.points.size());
+  for (std::size_t i = 0; i < mesh.points.size(); ++i) {
+    const Vec3& p = mesh.points[i];
+    fmt::format_to(it, FMT_COMPILE("{} {} {} {}\n"), p[0], p[1], p[2], i);
+  }
+  const std::vector<std::size_t> order = by_id(mesh);
+  const std::vector<int> ids = distinct(mesh.boundary_ids);
+  fmt::format_to(it, "NMARK= {}\n", ids.size());
+  std::size_t k = 0;
+  for (int id : ids) {
+    const std::size_t begin = k;
+    while (k < order.size() && mesh.boundary_ids[order[k]] == id) ++k;
+    fmt::format_to(it, "MARKER_TAG= {}\nMARKER_ELEMS= {}\n", boundary_name(mesh.boundary_names, id), k - begin);
+    for (std::size_t j = begin; j < k; ++j) {
+      fmt::format_to(it, "5 ");
+      put_cell(b, mesh.boundary[order[j]], 0);
+      b.push_back('\n');
+    }
+  }
+  return out.close();
+}
+
+/// UGRID, ascii (`binary` false) or C-binary int32/float64 in the given byte order.
+Status write_mixed_ugrid(const VolumeMesh& mesh, const std::filesystem::path& path, bool binary, bool little) {
+  OutputFile out(path);
+  PDR_TRY(out.open());
+  auto& b = out.buf();
+  auto it = std::back_inserter(b);
+  std::size_t on_line = 0;  // ascii: values on the current line
+  const auto integer = [&](std::int64_t v, bool end_line) {
+    if (binary) {
+      put(b, static_cast<std::int32_t>(v), little);
+      return;
+    }
+    fmt::format_to(it, FMT_COMPILE("{}{}"), on_line++ ? " " : "", v);
+    if (end_line) b.push_back('\n'), on_line = 0;
+  };
+  const auto real = [&](double v, bool end_line) {
+    if (binary) {
+      put(b, v, little);
+      return;
+    }
+    fmt::format_to(it, FMT_COMPILE("{}{}"), on_line++ ? " " : "", v);
+    if (end_line) b.push_back('\n'), on_line = 0;
+  };
+  const std::int64_t counts[7] = {static_cast<std::int64_t>(mesh.points.size()),
+                                  static_cast<std::int64_t>(mesh.boundary.size()),
+                                  0,
+                                  static_cast<std::int64_t>(mesh.tets.size()),
+                                  static_cast<std::int64_t>(mesh.pyramids.size()),
+                                  static_cast<std::int64_t>(mesh.prisms.size()),
+                                  0};
+  for (int i = 0; i < 7; ++i) integer(counts[i], i == 6);
+  for (const Vec3& p : mesh.points) {
+    real(p[0], false);
+    real(p[1], false);
+    real(p[2], true);
+    PDR_TRY(out.maybe_flush());
+  }
+  const auto cell = [&](const auto& c, std::initializer_list<int> order) -> Status {
+    std::size_t i = 0;
+    for (int k : order) integer(static_cast<std::int64_t>(c[k]) + 1, ++i == order.size());
+    return out.maybe_flush();
+  };
+  for (const Tri& t : mesh.boundary) PDR_TRY(cell(t, {0, 1, 2}));
+  for (int id : mesh.boundary_ids) integer(id, true);
+  for (const Tet& t : mesh.tets) PDR_TRY(cell(t, {0, 1, 2, 3}));
+  for (const Pyramid& p : mesh.pyramids) PDR_TRY(cell(p, {1, 0, 4, 2, 3}));
+  for (const Prism& p : mesh.prisms) PDR_TRY(cell(p, {1, 0, 2, 4, 3, 5}));
+  return out.close();
+}
+
+}  // namespace
+
+Status write_mixed(const VolumeMesh& mesh, VolumeFormat format, const std::filesystem::path& path) {
+  PDR_TRY(check_cells(mesh));
+  switch (format) {
+    case VolumeFormat::kMedit: return write_mixed_medit(mesh, path);
+    case VolumeFormat::kVtu: return write_mixed_vtu(mesh, path);
+    case VolumeFormat::kGmsh: return write_mixed_gmsh(mesh, path);
+    case VolumeFormat::kSu2: return write_mixed_su2(mesh, path);
+    case VolumeFormat::kUgridAscii: return write_mixed_ugrid(mesh, path, false, true);
+    case VolumeFormat::kUgridLittle: return write_mixed_ugrid(mesh, path, true, true);
+    case VolumeFormat::kUgridBig: return write_mixed_ugrid(mesh, path, true, false);
+    default: break;
+  }
+  return unsupported(fmt::format("this format holds tetrahedral meshes only for now; write a mesh with prism layers "
+                                 "as {}",
+                                 mixed_volume_suffixes()));
+}
+
+}  // namespace pdrmesh::volio

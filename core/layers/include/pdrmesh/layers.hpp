@@ -1,0 +1,76 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// Prism boundary layers grown from the walls of a closed surface, by advancing
+// normals (as AFLR3 does): every wall point marches along one direction into
+// the meshed volume, N layers of prisms stand on every wall triangle, and the
+// last layer's top with the walls that get no layers bounds the rest of the
+// volume, which the tet pipeline fills (layered_pipeline.hpp in core/pdr).
+//
+// Marching directions: the angle-weighted mean of the inward normals of the
+// triangles around the point, moved where needed so that it sees every one of
+// them as well as it can (the smallest dot product is raised), smoothed over
+// the neighbours while that stays so, and stretched by 1 / that dot product (at
+// most 2) so that a layer keeps its height across convex and concave edges and
+// corners.
+//
+// Heights: layer k ends at H (R^k - 1) / (R - 1) from the wall (H k when R = 1).
+// Where the stack must be thinner (the thickness cap; a ray along the direction
+// that meets the surface within the stack: 0.45 of the distance to a wall that
+// grows layers too, 0.8 to one that does not; a prism that would not be
+// positive; a top that would cross another part of the top or the surface) the
+// whole stack of that point is compressed, every height scaled by one factor,
+// and the factors are graded so that neighbours differ by at most half their
+// distance. Every point keeps all N layers. The validity checks are exact: every
+// prism positive (mixed_cells.hpp) and the fill boundary free of
+// self-intersections (the surface check).
+//
+// This first slice grows layers on whole closed components: a wall triangle
+// that shares an edge with a triangle without layers is refused, naming both ids.
+#pragma once
+
+#include <cstddef>
+#include <optional>
+#include <vector>
+
+#include "pdrmesh/status.hpp"
+#include "pdrmesh/surface.hpp"
+#include "pdrmesh/types.hpp"
+
+namespace pdrmesh {
+
+struct LayerOptions {
+  int layers = 0;             ///< N (0: none)
+  double first_height = 0;    ///< H, in the surface's units
+  double growth_ratio = 1.2;  ///< R >= 1: each layer's height over the one below
+  std::optional<double> max_thickness;  ///< the stack's total height is at most this
+  /// The surface ids that grow layers; empty: every id.
+  std::vector<int> walls;
+};
+
+/// invalid_input naming the option: layers 1..1000, first height and cap
+/// finite and > 0, growth ratio finite and in [1, 10].
+Status validate(const LayerOptions& options);
+
+struct LayerMesh {
+  /// The surface's points (same indices), then the layer points: layer k's
+  /// point of wall point w at surface_points + (k - 1) * wall_points + w.
+  std::vector<Vec3> points;
+  std::vector<Prism> prisms;  ///< layer by layer, wall triangle by wall triangle
+  std::size_t wall_triangles = 0, wall_points = 0;
+  /// The boundary of what is left to fill: the last layer's top (oriented
+  /// like the wall under it, with its id) and the triangles without layers,
+  /// outward; its points are the used ones, numbered afresh.
+  SurfaceMesh fill;
+  std::vector<Index> fill_points;  ///< fill.points[i] is points[fill_points[i]]
+  std::vector<Index> top_triangles;  ///< the fill triangles that are the top of a layer stack
+  double thickness_min = 0, thickness_max = 0;  ///< of the stacks, along their directions
+  std::size_t compressed_points = 0;  ///< wall points whose stack is thinner than N layers of H, R
+  int shrink_rounds = 0;  ///< rounds of compression for validity
+};
+
+/// Grows the layers on a checked (closed, outward, meshable) surface.
+/// invalid_input: a wall triangle next to one without layers, a wall point
+/// from which no direction sees every triangle around it, or a stack that
+/// stays invalid after every compression (naming where).
+Result<LayerMesh> grow_layers(const SurfaceMesh& checked_surface, const LayerOptions& options);
+
+}  // namespace pdrmesh

@@ -1,0 +1,377 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+#include "pdrmesh/layers.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <map>
+#include <queue>
+#include <set>
+#include <utility>
+
+#include "pdrmesh/bvh.hpp"
+#include "pdrmesh/mixed_cells.hpp"
+#include "pdrmesh/surface_check.hpp"
+
+namespace pdrmesh {
+namespace {
+
+constexpr double kMaxStretch = 2.0;       // a direction's stretch 1 / (least dot product), capped
+constexpr double kLeastVisibility = 1e-3;  // below this dot product a direction does not see a triangle
+constexpr double kWallGap = 0.45;         // share of the distance to a wall that grows layers too
+constexpr double kPlainGap = 0.8;         // share of the distance to a triangle without layers
+constexpr double kGradeSlope = 0.5;       // neighbouring stacks differ by at most this times their distance
+constexpr double kShrink = 0.6;           // one round of compression of a stack that failed
+constexpr int kMaxShrinkRounds = 30;
+
+Vec3 normalized(const Vec3& v) {
+  const double n = norm(v);
+  return n > 0 ? (1.0 / n) * v : Vec3{0, 0, 0};
+}
+
+std::string at(const Vec3& p) { return fmt::format("({}, {}, {})", p[0], p[1], p[2]); }
+
+/// Ray p + t d (t in (0, limit]) against triangle abc, in doubles (a distance,
+/// not a decision: the exact checks below decide validity): t, or +inf.
+double ray_hit(const Vec3& p, const Vec3& d, const Vec3& a, const Vec3& b, const Vec3& c) {
+  const Vec3 e1 = b - a, e2 = c - a, h = cross(d, e2);
+  const double det = dot(e1, h);
+  if (std::abs(det) < 1e-300) return std::numeric_limits<double>::infinity();
+  const double f = 1.0 / det;
+  const Vec3 s = p - a;
+  const double u = f * dot(s, h);
+  if (u < 0 || u > 1) return std::numeric_limits<double>::infinity();
+  const Vec3 q = cross(s, e1);
+  const double v = f * dot(d, q);
+  if (v < 0 || u + v > 1) return std::numeric_limits<double>::infinity();
+  const double t = f * dot(e2, q);
+  return t > 0 ? t : std::numeric_limits<double>::infinity();
+}
+
+/// The wall: its triangles, points (local numbering) and what is around each point.
+struct Wall {
+  std::vector<Index> triangles;      ///< surface triangle indices that grow layers
+  std::vector<Index> points;         ///< local -> surface point
+  std::vector<Index> local;          ///< surface point -> local (kNoIndex off the wall)
+  std::vector<std::vector<Index>> around;  ///< local point -> the wall triangles (positions in `triangles`) at it
+  std::vector<std::vector<Index>> neighbours;  ///< local point -> local points sharing an edge, ascending
+  std::vector<Vec3> normals;         ///< per wall triangle: unit normal into the volume
+};
+
+Result<Wall> find_wall(const SurfaceMesh& s, const LayerOptions& o) {
+  const std::set<int> ids(o.walls.begin(), o.walls.end());
+  std::vector<char> is_wall(s.triangles.size(), 0);
+  for (std::size_t t = 0; t < s.triangles.size(); ++t)
+    is_wall[t] = ids.empty() || ids.count(s.surface_ids[t]) > 0 ? 1 : 0;
+  // Whole components only: an edge between a wall triangle and another is refused.
+  std::map<std::pair<Index, Index>, std::vector<Index>> edges;
+  for (Index t = 0; t < s.triangles.size(); ++t)
+    for (int i = 0; i < 3; ++i) {
+      const Index a = s.triangles[t][i], b = s.triangles[t][(i + 1) % 3];
+      edges[{std::min(a, b), std::max(a, b)}].push_back(t);
+    }
+  for (const auto& [e, ts] : edges) {
+    bool any = false, all = true;
+    Index with = ts[0], without = ts[0];
+    for (Index t : ts) {
+      any = any || is_wall[t];
+      all = all && is_wall[t];
+      (is_wall[t] ? with : without) = t;
+    }
+    if (any && !all) {
+      return invalid_input(fmt::format(
+          "layers: surface id {} (with layers) meets surface id {} (without) at edge ({}, {}) at {}; layers grow "
+          "only on whole closed components for now: name both in --layers-on or neither",
+          s.surface_ids[with], s.surface_ids[without], e.first, e.second, at(s.points[e.first])));
+    }
+  }
+  Wall w;
+  w.local.assign(s.points.size(), kNoIndex);
+  for (Index t = 0; t < s.triangles.size(); ++t) {
+    if (!is_wall[t]) continue;
+    w.triangles.push_back(t);
+    for (Index v : s.triangles[t])
+      if (w.local[v] == kNoIndex) w.local[v] = 0;  // marked; numbered below in point order
+  }
+  if (w.triangles.empty()) return invalid_input("layers: no surface triangle has an id named by --layers-on");
+  for (Index v = 0; v < s.points.size(); ++v)
+    if (w.local[v] != kNoIndex) {
+      w.local[v] = static_cast<Index>(w.points.size());
+      w.points.push_back(v);
+    }
+  w.around.resize(w.points.size());
+  std::vector<std::set<Index>> nb(w.points.size());
+  for (Index k = 0; k < w.triangles.size(); ++k) {
+    const Tri& t = s.triangles[w.triangles[k]];
+    for (int i = 0; i < 3; ++i) {
+      w.around[w.local[t[i]]].push_back(k);
+      nb[w.local[t[i]]].insert(w.local[t[(i + 1) % 3]]);
+      nb[w.local[t[(i + 1) % 3]]].insert(w.local[t[i]]);
+    }
+    // The surface is outward: into the volume is against the right-hand normal.
+    const Vec3 &a = s.points[t[0]], &b = s.points[t[1]], &c = s.points[t[2]];
+    w.normals.push_back(normalized(cross(c - a, b - a)));
+  }
+  for (auto& n : nb) w.neighbours.emplace_back(n.begin(), n.end());
+  return w;
+}
+
+double least_dot(const Wall& w, Index v, const Vec3& d) {
+  double m = std::numeric_limits<double>::infinity();
+  for (Index k : w.around[v]) m = std::min(m, dot(d, w.normals[k]));
+  return m;
+}
+
+/// Marching directions (unit) and the least dot product of each with its triangles.
+Result<std::pair<std::vector<Vec3>, std::vector<double>>> directions(const SurfaceMesh& s, const Wall& w) {
+  const std::size_t nw = w.points.size();
+  std::vector<Vec3> dir(nw, Vec3{0, 0, 0});
+  for (Index k = 0; k < w.triangles.size(); ++k) {
+    const Tri& t = s.triangles[w.triangles[k]];
+    for (int i = 0; i < 3; ++i) {
+      const Vec3& p = s.points[t[i]];
+      const Vec3 u = normalized(s.points[t[(i + 1) % 3]] - p), v = normalized(s.points[t[(i + 2) % 3]] - p);
+      const double angle = std::acos(std::clamp(dot(u, v), -1.0, 1.0));
+      dir[w.local[t[i]]] = dir[w.local[t[i]]] + angle * w.normals[k];
+    }
+  }
+  std::vector<double> least(nw);
+  for (Index v = 0; v < nw; ++v) {
+    Vec3 d = normalized(dir[v]);
+    double m = least_dot(w, v, d);
+    // Raise the least dot product: step towards the normal seen worst while
+    // that helps (a small ascent on the minimum; corners and edges need it).
+    double step = 0.5;
+    for (int tries = 0; tries < 200 && step > 1e-4 && m < 0.5; ++tries) {
+      Index worst = w.around[v][0];
+      for (Index k : w.around[v])
+        if (dot(d, w.normals[k]) < dot(d, w.normals[worst])) worst = k;
+      const Vec3 tried = normalized(d + step * (w.normals[worst] - d));
+      const double mt = least_dot(w, v, tried);
+      if (mt > m) {
+        d = tried;
+        m = mt;
+      } else {
+        step *= 0.5;
+      }
+    }
+    if (!(m > kLeastVisibility))
+      return invalid_input(fmt::format("layers: at wall point {} {} no direction sees every triangle around it "
+                                       "(the wall folds too sharply there for prism layers)",
+                                       w.points[v], at(s.points[w.points[v]])));
+    dir[v] = d;
+    least[v] = m;
+  }
+  // Smoothing: each direction blended with its neighbours' mean, kept where
+  // its least dot product stays above 0.9 of what it was (Jacobi passes).
+  for (int pass = 0; pass < 3; ++pass) {
+    std::vector<Vec3> next = dir;
+    for (Index v = 0; v < nw; ++v) {
+      Vec3 mean{0, 0, 0};
+      for (Index u : w.neighbours[v]) mean = mean + dir[u];
+      const Vec3 tried = normalized(dir[v] + normalized(mean));
+      const double mt = least_dot(w, v, tried);
+      if (mt >= 0.9 * least[v] && mt > kLeastVisibility) {
+        next[v] = tried;
+        least[v] = mt;
+      }
+    }
+    dir = std::move(next);
+  }
+  return std::make_pair(std::move(dir), std::move(least));
+}
+
+/// Grades stack thicknesses: t[v] <= t[u] + slope |p_u - p_v| over wall edges
+/// (Dijkstra from the thinnest stacks, ties by index).
+void grade(const SurfaceMesh& s, const Wall& w, std::vector<double>& t) {
+  using Item = std::pair<double, Index>;
+  std::priority_queue<Item, std::vector<Item>, std::greater<>> queue;
+  for (Index v = 0; v < t.size(); ++v) queue.emplace(t[v], v);
+  while (!queue.empty()) {
+    const auto [tv, v] = queue.top();
+    queue.pop();
+    if (tv > t[v]) continue;
+    for (Index u : w.neighbours[v]) {
+      const double limit = tv + kGradeSlope * norm(s.points[w.points[u]] - s.points[w.points[v]]);
+      if (limit < t[u]) {
+        t[u] = limit;
+        queue.emplace(limit, u);
+      }
+    }
+  }
+}
+
+}  // namespace
+
+Status validate(const LayerOptions& o) {
+  if (o.layers < 1 || o.layers > 1000)
+    return invalid_input(fmt::format("--layers must be a whole number from 1 to 1000, got {}", o.layers));
+  if (!(std::isfinite(o.first_height) && o.first_height > 0))
+    return invalid_input(fmt::format("--first-height must be a positive length, got {}", o.first_height));
+  if (!(std::isfinite(o.growth_ratio) && o.growth_ratio >= 1 && o.growth_ratio <= 10))
+    return invalid_input(fmt::format("--growth-ratio must be from 1 to 10, got {}", o.growth_ratio));
+  if (o.max_thickness && !(std::isfinite(*o.max_thickness) && *o.max_thickness > 0))
+    return invalid_input(fmt::format("--layers-max-thickness must be a positive length, got {}", *o.max_thickness));
+  return {};
+}
+
+Result<LayerMesh> grow_layers(const SurfaceMesh& s, const LayerOptions& o) {
+  PDR_TRY(validate(o));
+  PDR_ASSIGN_OR_RETURN(const Wall w, find_wall(s, o));
+  PDR_ASSIGN_OR_RETURN(const auto marching, directions(s, w));
+  const std::vector<Vec3>& dir = marching.first;
+  const std::vector<double>& least = marching.second;
+  const std::size_t nw = w.points.size(), ns = s.points.size();
+  const int n = o.layers;
+
+  // Offsets of the layers from the wall, as shares of the full stack.
+  std::vector<double> z(static_cast<std::size_t>(n) + 1, 0.0);
+  for (int k = 1; k <= n; ++k) z[k] = z[k - 1] + o.first_height * std::pow(o.growth_ratio, k - 1);
+  const double full = z[n];
+  std::vector<double> stretch(nw);
+  for (Index v = 0; v < nw; ++v) stretch[v] = std::min(kMaxStretch, 1.0 / least[v]);
+
+  // Thickness t[v] of each stack along the normal (before the stretch).
+  std::vector<double> t(nw, o.max_thickness ? std::min(full, *o.max_thickness) : full);
+  {
+    std::vector<char> wall_triangle(s.triangles.size(), 0);
+    for (Index k : w.triangles) wall_triangle[k] = 1;
+    std::vector<Box> boxes;
+    std::vector<Index> ids;
+    for (Index k = 0; k < s.triangles.size(); ++k) {
+      const Tri& tri = s.triangles[k];
+      boxes.push_back(detail::box_of(s.points[tri[0]], s.points[tri[1]], s.points[tri[2]]));
+      ids.push_back(k);
+    }
+    const detail::BoxTree tree(boxes, ids);
+    for (Index v = 0; v < nw; ++v) {
+      const Vec3& p = s.points[w.points[v]];
+      const double reach = stretch[v] * t[v];
+      const Vec3 end = p + reach * dir[v];
+      double limit = t[v];
+      tree.query(detail::box_of(p, end), [&](std::size_t pos) {
+        const Index k = tree.id(pos);
+        const Tri& tri = s.triangles[k];
+        if (tri[0] == w.points[v] || tri[1] == w.points[v] || tri[2] == w.points[v]) return;
+        const double hit = ray_hit(p, dir[v], s.points[tri[0]], s.points[tri[1]], s.points[tri[2]]);
+        if (hit <= reach) limit = std::min(limit, (wall_triangle[k] ? kWallGap : kPlainGap) * hit / stretch[v]);
+      });
+      t[v] = limit;
+    }
+  }
+  grade(s, w, t);
+
+  LayerMesh out;
+  out.wall_triangles = w.triangles.size();
+  out.wall_points = nw;
+  const auto layer_point = [&](Index v, int k) -> Index {
+    return k == 0 ? w.points[v] : static_cast<Index>(ns + static_cast<std::size_t>(k - 1) * nw + v);
+  };
+  out.points.assign(ns + static_cast<std::size_t>(n) * nw, Vec3{0, 0, 0});
+  std::copy(s.points.begin(), s.points.end(), out.points.begin());
+  const auto place = [&] {
+    for (Index v = 0; v < nw; ++v)
+      for (int k = 1; k <= n; ++k)
+        out.points[layer_point(v, k)] = s.points[w.points[v]] + (t[v] / full * z[k] * stretch[v]) * dir[v];
+  };
+  // Prisms: the wall triangle (a, b, c) is outward, so its bottom in prism
+  // order is (a, c, b), turning counterclockwise seen from the top.
+  for (int k = 1; k <= n; ++k)
+    for (Index tri : w.triangles) {
+      const Tri& f = s.triangles[tri];
+      const Index a = w.local[f[0]], b = w.local[f[1]], c = w.local[f[2]];
+      out.prisms.push_back({layer_point(a, k - 1), layer_point(c, k - 1), layer_point(b, k - 1), layer_point(a, k),
+                            layer_point(c, k), layer_point(b, k)});
+    }
+  // The fill boundary: the tops, then the triangles without layers.
+  std::vector<char> on_wall(s.triangles.size(), 0);
+  for (Index k : w.triangles) on_wall[k] = 1;
+  std::vector<Tri> fill_tris;
+  std::vector<int> fill_ids;
+  for (Index k : w.triangles) {
+    const Tri& f = s.triangles[k];
+    fill_tris.push_back({layer_point(w.local[f[0]], n), layer_point(w.local[f[1]], n), layer_point(w.local[f[2]], n)});
+    fill_ids.push_back(s.surface_ids[k]);
+  }
+  for (Index k = 0; k < s.triangles.size(); ++k)
+    if (!on_wall[k]) {
+      fill_tris.push_back(s.triangles[k]);
+      fill_ids.push_back(s.surface_ids[k]);
+    }
+
+  CheckOptions check;
+  check.max_defects_per_kind = std::numeric_limits<std::size_t>::max();
+  for (int round = 0;; ++round) {
+    place();
+    std::vector<char> bad(nw, 0);
+    bool any = false;
+    for (std::size_t c = 0; c < out.prisms.size(); ++c)
+      if (!prism_positive(out.points, out.prisms[c])) {
+        const Tri& f = s.triangles[w.triangles[c % w.triangles.size()]];
+        for (Index v : f) bad[w.local[v]] = 1;
+        any = true;
+      }
+    std::string why = "a prism would not be positive";
+    if (!any) {
+      // The fill boundary must be a valid surface: tops that cross each other
+      // or the surface compress the stacks under them.
+      SurfaceMesh fill;
+      fill.points = out.points;
+      fill.triangles = fill_tris;
+      fill.surface_ids = fill_ids;
+      const SurfaceReport report = check_surface(fill, check);
+      for (const Defect& d : report.defects) {
+        if (d.kind == DefectKind::kIndexOutOfRange || d.kind == DefectKind::kOpenEdge) continue;
+        for (Index tri : d.triangles)
+          if (tri < w.triangles.size())
+            for (Index v : s.triangles[w.triangles[tri]]) bad[w.local[v]] = 1, any = true;
+      }
+      why = "the top of the layers would cross itself or the surface";
+    }
+    if (!any) {
+      out.shrink_rounds = round;
+      break;
+    }
+    if (round == kMaxShrinkRounds) {
+      const Index v = static_cast<Index>(std::find(bad.begin(), bad.end(), 1) - bad.begin());
+      return invalid_input(fmt::format("layers: near wall point {} {} {} even with the stack {} times thinner; "
+                                       "try fewer layers or a smaller --first-height",
+                                       w.points[v], at(s.points[w.points[v]]), why, std::pow(1 / kShrink, round)));
+    }
+    for (Index v = 0; v < nw; ++v)
+      if (bad[v]) t[v] *= kShrink;
+    grade(s, w, t);
+  }
+
+  // The fill surface on the used points, numbered afresh in point order.
+  std::vector<Index> to_fill(out.points.size(), kNoIndex);
+  for (const Tri& f : fill_tris)
+    for (Index v : f) to_fill[v] = 0;
+  for (Index v = 0; v < out.points.size(); ++v)
+    if (to_fill[v] != kNoIndex) {
+      to_fill[v] = static_cast<Index>(out.fill_points.size());
+      out.fill_points.push_back(v);
+      out.fill.points.push_back(out.points[v]);
+    }
+  for (const Tri& f : fill_tris) out.fill.triangles.push_back({to_fill[f[0]], to_fill[f[1]], to_fill[f[2]]});
+  out.fill.surface_ids = fill_ids;
+  out.fill.surface_names = s.surface_names;
+  out.fill.name = s.name + " (inside the layers)";
+  for (Index k = 0; k < w.triangles.size(); ++k) out.top_triangles.push_back(k);
+
+  out.thickness_min = std::numeric_limits<double>::infinity();
+  out.thickness_max = 0;
+  for (Index v = 0; v < nw; ++v) {
+    const double along = t[v] * stretch[v];
+    out.thickness_min = std::min(out.thickness_min, along);
+    out.thickness_max = std::max(out.thickness_max, along);
+    const double wanted = o.max_thickness ? std::min(full, *o.max_thickness) : full;
+    if (t[v] < wanted) ++out.compressed_points;
+  }
+  return out;
+}
+
+}  // namespace pdrmesh

@@ -1,0 +1,46 @@
+// SPDX-License-Identifier: AGPL-3.0-or-later
+// The pipelines with prism boundary layers: grow_layers (layers.hpp), then
+// mesh_serial or mesh_parallel (pipeline.hpp) of what the layers leave (their
+// top and the walls without layers), then one mixed mesh of both.
+#pragma once
+
+#include "pdrmesh/layers.hpp"
+#include "pdrmesh/pipeline.hpp"
+#include "pdrmesh/status.hpp"
+#include "pdrmesh/surface.hpp"
+#include "pdrmesh/volume_mesh.hpp"
+
+namespace pdrmesh {
+
+struct LayeredResult {
+  VolumeMesh mesh;  ///< tets and prisms; boundary = the surface's triangles, ids and names
+  SerialResult fill;  ///< the tet fill's figures (its mesh moved into `mesh`)
+  std::size_t wall_triangles = 0, wall_points = 0, compressed_points = 0;
+  double thickness_min = 0, thickness_max = 0;
+  int shrink_rounds = 0;
+  double seconds_layers = 0;
+};
+
+/// Meshes the volume enclosed by a checked surface with `layers` prism layers
+/// on its walls and tets elsewhere. The tet fill's spacing at the layers' top
+/// is that of the top's own triangles and grows by options.sizing.growth (the
+/// caller sets it to continue the layers' growth). The mixed mesh's points are
+/// the surface's used points first, in their order, then the layer points, then
+/// the fill's inner points. A surface of several regions (regions.hpp) is
+/// refused (invalid_input): layers there are not supported yet.
+Result<LayeredResult> mesh_serial_layered(const SurfaceMesh& checked_surface, const LayerOptions& layers,
+                                          const SerialOptions& options, const RefineProgress& progress = {});
+
+struct LayeredParallelResult {
+  LayeredResult layered;  ///< the mixed mesh and the layer figures (its `fill` unused)
+  ParallelResult fill;    ///< the tet fill's figures and profile (its mesh moved into layered.mesh)
+};
+
+/// mesh_serial_layered with the tet fill through mesh_parallel (`kernel` and
+/// `optimize_kernel` as there): the same layers, made serially, so the prisms
+/// and the points under them are the serial path's, byte for byte.
+Result<LayeredParallelResult> mesh_parallel_layered(const SurfaceMesh& checked_surface, const LayerOptions& layers,
+                                                    const ParallelOptions& options, const LeafKernel* kernel = nullptr,
+                                                    const LeafKernel* optimize_kernel = nullptr);
+
+}  // namespace pdrmesh

@@ -1,0 +1,96 @@
+#!/usr/bin/env bash
+# Prism layers end to end: `pdrmesh mesh --layers` on the sphere writes a mixed
+# mesh that validates against the surface, `quality` prints the layer figures,
+# with --farfield the layers grow from the body alone, `run --layers` keeps
+# mesh's layer cells, and the option checks refuse what cannot work before any
+# meshing.
+# With --openfoam instead: the far-field case with layers written as a polyMesh
+# passes checkMesh (skipped, exit 77, without OpenFOAM).
+# Usage: layers.sh PDRMESH SPHERE.mesh [--openfoam]
+set -euo pipefail
+pdrmesh=$1
+sphere=$2
+mode=${3:-}
+tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
+fail() { echo "FAIL: $*"; exit 1; }
+
+if [[ $mode == --openfoam ]]; then
+  source "$(dirname "$0")/openfoam_lib.sh"
+  openfoam_env
+  if ! command -v checkMesh >/dev/null; then
+    echo "SKIP: not installed: checkMesh (Debian package openfoam; scripts/install-deps.sh installs it)"
+    exit 77
+  fi
+  foam_case=$tmp/case
+  "$pdrmesh" mesh -q "$sphere" --farfield 5 --layers 3 --first-height 0.05 -o "$foam_case/constant/polyMesh"
+  checkmesh_case "$foam_case"
+  checkMesh -case "$foam_case" -noFunctionObjects >"$tmp/checkMesh.log" 2>&1 || { cat "$tmp/checkMesh.log"; fail "checkMesh failed"; }
+  grep -q "^Mesh OK\." "$tmp/checkMesh.log" || { cat "$tmp/checkMesh.log"; fail "checkMesh: not 'Mesh OK.'"; }
+  grep -Eq "^ +prisms: +5544$" "$tmp/checkMesh.log" || { cat "$tmp/checkMesh.log"; fail "checkMesh: not 5544 prisms"; }
+  echo "ok: checkMesh says Mesh OK on the far-field case with three prism layers"
+  exit 0
+fi
+
+expect_exit() {  # CODE COMMAND...
+  local want=$1; shift
+  local got=0
+  "$@" >"$tmp/out" 2>"$tmp/err" || got=$?
+  [[ $got == "$want" ]] || fail "$* exited $got, expected $want: $(cat "$tmp/err")"
+}
+
+"$pdrmesh" mesh "$sphere" -o "$tmp/s.mesh" --layers 4 --first-height 0.05 --growth-ratio 1.3 2>"$tmp/log"
+grep -q "prism layers: 1848 wall triangles with 4 to 4 layers" "$tmp/log" || fail "no layer summary: $(cat "$tmp/log")"
+"$pdrmesh" validate "$tmp/s.mesh" --surface "$sphere" | grep -q "prisms 7392" || fail "validate: no 7392 prisms"
+"$pdrmesh" quality "$tmp/s.mesh" >"$tmp/q"
+grep -q "height ratio between layers 1.3" "$tmp/q" || fail "quality: $(cat "$tmp/q")"
+"$pdrmesh" quality --json "$tmp/s.mesh" | grep -q '"max_layers":4' || fail "quality --json: no layers"
+"$pdrmesh" mesh -q "$sphere" -o "$tmp/s.su2" --layers 2 --first-height 0.1 --layers-on surface_1
+grep -q "^NELEM=" "$tmp/s.su2" || fail "no SU2 file"
+
+# With --farfield the layers grow from the body's walls into the fluid, none on
+# the far field: 3 layers on each of the sphere's 1848 triangles, all stacks full.
+"$pdrmesh" mesh "$sphere" --farfield 5 --layers 3 --first-height 0.05 -o "$tmp/far.mesh" --json >"$tmp/far.json" \
+  2>"$tmp/log" || { cat "$tmp/log"; fail "mesh --farfield --layers"; }
+python3 - "$tmp/far.json" <<'PY' || fail "far field with layers: $(cat "$tmp/far.json")"
+import json, sys
+layers = json.load(open(sys.argv[1]))["layers"]
+want = {"prisms": 3 * 1848, "wall_triangles": 1848, "full_stacks": 1848, "min_layers": 3, "max_layers": 3}
+got = {k: layers[k] for k in want}
+sys.exit(0 if got == want else f"layers {got}, expected {want}")
+PY
+"$pdrmesh" validate "$tmp/far.mesh" | grep -q "prisms 5544" || fail "validate far.mesh: no 5544 prisms"
+
+# `run --layers`: the layers made serially as `mesh` makes them, the tets by the
+# parallel method; the prisms and the points under them are mesh's, byte for byte.
+"$pdrmesh" mesh -q "$sphere" -o "$tmp/ser.mesh" --layers 3 --first-height 0.05
+"$pdrmesh" run -q "$sphere" -o "$tmp/par.mesh" --layers 3 --first-height 0.05 --workers 2 --depth 1
+"$pdrmesh" validate "$tmp/par.mesh" --surface "$sphere" | grep -q "prisms 5544" || fail "run --layers: no 5544 prisms"
+python3 - "$tmp/ser.mesh" "$tmp/par.mesh" <<'PY' || fail "run --layers: layer cells differ from mesh's"
+import sys
+def sections(path):
+    lines, out, i = open(path).read().split("\n"), {}, 0
+    while i < len(lines):
+        if lines[i] in ("Vertices", "Prisms"):
+            n = int(lines[i + 1])
+            out[lines[i]] = lines[i + 2:i + 2 + n]
+            i += 2 + n
+        else:
+            i += 1
+    return out
+ser, par = sections(sys.argv[1]), sections(sys.argv[2])
+if ser["Prisms"] != par["Prisms"] or len(ser["Prisms"]) != 5544:
+    sys.exit("the Prisms sections differ")
+under = max(int(v) for line in ser["Prisms"] for v in line.split()[:6])
+if ser["Vertices"][:under] != par["Vertices"][:under]:
+    sys.exit(f"the first {under} vertices differ")
+PY
+
+# Refused before meshing (64), or at the surface (65).
+expect_exit 64 "$pdrmesh" mesh "$sphere" -o "$tmp/x.meshb" --layers 3 --first-height 0.1
+grep -q "cannot hold prisms" "$tmp/err" || fail "meshb: $(cat "$tmp/err")"
+expect_exit 64 "$pdrmesh" mesh "$sphere" -o "$tmp/x.vtu" --layers 3
+expect_exit 64 "$pdrmesh" mesh "$sphere" -o "$tmp/x.vtu" --first-height 0.1
+expect_exit 64 "$pdrmesh" mesh "$sphere" -o "$tmp/x.vtu" --layers 3 --first-height 0.1 --growth-ratio 0.5
+expect_exit 65 "$pdrmesh" mesh "$sphere" -o "$tmp/x.vtu" --layers 3 --first-height 0.1 --layers-on inlet
+grep -q "inlet names no surface" "$tmp/err" || fail "layers-on: $(cat "$tmp/err")"
+echo "layers: ok"
