@@ -818,19 +818,29 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
                          const Selector& select) -> Status {
     return step(phase, [&]() -> Status {
       const auto td = Clock::now();
+      PDR_ASSIGN_OR_RETURN(Decomposition d, decompose_leaves(cur, round_depth, box));
+      std::vector<char> selected;
+      if (select) selected = select();
+      prof.decomposition += seconds_since(td);
       RoundResult r;
-      if (select && !fix) {
-        BufferedRound b = selected_round(cur, box, round_depth, select());
-        prof.decomposition += seconds_since(td);
-        PDR_TRY(run_round(phase, cur, std::move(b.d), boundary, sizing, k, options, false, r, {.outside = &b.outside}));
-      } else {
-        PDR_ASSIGN_OR_RETURN(Decomposition d, decompose_leaves(cur, round_depth, box));
-        std::vector<char> selected;
-        if (select) selected = select();
-        prof.decomposition += seconds_since(td);
-        PDR_TRY(run_round(phase, cur, std::move(d), boundary, sizing, k, options, fix, r,
-                          {.selected = select ? &selected : nullptr}));
-      }
+      PDR_TRY(run_round(phase, cur, std::move(d), boundary, sizing, k, options, fix, r,
+                        {.selected = select ? &selected : nullptr}));
+      account(std::move(r));
+      return {};
+    });
+  };
+  /// An optimization round: only the tets `select` flags go to tasks, the
+  /// others stay where they are (selected_round), and only the tasks' tets get
+  /// the round's leaves (no later step reads the leaf of a tet).
+  const auto selected_step = [&](std::string_view phase, const Box& box, int round_depth,
+                                 const Selector& select) -> Status {
+    return step(phase, [&]() -> Status {
+      const auto td = Clock::now();
+      BufferedRound b = selected_round(cur, box, round_depth, select());
+      prof.decomposition += seconds_since(td);
+      RoundResult r;
+      PDR_TRY(run_round(phase, cur, std::move(b.d), boundary, sizing, *options.optimize_kernel, options, false, r,
+                        {.outside = &b.outside}));
       account(std::move(r));
       return {};
     });
@@ -931,8 +941,13 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
     Selector bad;
     if (select) bad = [&] { return select_bad_tets(cur, options); };
     if (options.optimize_kernel != nullptr) {
-      PDR_TRY(round("optimization", box1, *options.optimize_kernel, false, depth, bad));
-      if (depth > 0) PDR_TRY(round("shifted optimization", box2, *options.optimize_kernel, false, depth, bad));
+      if (select) {
+        PDR_TRY(selected_step("optimization", box1, depth, bad));
+        if (depth > 0) PDR_TRY(selected_step("shifted optimization", box2, depth, bad));
+      } else {
+        PDR_TRY(round("optimization", box1, *options.optimize_kernel, false, depth, bad));
+        if (depth > 0) PDR_TRY(round("shifted optimization", box2, *options.optimize_kernel, false, depth, bad));
+      }
       last_box = depth > 0 ? box2 : box1;
       prof.optimization_leaves = seconds_since(t0);
     }
@@ -992,7 +1007,7 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
       // Its tets are then in the one leaf of a depth-0 grid (from here on the
       // leaf of a tet is bookkeeping no step reads).
       const auto tg = Clock::now();
-      PDR_TRY(round("final optimization", box1, *options.optimize_kernel, false, 0, bad));
+      PDR_TRY(selected_step("final optimization", box1, 0, bad));
       prof.global_optimization = seconds_since(tg);
     } else if (options.optimize && !select) {
       // The leaf of each tet is bookkeeping, not a material region: the
