@@ -32,6 +32,20 @@ double angle_between_normals(const Vec3& n1, const Vec3& n2) {
   return 180.0 - std::acos(c) * kDegrees;
 }
 
+/// The outward normals (for a positive tet; unnormalised) of the faces
+/// opposite a, b, c, d (see dihedral_angles) and their lengths.
+struct FaceNormals {
+  std::array<Vec3, 4> n;
+  std::array<double, 4> len;
+};
+FaceNormals face_normals(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
+  FaceNormals f{{cross(c - b, d - b), cross(d - a, c - a), cross(b - a, d - a), cross(c - a, b - a)}, {}};
+  for (int i = 0; i < 4; ++i) f.len[i] = norm(f.n[i]);
+  return f;
+}
+/// The two faces (by opposite vertex) at each of the six edges.
+constexpr int kEdgeFaces[6][2] = {{2, 3}, {1, 3}, {1, 2}, {0, 3}, {0, 2}, {0, 1}};
+
 }  // namespace
 
 std::array<double, 6> dihedral_angles(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
@@ -55,13 +69,10 @@ std::array<double, 6> dihedral_angles(const Vec3& a, const Vec3& b, const Vec3& 
 AngleRange dihedral_range(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
   // The same values as the extremes of dihedral_angles, with two acos instead
   // of six: the angle 180 - acos(cos) rises with the cosine of the normals.
-  const std::array<Vec3, 4> n{cross(c - b, d - b), cross(d - a, c - a), cross(b - a, d - a),
-                              cross(c - a, b - a)};
-  const std::array<double, 4> len{norm(n[0]), norm(n[1]), norm(n[2]), norm(n[3])};
-  static constexpr int kPair[6][2] = {{2, 3}, {1, 3}, {1, 2}, {0, 3}, {0, 2}, {0, 1}};
+  const auto [n, len] = face_normals(a, b, c, d);
   double lo = 2.0, hi = -2.0;
   bool flat = false;  // a degenerate face: angle 0 (angle_between_normals)
-  for (const auto& [i, j] : kPair) {
+  for (const auto& [i, j] : kEdgeFaces) {
     const double l = len[i] * len[j];
     if (l == 0.0) {
       flat = true;
@@ -82,10 +93,8 @@ DihedralBounds::DihedralBounds(double min, double max)
     : flat_is_outside_(min > 0), below_(-std::cos(min / kDegrees)), above_(-std::cos(max / kDegrees)) {}
 
 bool DihedralBounds::outside(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) const {
-  const std::array<Vec3, 4> n{cross(c - b, d - b), cross(d - a, c - a), cross(b - a, d - a), cross(c - a, b - a)};
-  const std::array<double, 4> len{norm(n[0]), norm(n[1]), norm(n[2]), norm(n[3])};
-  static constexpr int kPair[6][2] = {{2, 3}, {1, 3}, {1, 2}, {0, 3}, {0, 2}, {0, 1}};
-  for (const auto& [i, j] : kPair) {
+  const auto [n, len] = face_normals(a, b, c, d);
+  for (const auto& [i, j] : kEdgeFaces) {
     const double l = len[i] * len[j];
     if (l == 0.0) {
       if (flat_is_outside_) return true;
