@@ -43,21 +43,29 @@ TEST(DihedralAngles, SliverHasAnglesNearZeroAndPi) {
   EXPECT_GT(r.max, 179.0);
 }
 
-TEST(DihedralRange, EqualsTheExtremesOfTheSixAngles) {
-  // dihedral_range takes two acos instead of six: the same doubles, bit for
-  // bit, on positive, inverted, flat and degenerate tets.
-  std::uint64_t state = 12345;
+/// `count` random tets in [-0.5, 0.5)^3 (a fixed linear congruential
+/// sequence from `seed`), then a regular, a flat, one with a degenerate face
+/// and one that is a single point.
+std::vector<std::array<Vec3, 4>> test_tets(std::uint64_t seed, int count) {
+  std::uint64_t state = seed;
   const auto next = [&state] {
     state = state * 6364136223846793005ull + 1442695040888963407ull;
     return static_cast<double>(state >> 11) / 9007199254740992.0 - 0.5;
   };
   std::vector<std::array<Vec3, 4>> tets;
-  for (int i = 0; i < 2000; ++i) tets.push_back({Vec3{next(), next(), next()}, Vec3{next(), next(), next()},
-                                                 Vec3{next(), next(), next()}, Vec3{next(), next(), next()}});
+  for (int i = 0; i < count; ++i) tets.push_back({Vec3{next(), next(), next()}, Vec3{next(), next(), next()},
+                                                  Vec3{next(), next(), next()}, Vec3{next(), next(), next()}});
   tets.push_back({kA, kB, kC, kD});
   tets.push_back({Vec3{0, 0, 0}, Vec3{1, 0, 0}, Vec3{1, 1, 0}, Vec3{0, 1, 0}});  // flat
   tets.push_back({Vec3{0, 0, 0}, Vec3{1, 0, 0}, Vec3{2, 0, 0}, Vec3{0, 1, 1}});  // a degenerate face
   tets.push_back({Vec3{0, 0, 0}, Vec3{0, 0, 0}, Vec3{0, 0, 0}, Vec3{0, 0, 0}});  // a point
+  return tets;
+}
+
+TEST(DihedralRange, EqualsTheExtremesOfTheSixAngles) {
+  // dihedral_range takes two acos instead of six: the same doubles, bit for
+  // bit, on positive, inverted, flat and degenerate tets.
+  const std::vector<std::array<Vec3, 4>> tets = test_tets(12345, 2000);
   for (const auto& p : tets) {
     const auto a = dihedral_angles(p[0], p[1], p[2], p[3]);
     const AngleRange r = dihedral_range(p[0], p[1], p[2], p[3]);
@@ -70,18 +78,7 @@ TEST(DihedralBounds, DecidesAsDihedralRangeDoes) {
   // The cosine test against [15, 150] degrees (and a few other bounds) on
   // random, flat and degenerate tets: the same decision as dihedral_range's
   // extremes, except where an extreme lies within rounding of a bound.
-  std::uint64_t state = 777;
-  const auto next = [&state] {
-    state = state * 6364136223846793005ull + 1442695040888963407ull;
-    return static_cast<double>(state >> 11) / 9007199254740992.0 - 0.5;
-  };
-  std::vector<std::array<Vec3, 4>> tets;
-  for (int i = 0; i < 5000; ++i) tets.push_back({Vec3{next(), next(), next()}, Vec3{next(), next(), next()},
-                                                 Vec3{next(), next(), next()}, Vec3{next(), next(), next()}});
-  tets.push_back({kA, kB, kC, kD});
-  tets.push_back({Vec3{0, 0, 0}, Vec3{1, 0, 0}, Vec3{1, 1, 0}, Vec3{0, 1, 0}});  // flat
-  tets.push_back({Vec3{0, 0, 0}, Vec3{1, 0, 0}, Vec3{2, 0, 0}, Vec3{0, 1, 1}});  // a degenerate face
-  tets.push_back({Vec3{0, 0, 0}, Vec3{0, 0, 0}, Vec3{0, 0, 0}, Vec3{0, 0, 0}});  // a point
+  const std::vector<std::array<Vec3, 4>> tets = test_tets(777, 5000);
   std::size_t outside = 0, inside = 0;
   for (const auto& [lo, hi] : {std::pair{15.0, 150.0}, std::pair{0.0, 180.0}, std::pair{40.0, 100.0}}) {
     const DihedralBounds bounds(lo, hi);
