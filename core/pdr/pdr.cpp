@@ -190,18 +190,28 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
       return {};
     });
   };
-  /// An optimization round: only the tets `select` flags go to tasks, the
-  /// others stay where they are (selected_round), and only the tasks' tets get
-  /// the round's leaves (no later step reads the leaf of a tet).
-  const auto selected_step = [&](std::string_view phase, const Box& box, int round_depth,
-                                 const Selector& select) -> Status {
+  // The optimization's seeds (is_bad per tet of `cur`): tested once, when the
+  // first optimization round runs, then kept up to date by the rounds, which
+  // test only the tets their tasks made.
+  std::vector<char> bad;
+  bool bad_known = false;
+  const auto bad_now = [&]() -> std::vector<char>& {
+    if (!bad_known) bad = bad_tets(cur, options);
+    bad_known = true;
+    return bad;
+  };
+  /// An optimization round: only the bad tets and their optimize_halo layers
+  /// go to tasks, the others stay where they are (selected_round), and only
+  /// the tasks' tets get the round's leaves (no later step reads the leaf of a tet).
+  const auto selected_step = [&](std::string_view phase, const Box& box, int round_depth) -> Status {
     return step(phase, [&]() -> Status {
       const auto td = Clock::now();
-      BufferedRound b = selected_round(cur, box, round_depth, select());
+      std::vector<char>& seeds = bad_now();
+      BufferedRound b = selected_round(cur, box, round_depth, select_around(cur, seeds, options.optimize_halo));
       prof.decomposition += seconds_since(td);
       RoundResult r;
       PDR_TRY(run_round(phase, cur, std::move(b.d), boundary, sizing, *options.optimize_kernel, options, false, r,
-                        {.outside = &b.outside}));
+                        {.outside = &b.outside, .bad = &seeds}));
       account(std::move(r));
       return {};
     });
@@ -234,31 +244,61 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
       // h at every point, evaluated once here and then by the task that makes the point.
       std::vector<double> sizes(cur.points.size());
       tbb::parallel_for(std::size_t{0}, sizes.size(), [&](std::size_t v) { sizes[v] = sizing.at(cur.points[v]); });
-      std::vector<LeafId> done, todo;
-      for (int sweep = 0; sweep < kMaxSweeps; ++sweep) {
+      // The colour rounds of one sweep over `m` (the mesh, or a later sweep's
+      // sub-mesh with its boundary faces `fb` and point sizes `sz`); with
+      // `allowed`, only those leaves get tasks; `beside`: the mesh's tets not in `m`.
+      std::vector<LeafId> done;
+      const auto colour_rounds = [&](VolumeMesh& m, const FaceIdTable& fb, std::vector<double>& sz,
+                                     const std::vector<LeafId>* allowed, std::size_t beside) -> Status {
         for (int colour = 0; colour < 8; ++colour) {
           // A later sweep's few leaves leave most colours empty: those cost no pass over the mesh.
-          if (sweep > 0 && std::none_of(todo.begin(), todo.end(), [&](LeafId l) { return colour_of(l, depth) == colour; }))
+          if (allowed != nullptr &&
+              std::none_of(allowed->begin(), allowed->end(), [&](LeafId l) { return colour_of(l, depth) == colour; }))
             continue;
           auto td = Clock::now();
-          BufferedRound b = buffered_round(cur, box1, depth, colour, options.buffer_layers, sweep > 0 ? &todo : nullptr);
+          BufferedRound b = buffered_round(m, box1, depth, colour, options.buffer_layers, allowed);
           prof.decomposition += seconds_since(td);
           if (b.d.size() == 0) continue;
           done.insert(done.end(), b.d.leaves.begin(), b.d.leaves.end());
           RoundResult r;
-          PDR_TRY(run_round("refinement", cur, std::move(b.d), boundary, sizing, kernel, options, false, r,
+          PDR_TRY(run_round("refinement", m, std::move(b.d), fb, sizing, kernel, options, false, r,
                             {.outside = &b.outside,
                              .cores = &b.cores,
                              .grid = &grid,
-                             .sizes = &sizes,
-                             .leaves_before = prof.leaf_count}));
+                             .sizes = &sz,
+                             .leaves_before = prof.leaf_count,
+                             .tets_beside = beside}));
           prof.leaf_count += r.leaves;
           prof.max_leaf_tets = std::max(prof.max_leaf_tets, r.max_leaf_tets);
           account(std::move(r));
         }
         std::sort(done.begin(), done.end());
-        todo = leaves_without(cur, done);
+        return {};
+      };
+      PDR_TRY(colour_rounds(cur, boundary, sizes, nullptr, 0));
+      for (int sweep = 1; sweep < kMaxSweeps; ++sweep) {
+        const std::vector<LeafId> todo = leaves_without(cur, depth, done);
         if (todo.empty()) break;
+        // A later sweep's few leaves run on a sub-mesh: their tets and two
+        // buffers' layers around them, so its rounds cost what those do.
+        const auto td = Clock::now();
+        std::vector<char> flag(cur.tets.size());
+        tbb::parallel_for(std::size_t{0}, flag.size(), [&](std::size_t t) {
+          flag[t] = std::binary_search(todo.begin(), todo.end(), static_cast<LeafId>(cur.tet_regions[t])) ? 1 : 0;
+        });
+        grow_selection(cur, flag, 2 * options.buffer_layers);
+        SubMesh sub = extract_tets(cur, flag);
+        flag = {};
+        const FaceIdTable sub_boundary(sub.mesh.boundary, sub.mesh.boundary_ids);
+        std::vector<double> sub_sizes(sub.global_points.size());
+        tbb::parallel_for(std::size_t{0}, sub_sizes.size(), [&](std::size_t i) { sub_sizes[i] = sizes[sub.global_points[i]]; });
+        prof.decomposition += seconds_since(td);
+        PDR_TRY(colour_rounds(sub.mesh, sub_boundary, sub_sizes, &todo, cur.tets.size() - sub.global_tets.size()));
+        const auto tm = Clock::now();
+        tbb::parallel_for(std::size_t{0}, sub.global_points.size(), [&](std::size_t i) { sizes[sub.global_points[i]] = sub_sizes[i]; });
+        sizes.insert(sizes.end(), sub_sizes.begin() + static_cast<std::ptrdiff_t>(sub.global_points.size()), sub_sizes.end());
+        put_back(cur, std::move(sub));
+        prof.merge += seconds_since(tm);
       }
       return {};
     };
@@ -299,15 +339,13 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
     if (!report("optimization", cur.tets.size())) return cancelled("stopped before the optimization");
     const auto t0 = Clock::now();
     const bool select = options.optimize_kernel != nullptr && static_cast<bool>(options.optimize_selects);
-    Selector bad;
-    if (select) bad = [&] { return select_bad_tets(cur, options); };
     if (options.optimize_kernel != nullptr) {
       if (select) {
-        PDR_TRY(selected_step("optimization", box1, depth, bad));
-        if (depth > 0) PDR_TRY(selected_step("shifted optimization", box2, depth, bad));
+        PDR_TRY(selected_step("optimization", box1, depth));
+        if (depth > 0) PDR_TRY(selected_step("shifted optimization", box2, depth));
       } else {
-        PDR_TRY(round("optimization", box1, *options.optimize_kernel, false, depth, bad));
-        if (depth > 0) PDR_TRY(round("shifted optimization", box2, *options.optimize_kernel, false, depth, bad));
+        PDR_TRY(round("optimization", box1, *options.optimize_kernel, false, depth, {}));
+        if (depth > 0) PDR_TRY(round("shifted optimization", box2, *options.optimize_kernel, false, depth, {}));
       }
       last_box = depth > 0 ? box2 : box1;
       prof.optimization_leaves = seconds_since(t0);
@@ -328,7 +366,10 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
         auto td = Clock::now();
         // One leaf has no cuts for a buffer to cover.
         const int buffer = final_depth > 0 ? options.optimize_buffer_layers : 0;
-        SubMesh sub = extract_tets(cur, select_bad_tets(cur, options, options.optimize_halo + buffer));
+        const std::vector<char>& seeds = bad_now();
+        SubMesh sub = extract_tets(cur, select_around(cur, seeds, options.optimize_halo + buffer));
+        std::vector<char> sub_bad(sub.global_tets.size());
+        tbb::parallel_for(std::size_t{0}, sub_bad.size(), [&](std::size_t i) { sub_bad[i] = seeds[sub.global_tets[i]]; });
         assign_leaves(sub.mesh, box1, final_depth);
         const FaceIdTable sub_boundary(sub.mesh.boundary, sub.mesh.boundary_ids);
         prof.decomposition += seconds_since(td);
@@ -340,7 +381,7 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
         for (int colour = 0; colour < colours; ++colour) {
           td = Clock::now();
           const std::vector<char> selected =
-              select_bad_tets(sub.mesh, options, options.optimize_halo, colour >= 8 ? &cored : nullptr);
+              select_around(sub.mesh, sub_bad, options.optimize_halo, colour >= 8 ? &cored : nullptr);
           BufferedRound b =
               buffered_round(sub.mesh, box1, final_depth, colour % 8, buffer, nullptr, &selected);
           prof.decomposition += seconds_since(td);
@@ -352,11 +393,13 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
                              .cores = &b.cores,
                              .grid = &grid,
                              .tets_beside = cur.tets.size() - sub.global_tets.size(),
-                             .cored = &cored}));
+                             .cored = &cored,
+                             .bad = &sub_bad}));
           account(std::move(r));
         }
         td = Clock::now();
         put_back(cur, std::move(sub));
+        bad_known = false;  // the tets moved: no later step reads the flags
         prof.merge += seconds_since(td);
         return {};
       };
@@ -368,7 +411,7 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
       // Its tets are then in the one leaf of a depth-0 grid (from here on the
       // leaf of a tet is bookkeeping no step reads).
       const auto tg = Clock::now();
-      PDR_TRY(selected_step("final optimization", box1, 0, bad));
+      PDR_TRY(selected_step("final optimization", box1, 0));
       prof.global_optimization = seconds_since(tg);
     } else if (options.optimize && !select) {
       // The leaf of each tet is bookkeeping, not a material region: the

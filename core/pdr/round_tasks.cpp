@@ -43,20 +43,19 @@ void grow_selection(const VolumeMesh& m, std::vector<char>& flag, int layers) {
 }
 
 
-std::vector<char> select_bad_tets(const VolumeMesh& m, const PdrOptions& options, int halo,
-                                  const std::vector<char>* skip) {
-  const auto& needs = options.optimize_selects;
-  const std::vector<Vec3>& P = m.points;
-  std::vector<char> flag(m.tets.size(), 0);
-  tbb::parallel_for(std::size_t{0}, m.tets.size(), [&](std::size_t t) {
-    const Tet& k = m.tets[t];
-    flag[t] = (skip == nullptr || !(*skip)[t]) && needs(P[k[0]], P[k[1]], P[k[2]], P[k[3]]) ? 1 : 0;
-  });
+std::vector<char> bad_tets(const VolumeMesh& m, const PdrOptions& options) {
+  std::vector<char> bad(m.tets.size());
+  tbb::parallel_for(std::size_t{0}, m.tets.size(), [&](std::size_t t) { bad[t] = is_bad(m, m.tets[t], options); });
+  return bad;
+}
+
+std::vector<char> select_around(const VolumeMesh& m, const std::vector<char>& bad, int halo,
+                                const std::vector<char>* skip) {
+  std::vector<char> flag(m.tets.size());
+  tbb::parallel_for(std::size_t{0}, m.tets.size(),
+                    [&](std::size_t t) { flag[t] = bad[t] != 0 && (skip == nullptr || !(*skip)[t]) ? 1 : 0; });
   grow_selection(m, flag, halo);
   return flag;
-}
-std::vector<char> select_bad_tets(const VolumeMesh& m, const PdrOptions& options) {
-  return select_bad_tets(m, options, options.optimize_halo);
 }
 
 std::vector<char> select_interface_tets(const VolumeMesh& m, int halo) {
@@ -235,12 +234,15 @@ void put_back(VolumeMesh& m, SubMesh&& sub) {
 }
 
 
-std::vector<LeafId> leaves_without(const VolumeMesh& m, const std::vector<LeafId>& done) {
-  std::vector<LeafId> present(m.tet_regions.begin(), m.tet_regions.end());
-  tbb::parallel_sort(present.begin(), present.end());
-  present.erase(std::unique(present.begin(), present.end()), present.end());
+std::vector<LeafId> leaves_without(const VolumeMesh& m, int depth, const std::vector<LeafId>& done) {
+  std::vector<char> present(std::size_t{1} << (3 * depth), 0);
+  tbb::parallel_for(std::size_t{0}, m.tet_regions.size(), [&](std::size_t t) {
+    std::atomic_ref<char>(present[static_cast<std::size_t>(m.tet_regions[t])]).store(1, std::memory_order_relaxed);
+  });
+  for (LeafId l : done) present[l] = 0;
   std::vector<LeafId> out;
-  std::set_difference(present.begin(), present.end(), done.begin(), done.end(), std::back_inserter(out));
+  for (std::size_t l = 0; l < present.size(); ++l)
+    if (present[l]) out.push_back(static_cast<LeafId>(l));
   return out;
 }
 

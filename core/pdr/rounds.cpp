@@ -118,6 +118,12 @@ std::vector<Index> cost_ranks(const VolumeMesh& cur, const Decomposition& d, con
   return rank;
 }
 
+/// The outside tets' flags (RoundExtras::cored and ::bad, when set), which
+/// the splice copies.
+struct OutsideFlags {
+  std::vector<char> cored, bad;
+};
+
 /// Puts a round's results into `cur` as if leaf by leaf in ascending order,
 /// after the tets of no leaf (`outside`, which keep their leaf): leaf l's tets
 /// (task output, then its kept tets) follow those of the leaves before it, and
@@ -129,11 +135,16 @@ std::vector<Index> cost_ranks(const VolumeMesh& cur, const Decomposition& d, con
 /// task made is given the grid leaf that holds its barycenter instead of the
 /// task's leaf. With `sizes` (h per point of `cur`), the new points' sizes
 /// are appended (a task's new_sizes, or sizing.at where it gave none) and a
-/// moved point's is evaluated again.
+/// moved point's is evaluated again. The flags of x.cored and x.bad follow
+/// the tets: the outside tets' from `outside_flags`, the others set here.
 void splice(VolumeMesh& cur, const std::vector<LeafId>& leaves, std::vector<TaskResult>& results,
             std::vector<std::vector<Tet>>& kept, std::vector<Tet>& outside, std::vector<int>& outside_leaf,
-            const Grid* grid, std::vector<double>* sizes, const SizingField& sizing, RoundResult& rr,
-            std::vector<char>* cored = nullptr, const std::vector<char>& outside_cored = {}) {
+            OutsideFlags& outside_flags, const RoundExtras& x, const SizingField& sizing, const PdrOptions& options,
+            RoundResult& rr) {
+  const Grid* grid = x.grid;
+  std::vector<double>* sizes = x.sizes;
+  std::vector<char>* cored = x.cored;
+  std::vector<char>* bad = x.bad;
   const std::size_t n = results.size();
   std::vector<Vec3>& pts = cur.points;
   std::vector<std::size_t> tet_at(n + 1, outside.size()), point_at(n + 1, pts.size());
@@ -156,10 +167,15 @@ void splice(VolumeMesh& cur, const std::vector<LeafId>& leaves, std::vector<Task
   detail::parallel_copy(outside_leaf.begin(), outside_leaf.end(), cur.tet_regions.begin());
   if (cored != nullptr) {
     cored->assign(tet_at[n], 0);
-    detail::parallel_copy(outside_cored.begin(), outside_cored.end(), cored->begin());
+    detail::parallel_copy(outside_flags.cored.begin(), outside_flags.cored.end(), cored->begin());
+  }
+  if (bad != nullptr) {
+    bad->resize(tet_at[n]);
+    detail::parallel_copy(outside_flags.bad.begin(), outside_flags.bad.end(), bad->begin());
   }
   outside = {};
   outside_leaf = {};
+  outside_flags = {};
   tbb::parallel_for(std::size_t{0}, n, [&](std::size_t l) {
     TaskResult& r = results[l];
     const auto ni = static_cast<Index>(r.point_ids.size());
@@ -189,6 +205,8 @@ void splice(VolumeMesh& cur, const std::vector<LeafId>& leaves, std::vector<Task
         if (cored != nullptr) (*cored)[t] = cur.tet_regions[t] == static_cast<int>(leaves[l]) ? 1 : 0;
       }
     }
+    if (bad != nullptr)
+      for (std::size_t t = tet_at[l]; t < tet_at[l + 1]; ++t) (*bad)[t] = is_bad(cur, cur.tets[t], options);
     r = TaskResult{};
     kept[l] = {};
   });
@@ -304,13 +322,17 @@ Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const
   PDR_TRY(error);
 
   const auto t0 = Clock::now();
-  std::vector<char> outside_cored;
-  if (extras.cored != nullptr && extras.outside != nullptr) {
-    outside_cored.resize(extras.outside->size());
-    for (std::size_t i = 0; i < outside_cored.size(); ++i) outside_cored[i] = (*extras.cored)[(*extras.outside)[i]];
+  OutsideFlags outside_flags;
+  if (extras.outside != nullptr) {
+    const auto gather = [&](const std::vector<char>* all, std::vector<char>& out) {
+      if (all == nullptr) return;
+      out.resize(extras.outside->size());
+      tbb::parallel_for(std::size_t{0}, out.size(), [&](std::size_t i) { out[i] = (*all)[(*extras.outside)[i]]; });
+    };
+    gather(extras.cored, outside_flags.cored);
+    gather(extras.bad, outside_flags.bad);
   }
-  splice(cur, d.leaves, results, kept, outside, outside_leaf, extras.grid, extras.sizes, sizing, rr, extras.cored,
-         outside_cored);
+  splice(cur, d.leaves, results, kept, outside, outside_leaf, outside_flags, extras, sizing, options, rr);
   rr.merge_s += seconds_since(t0);
   rr.record.name = std::string(phase);
   rr.record.depth = d.depth;

@@ -56,6 +56,8 @@ struct RoundExtras {
   /// Per tet of `cur`, kept up to date (with `grid` and `outside`): 1 when the
   /// last task that had it made it in its own leaf (its core), else 0.
   std::vector<char>* cored = nullptr;
+  /// Per tet of `cur`, kept up to date: is_bad (with options.optimize_selects).
+  std::vector<char>* bad = nullptr;
 };
 Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const FaceIdTable& boundary,
                  const SizingField& sizing, const LeafKernel& kernel, const PdrOptions& options, bool fixups,
@@ -65,12 +67,21 @@ Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const
 /// layers of a flagged one (a layer: the tets sharing a point with a flagged tet).
 void grow_selection(const VolumeMesh& m, std::vector<char>& flag, int layers);
 
-/// The optimization rounds' selection: the tets options.optimize_selects
-/// picks and their `halo` layers (options.optimize_halo when not given).
-/// With `skip`, the tets it flags are no seeds (they may join a halo).
-std::vector<char> select_bad_tets(const VolumeMesh& m, const PdrOptions& options, int halo,
-                                  const std::vector<char>* skip = nullptr);
-std::vector<char> select_bad_tets(const VolumeMesh& m, const PdrOptions& options);
+/// Whether options.optimize_selects picks tet `k` of `m` (the optimization's seeds).
+inline char is_bad(const VolumeMesh& m, const Tet& k, const PdrOptions& options) {
+  const std::vector<Vec3>& P = m.points;
+  return options.optimize_selects(P[k[0]], P[k[1]], P[k[2]], P[k[3]]) ? 1 : 0;
+}
+/// is_bad of every tet of `m`, in parallel. The optimization computes it once
+/// and its rounds keep it up to date (RoundExtras::bad): only the tets a task
+/// made are tested again.
+std::vector<char> bad_tets(const VolumeMesh& m, const PdrOptions& options);
+
+/// The optimization rounds' selection: the `bad` tets (one flag per tet of
+/// `m`) and their `halo` layers. With `skip`, the tets it flags are no seeds
+/// (they may join a halo).
+std::vector<char> select_around(const VolumeMesh& m, const std::vector<char>& bad, int halo,
+                                const std::vector<char>* skip = nullptr);
 
 /// The interface rounds' selection: the tets with a point on a face between
 /// two of the last round's leaves (`m.tet_regions`: the leaf of each tet),
@@ -132,8 +143,8 @@ SubMesh extract_tets(const VolumeMesh& m, const std::vector<char>& flag);
 /// their global indices, and its new points are appended in order.
 void put_back(VolumeMesh& m, SubMesh&& sub);
 
-/// The leaves of m.tet_regions not in `done` (ascending), ascending.
-std::vector<LeafId> leaves_without(const VolumeMesh& m, const std::vector<LeafId>& done);
+/// The leaves of the depth-`depth` grid in m.tet_regions and not in `done`, ascending.
+std::vector<LeafId> leaves_without(const VolumeMesh& m, int depth, const std::vector<LeafId>& done);
 
 /// tet_regions = the leaf of the depth-`depth` grid over `box` that holds each
 /// tet's barycenter (in parallel: each tet writes its own entry).
