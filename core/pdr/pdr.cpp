@@ -32,9 +32,13 @@ constexpr int kMaxSweeps = 3;
 /// refinement's: its tasks' selections (bad tets and their halo) and buffers
 /// reach several tets beyond a leaf, and in a grid as fine as the
 /// refinement's two buffers of one round would meet and block each other.
-/// Below depth 2 that grid would hold one leaf per colour (its tasks one
-/// after another, twice): one task over the selection is cheaper.
-constexpr int kFinalCoarsening = 3;
+/// A coarser grid makes a few tasks the long pole of their rounds.
+constexpr int kFinalCoarsening = 2;
+/// Where the final grid would be shallower than this, one task takes the
+/// whole selection: with few leaves per colour the rounds cost more than the
+/// task, and next to wide input triangles (hinge at diag/100, depth 4) the
+/// rounds' cuts leave worse angles than the single task.
+constexpr int kMinFinalDepth = 3;
 
 }  // namespace
 
@@ -360,7 +364,7 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
       // selection and its buffer as a sub-mesh (its hull unchanged), put back
       // into the mesh at the end: their scans cost what the selection does.
       const auto tg = Clock::now();
-      const int final_depth = depth - kFinalCoarsening >= 2 ? depth - kFinalCoarsening : 0;
+      const int final_depth = depth - kFinalCoarsening >= kMinFinalDepth ? depth - kFinalCoarsening : 0;
       const auto sweep = [&]() -> Status {
         const Grid grid{box1, final_depth};
         auto td = Clock::now();
