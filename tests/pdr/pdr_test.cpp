@@ -397,9 +397,10 @@ TEST(Pdr, OptimizationTasksGetOnlyTheSelectedTetsAndTheirHalo) {
 
 TEST(Pdr, TheFinalOptimizationRunsAsBufferedTasksOnACoarserGrid) {
   // sphere966 at depth 5 with the real refiner and optimizer: the final pass
-  // goes in two sweeps of colour rounds over the depth-2 grid, each task a
-  // leaf's selected tets with a buffer around them, and no task gets the
-  // whole mesh's selection; the result is valid and the same for any workers.
+  // goes in two sweeps of colour rounds over the depth-3 grid (two levels
+  // coarser), each task a leaf's selected tets with a buffer around them, and
+  // no task gets the whole mesh's selection; the result is valid and the same
+  // for any workers.
   const Sphere* sp = sphere();
   ASSERT_NE(sp, nullptr) << "sphere966.mesh not readable";
   const std::unique_ptr<LeafKernel> kernel = make_leaf_kernel("native").value();
@@ -421,7 +422,7 @@ TEST(Pdr, TheFinalOptimizationRunsAsBufferedTasksOnACoarserGrid) {
     ++final_rounds;
     final_tasks += r.leaves.size();
     final_sent = std::max(final_sent, r.tets_sent);
-    EXPECT_EQ(r.depth, 2);
+    EXPECT_EQ(r.depth, 3);
     EXPECT_LT(r.tets_sent, r.tets) << "a round got every tet of the mesh";
   }
   EXPECT_GT(final_rounds, 8u) << "two sweeps of colour rounds";
