@@ -3,6 +3,7 @@
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <charconv>
@@ -15,6 +16,11 @@
 
 namespace pdrmesh::cli {
 namespace {
+
+/// `part` as a percentage of `whole` (0 of none).
+double share(std::size_t part, std::size_t whole) {
+  return whole == 0 ? 0.0 : 100.0 * static_cast<double>(part) / static_cast<double>(whole);
+}
 
 inline constexpr Accepts kLayers{"a whole number from 1 to 1000", "N", 1, 1000, false, true};
 inline constexpr Accepts kRatio{"a growth ratio from 1 to 10 (1.2: each layer 20% higher than the one below)", "RATIO",
@@ -81,6 +87,28 @@ Result<LayerOptions> LayerArgs::resolve(const SurfaceMesh& surface, const std::v
   }
   PDR_TRY(validate(o));
   return o;
+}
+
+std::string layer_growth_line(int layers, const LayeredResult& r) {
+  return fmt::format(
+      "layers: {} on {} wall triangles ({} points), stack {:.4g} to {:.4g} thick, {} stacks compressed ({:.2f} s); "
+      "all {} layers at full thickness on {:.1f}% of the wall triangles, {:.1f}% of the {} smooth ones",
+      layers, r.wall_triangles, r.wall_points, r.thickness_min, r.thickness_max, r.compressed_points,
+      r.seconds_layers, layers, share(r.full_faces, r.wall_triangles), share(r.smooth_full_faces, r.smooth_faces),
+      r.smooth_faces);
+}
+
+std::string layer_growth_json(const LayeredResult& r) {
+  const nlohmann::json j = {{"wall_points", r.wall_points},
+                            {"compressed_points", r.compressed_points},
+                            {"thickness_min", r.thickness_min},
+                            {"thickness_max", r.thickness_max},
+                            {"full_thickness_faces", r.full_faces},
+                            {"smooth_faces", r.smooth_faces},
+                            {"smooth_full_thickness_faces", r.smooth_full_faces},
+                            {"full_thickness_share", share(r.full_faces, r.wall_triangles)},
+                            {"smooth_full_thickness_share", share(r.smooth_full_faces, r.smooth_faces)}};
+  return j.dump();
 }
 
 }  // namespace pdrmesh::cli

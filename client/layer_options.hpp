@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "pdrmesh/layered_pipeline.hpp"
 #include "pdrmesh/layers.hpp"
 #include "pdrmesh/status.hpp"
 #include "pdrmesh/surface.hpp"
@@ -33,5 +34,14 @@ struct LayerArgs {
   /// --farfield the body's ids, so that the far-field patches grow none).
   Result<LayerOptions> resolve(const SurfaceMesh& surface, const std::vector<int>& default_walls = {}) const;
 };
+
+/// The report line of grown layers: stacks, thickness, compression and the
+/// layers reached (wall triangles whose stacks kept all N layers at their
+/// full thickness, of all and of the smooth ones).
+std::string layer_growth_line(int layers, const LayeredResult& r);
+/// The same figures as a JSON object (wall_points, compressed_points,
+/// thickness_min/max, full_thickness_faces, smooth_faces,
+/// smooth_full_thickness_faces, full_thickness_share, smooth_full_thickness_share).
+std::string layer_growth_json(const LayeredResult& r);
 
 }  // namespace pdrmesh::cli

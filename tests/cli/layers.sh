@@ -40,6 +40,7 @@ expect_exit() {  # CODE COMMAND...
 
 "$pdrmesh" mesh "$sphere" -o "$tmp/s.mesh" --layers 4 --first-height 0.05 --growth-ratio 1.3 2>"$tmp/log"
 grep -q "prism layers: 1848 wall triangles with 4 to 4 layers" "$tmp/log" || fail "no layer summary: $(cat "$tmp/log")"
+grep -q "all 4 layers at full thickness on 100.0% of the wall triangles" "$tmp/log" || fail "no layers reached: $(cat "$tmp/log")"
 "$pdrmesh" validate "$tmp/s.mesh" --surface "$sphere" | grep -q "prisms 7392" || fail "validate: no 7392 prisms"
 "$pdrmesh" quality "$tmp/s.mesh" >"$tmp/q"
 grep -q "height ratio between layers 1.3" "$tmp/q" || fail "quality: $(cat "$tmp/q")"
@@ -48,13 +49,15 @@ grep -q "height ratio between layers 1.3" "$tmp/q" || fail "quality: $(cat "$tmp
 grep -q "^NELEM=" "$tmp/s.su2" || fail "no SU2 file"
 
 # With --farfield the layers grow from the body's walls into the fluid, none on
-# the far field: 3 layers on each of the sphere's 1848 triangles, all stacks full.
+# the far field: 3 layers on each of the sphere's 1848 triangles, all stacks full
+# and at their full thickness.
 "$pdrmesh" mesh "$sphere" --farfield 5 --layers 3 --first-height 0.05 -o "$tmp/far.mesh" --json >"$tmp/far.json" \
   2>"$tmp/log" || { cat "$tmp/log"; fail "mesh --farfield --layers"; }
 python3 - "$tmp/far.json" <<'PY' || fail "far field with layers: $(cat "$tmp/far.json")"
 import json, sys
 layers = json.load(open(sys.argv[1]))["layers"]
-want = {"prisms": 3 * 1848, "wall_triangles": 1848, "full_stacks": 1848, "min_layers": 3, "max_layers": 3}
+want = {"prisms": 3 * 1848, "wall_triangles": 1848, "full_stacks": 1848, "min_layers": 3, "max_layers": 3,
+        "full_thickness_faces": 1848, "smooth_faces": 1848, "full_thickness_share": 100.0}
 got = {k: layers[k] for k in want}
 sys.exit(0 if got == want else f"layers {got}, expected {want}")
 PY

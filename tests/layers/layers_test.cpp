@@ -126,6 +126,9 @@ TEST(Layers, SphereGrowsFiveLayersOnEveryTriangle) {
   EXPECT_EQ(r.mesh.prisms.size(), 5 * sphere.triangles.size());
   EXPECT_GT(r.mesh.tets.size(), 0u);
   EXPECT_EQ(r.compressed_points, 0u);  // a smooth sphere needs no compression
+  EXPECT_EQ(r.full_faces, sphere.triangles.size());
+  EXPECT_EQ(r.smooth_faces, sphere.triangles.size());
+  EXPECT_EQ(r.smooth_full_faces, sphere.triangles.size());
   const LayerReport layers = measure_layers(r.mesh);
   EXPECT_EQ(layers.stacks, sphere.triangles.size());
   EXPECT_EQ(layers.min_layers, 5u);
@@ -264,6 +267,11 @@ TEST(Layers, BoxGrowsFiveLayersAcrossItsEdgesAndCorners) {
   EXPECT_EQ(r.mesh.prisms.size(), 5 * box.triangles.size());
   // The corners stretch their directions so the layers keep their height.
   EXPECT_GT(r.thickness_max, r.thickness_min * 1.3);
+  // Nothing compressed on a convex box; smooth are the 2 x 2 inner squares of
+  // each face's 4 x 4 (a triangle with a point on an edge of the box is not).
+  EXPECT_EQ(r.full_faces, box.triangles.size());
+  EXPECT_EQ(r.smooth_faces, 6u * 8u);
+  EXPECT_EQ(r.smooth_full_faces, 6u * 8u);
 }
 
 TEST(Layers, LShapedDuctKeepsEveryPrismPositiveWhereLayersMeet) {
@@ -275,6 +283,8 @@ TEST(Layers, LShapedDuctKeepsEveryPrismPositiveWhereLayersMeet) {
   const LayeredResult r = mesh_layered(l, o);
   EXPECT_EQ(r.mesh.prisms.size(), 6 * l.triangles.size());
   EXPECT_GT(r.compressed_points, 0u);
+  EXPECT_LT(r.full_faces, l.triangles.size());  // compressed where the layers meet
+  EXPECT_LE(r.smooth_full_faces, r.smooth_faces);
   for (const Prism& p : r.mesh.prisms) ASSERT_TRUE(prism_positive(r.mesh.points, p));
 }
 

@@ -64,6 +64,12 @@ struct LayerMesh {
   std::vector<Index> top_triangles;  ///< the fill triangles that are the top of a layer stack
   double thickness_min = 0, thickness_max = 0;  ///< of the stacks, along their directions
   std::size_t compressed_points = 0;  ///< wall points whose stack is thinner than N layers of H, R
+  /// Wall triangles whose three stacks have their full thickness (N layers of
+  /// H, R, or the cap): the layers they reach. Smooth: the wall triangles whose
+  /// neighbours at their points all have normals within kSmoothAngle degrees
+  /// of their own (away from the surface's sharp edges and corners).
+  std::size_t full_faces = 0, smooth_faces = 0, smooth_full_faces = 0;
+  static constexpr double kSmoothAngle = 30;
   int shrink_rounds = 0;  ///< rounds of compression for validity
 };
 
