@@ -218,6 +218,15 @@ Status validate(const LayerOptions& o) {
   return {};
 }
 
+Result<double> first_height_for_yplus(double yplus, double reynolds, double length) {
+  const auto positive = [](double x) { return std::isfinite(x) && x > 0; };
+  if (!positive(yplus)) return invalid_input(fmt::format("--first-height yplus:Y: Y must be positive, got {}", yplus));
+  if (!positive(reynolds)) return invalid_input(fmt::format("--reynolds must be positive, got {}", reynolds));
+  if (!positive(length)) return invalid_input(fmt::format("the reference length must be positive, got {}", length));
+  const double cf = 0.026 * std::pow(reynolds, -1.0 / 7.0);
+  return yplus * length / (reynolds * std::sqrt(cf / 2));
+}
+
 Result<LayerMesh> grow_layers(const SurfaceMesh& s, const LayerOptions& o) {
   PDR_TRY(validate(o));
   PDR_ASSIGN_OR_RETURN(const Wall w, find_wall(s, o));

@@ -96,4 +96,22 @@ expect_exit 64 "$pdrmesh" mesh "$sphere" -o "$tmp/x.vtu" --first-height 0.1
 expect_exit 64 "$pdrmesh" mesh "$sphere" -o "$tmp/x.vtu" --layers 3 --first-height 0.1 --growth-ratio 0.5
 expect_exit 65 "$pdrmesh" mesh "$sphere" -o "$tmp/x.vtu" --layers 3 --first-height 0.1 --layers-on inlet
 grep -q "inlet names no surface" "$tmp/err" || fail "layers-on: $(cat "$tmp/err")"
+# The first height as a y+: yplus:Y needs --reynolds, --reynolds needs yplus:Y, bad values are named.
+expect_exit 64 "$pdrmesh" mesh "$sphere" -o "$tmp/x.vtu" --layers 3 --first-height yplus:1
+grep -q "give the Reynolds number with --reynolds" "$tmp/err" || fail "yplus without --reynolds: $(cat "$tmp/err")"
+expect_exit 64 "$pdrmesh" mesh "$sphere" -o "$tmp/x.vtu" --layers 3 --first-height yplus:-1 --reynolds 1e6
+grep -q "first-height.*yplus:-1" "$tmp/err" || fail "yplus:-1: $(cat "$tmp/err")"
+expect_exit 64 "$pdrmesh" mesh "$sphere" -o "$tmp/x.vtu" --layers 3 --first-height yplus:one --reynolds 1e6
+expect_exit 64 "$pdrmesh" mesh "$sphere" -o "$tmp/x.vtu" --layers 3 --first-height 0.1 --reynolds 1e6
+grep -q -- "--reynolds: only with --first-height yplus:Y" "$tmp/err" || fail "--reynolds alone: $(cat "$tmp/err")"
+expect_exit 64 "$pdrmesh" mesh "$sphere" -o "$tmp/x.vtu" --layers 3 --first-height yplus:1 --reynolds -5
+grep -q -- "--reynolds.*-5" "$tmp/err" || fail "--reynolds -5: $(cat "$tmp/err")"
+# y+ 1 at Re 1e6 on the sphere's length, 20: 20 / (1e6 sqrt(0.026 / 1e6^(1/7) / 2)) = 4.706e-4.
+"$pdrmesh" mesh -q "$sphere" -o "$tmp/y.mesh" --layers 2 --first-height yplus:1 --reynolds 1e6 --json >"$tmp/y.json"
+python3 - "$tmp/y.json" <<'PY' || fail "yplus:1: $(cat "$tmp/y.json")"
+import json, sys
+layers = json.load(open(sys.argv[1]))["layers"]
+h = (layers["first_height_min"], layers["first_height_max"])
+sys.exit(0 if 4.6e-4 < h[0] <= h[1] < 4.9e-4 else f"first height {h}, expected about 4.706e-4")
+PY
 echo "layers: ok"

@@ -9,10 +9,14 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <set>
+#include <string>
+#include <tuple>
+#include <vector>
 
 #include "pdrmesh/farfield.hpp"
 #include "pdrmesh/layered_pipeline.hpp"
@@ -344,6 +348,27 @@ TEST(Layers, RefusesBadOptions) {
   o = five_layers(0.01);
   o.growth_ratio = 0.5;
   EXPECT_NE(validate(o).message().find("--growth-ratio"), std::string::npos);
+}
+
+TEST(Layers, FirstHeightFromYplusFollowsTheFlatPlateSkinFriction) {
+  // Re 1e6 on a length of 1: Cf = 0.026 / 1e6^(1/7) = 3.6126e-3, so a y+ of 1
+  // is 1 / (1e6 sqrt(Cf / 2)) = 2.3529e-5.
+  const Result<double> h = first_height_for_yplus(1, 1e6, 1);
+  ASSERT_TRUE(h.ok()) << h.status().to_string();
+  EXPECT_NEAR(*h, 2.3529e-5, 1e-9);
+  EXPECT_NEAR(*first_height_for_yplus(30, 1e6, 1), 30 * *h, 1e-12);   // linear in y+
+  EXPECT_NEAR(*first_height_for_yplus(1, 1e6, 20), 20 * *h, 1e-12);   // and in the length
+  EXPECT_LT(*first_height_for_yplus(1, 1e7, 1), *h / 5);               // thinner at a higher Re
+  for (const auto& [yplus, re, length, named] :
+       std::vector<std::tuple<double, double, double, std::string>>{{0, 1e6, 1, "yplus"},
+                                                                    {1, -1, 1, "--reynolds"},
+                                                                    {1, std::nan(""), 1, "--reynolds"},
+                                                                    {1, 1e6, 0, "length"}}) {
+    const Result<double> bad = first_height_for_yplus(yplus, re, length);
+    ASSERT_FALSE(bad.ok());
+    EXPECT_EQ(bad.status().code(), StatusCode::kInvalidInput);
+    EXPECT_NE(bad.status().message().find(named), std::string::npos) << bad.status().message();
+  }
 }
 
 TEST(Layers, ValidatorCatchesAnInvertedPrism) {

@@ -50,6 +50,13 @@ struct LayerOptions {
 /// finite and > 0, growth ratio finite and in [1, 10].
 Status validate(const LayerOptions& options);
 
+/// The first layer's height for a wall distance `yplus` in wall units, at
+/// Reynolds number `reynolds` on `length` (U length / nu), from the turbulent
+/// flat-plate skin friction Cf = 0.026 Re^(-1/7) (White, Fluid Mechanics):
+/// the friction velocity u* = U sqrt(Cf / 2), so y = yplus nu / u* =
+/// yplus length / (Re sqrt(Cf / 2)). invalid_input unless all three are finite and > 0.
+Result<double> first_height_for_yplus(double yplus, double reynolds, double length);
+
 struct LayerMesh {
   /// The surface's points (same indices), then the layer points: layer k's
   /// point of wall point w at surface_points + (k - 1) * wall_points + w.
