@@ -36,7 +36,6 @@ grep -q "^Mesh OK\." "$tmp/checkMesh.log" || { cat "$tmp/checkMesh.log"; fail "c
 
 # Uniform flow along +x from the inlet, p = 0 at the outlet, slip sides, no-slip
 # sphere; nu = 0.2 with U = 1 and a diameter of 20 is Re 100 (steady, laminar).
-mkdir -p "$case/0"
 cat >"$case/system/controlDict" <<'DICT'
 FoamFile { version 2.0; format ascii; class dictionary; object controlDict; }
 application simpleFoam; startFrom startTime; startTime 0; stopAt endTime; endTime 50;
@@ -69,30 +68,7 @@ cat >"$case/constant/turbulenceProperties" <<'DICT'
 FoamFile { version 2.0; format ascii; class dictionary; object turbulenceProperties; }
 simulationType laminar;
 DICT
-cat >"$case/0/U" <<'DICT'
-FoamFile { version 2.0; format ascii; class volVectorField; object U; }
-dimensions [0 1 -1 0 0 0 0];
-internalField uniform (1 0 0);
-boundaryField
-{
-    inlet { type fixedValue; value uniform (1 0 0); }
-    outlet { type zeroGradient; }
-    sides { type slip; }
-    wall { type noSlip; }
-}
-DICT
-cat >"$case/0/p" <<'DICT'
-FoamFile { version 2.0; format ascii; class volScalarField; object p; }
-dimensions [0 2 -2 0 0 0 0];
-internalField uniform 0;
-boundaryField
-{
-    inlet { type zeroGradient; }
-    outlet { type fixedValue; value uniform 0; }
-    sides { type zeroGradient; }
-    wall { type zeroGradient; }
-}
-DICT
+flow_fields "$case" wall noSlip "(1 0 0)"
 
 simpleFoam -case "$case" -noFunctionObjects >"$tmp/simpleFoam.log" 2>&1 ||
   { tail -40 "$tmp/simpleFoam.log"; fail "simpleFoam failed"; }
