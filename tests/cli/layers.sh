@@ -5,7 +5,7 @@
 # mesh's layer cells, and the option checks refuse what cannot work before any
 # meshing.
 # With --openfoam instead: the far-field case with layers written as a polyMesh
-# passes checkMesh (skipped, exit 77, without OpenFOAM).
+# passes checkMesh, and as CGNS cgnscheck (skipped, exit 77, without them).
 # Usage: layers.sh PDRMESH SPHERE.mesh [--openfoam]
 set -euo pipefail
 pdrmesh=$1
@@ -17,8 +17,11 @@ fail() { echo "FAIL: $*"; exit 1; }
 if [[ $mode == --openfoam ]]; then
   source "$(dirname "$0")/openfoam_lib.sh"
   openfoam_env
-  if ! command -v checkMesh >/dev/null; then
-    echo "SKIP: not installed: checkMesh (Debian package openfoam; scripts/install-deps.sh installs it)"
+  missing=()
+  command -v checkMesh >/dev/null || missing+=("checkMesh (Debian package openfoam)")
+  command -v cgnscheck >/dev/null || missing+=("cgnscheck (Debian package cgns-convert)")
+  if ((${#missing[@]} > 0)); then
+    echo "SKIP: not installed: ${missing[*]}; scripts/install-deps.sh installs them"
     exit 77
   fi
   foam_case=$tmp/case
@@ -27,7 +30,12 @@ if [[ $mode == --openfoam ]]; then
   checkMesh -case "$foam_case" -noFunctionObjects >"$tmp/checkMesh.log" 2>&1 || { cat "$tmp/checkMesh.log"; fail "checkMesh failed"; }
   grep -q "^Mesh OK\." "$tmp/checkMesh.log" || { cat "$tmp/checkMesh.log"; fail "checkMesh: not 'Mesh OK.'"; }
   grep -Eq "^ +prisms: +5544$" "$tmp/checkMesh.log" || { cat "$tmp/checkMesh.log"; fail "checkMesh: not 5544 prisms"; }
-  echo "ok: checkMesh says Mesh OK on the far-field case with three prism layers"
+  # The same mesh as CGNS: a PENTA_6 section of the prisms that cgnscheck accepts.
+  "$pdrmesh" mesh -q "$sphere" --farfield 5 --layers 3 --first-height 0.05 -o "$tmp/far.cgns"
+  cgnscheck -v "$tmp/far.cgns" >"$tmp/cgnscheck.log" 2>&1 || { cat "$tmp/cgnscheck.log"; fail "cgnscheck failed"; }
+  if grep -qi "error" "$tmp/cgnscheck.log"; then cat "$tmp/cgnscheck.log"; fail "cgnscheck reports an error"; fi
+  grep -q "Element Set Type=PENTA_6" "$tmp/cgnscheck.log" || { cat "$tmp/cgnscheck.log"; fail "cgnscheck: no PENTA_6 section"; }
+  echo "ok: checkMesh says Mesh OK on the far-field case with three prism layers; cgnscheck reads its CGNS"
   exit 0
 fi
 
