@@ -166,6 +166,7 @@ struct Outcome {
   std::string size_line;  ///< "size: ..." (SizeArgs::resolve)
   std::optional<double> size;
   bool json = false;  ///< print the result as one JSON object on stdout
+  nlohmann::json layer_growth;  ///< with --layers: layer_growth_json, added to the result's "layers"
 };
 
 /// The --json result of mesh and run: the files, the size used, the counts and the quality.
@@ -178,6 +179,7 @@ void print_result_json(const Outcome& o, const VolumeMesh& mesh, const QualityRe
                       {"points", mesh.points.size()},
                       {"quality", nlohmann::json::parse(quality_to_json(q))}};
   if (mesh.mixed()) j["layers"] = nlohmann::json::parse(layers_to_json(measure_layers(mesh)));
+  if (o.layer_growth.is_object()) j["layers"].update(o.layer_growth);
   fmt::print("{}\n", j.dump());
 }
 
@@ -291,10 +293,8 @@ int run_mesh_layered(const MeshArgs& a, const SurfaceMesh& surface, const std::v
                  p.flips, p.tets);
   });
   if (!result.ok()) return fail_run(result.status(), a.time_limit_s);
-  progress.say("layers: {} on {} wall triangles ({} points), stack {:.4g} to {:.4g} thick, {} stacks compressed "
-               "({:.2f} s)",
-               layers->layers, result->wall_triangles, result->wall_points, result->thickness_min,
-               result->thickness_max, result->compressed_points, result->seconds_layers);
+  progress.say("{}", layer_growth_line(layers->layers, *result));
+  outcome.layer_growth = nlohmann::json::parse(layer_growth_json(*result));
   progress.say("mixed mesh: {} prisms, {} tets, {} points", result->mesh.prisms.size(), result->mesh.tets.size(),
                result->mesh.points.size());
   return finish(result->mesh, surface, outcome, !a.no_validate, progress, a.quiet);
@@ -314,7 +314,7 @@ int run_mesh(const MeshArgs& a) {
   const double left_s = a.time_limit_s > 0 ? a.time_limit_s - seconds_since(start) : 0;
   if (a.time_limit_s > 0 && !(left_s > 0))
     return fail_run(deadline_exceeded("it ran out while the surface was read and checked"), a.time_limit_s);
-  Outcome outcome{&a.output, &a.surface, {}, std::nullopt, a.json};
+  Outcome outcome{&a.output, &a.surface, {}, std::nullopt, a.json, {}};
 
   if (a.no_refine) {
     TetgenOptions options;
@@ -423,7 +423,7 @@ int run_run(const RunArgs& a) {
 
   auto kernel = make_leaf_kernel(a.mesh.kernel);
   if (!kernel.ok()) return fail(kernel.status());
-  Outcome outcome{&a.output, &a.surface, {}, std::nullopt, a.json};
+  Outcome outcome{&a.output, &a.surface, {}, std::nullopt, a.json, {}};
   ParallelOptions options = a.mesh.parallel_options(a.mesh.size.resolve(surface, outcome.size_line, true, body_diagonal));
   outcome.size = options.sizing.size;
   progress.say("{}", outcome.size_line);
@@ -464,10 +464,8 @@ int run_run(const RunArgs& a) {
     return fail_run(deadline_exceeded("it ran out before the mesh was done"), a.time_limit_s);
   if (layered) {
     const LayeredResult& l = layered->layered;
-    progress.say("layers: {} on {} wall triangles ({} points), stack {:.4g} to {:.4g} thick, {} stacks compressed "
-                 "({:.2f} s)",
-                 layers->layers, l.wall_triangles, l.wall_points, l.thickness_min, l.thickness_max,
-                 l.compressed_points, l.seconds_layers);
+    progress.say("{}", layer_growth_line(layers->layers, l));
+    outcome.layer_growth = nlohmann::json::parse(layer_growth_json(l));
     result->mesh = std::move(layered->layered.mesh);
   }
   const VolumeMesh& mesh = result->mesh;

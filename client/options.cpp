@@ -19,9 +19,7 @@
 #include "pdrmesh/volume_io.hpp"
 
 namespace pdrmesh::cli {
-namespace {
 
-/// The whole of `text` as a finite double (no NaN, infinity or overflow).
 std::optional<double> parse_finite(std::string_view text) {
   if (text.empty() || std::isspace(static_cast<unsigned char>(text.front()))) return std::nullopt;
   const std::string s(text);
@@ -31,6 +29,8 @@ std::optional<double> parse_finite(std::string_view text) {
   if (end != s.c_str() + s.size() || errno == ERANGE || !std::isfinite(v)) return std::nullopt;
   return v;
 }
+
+namespace {
 
 bool is_whole_number(std::string_view text) {
   long long v = 0;

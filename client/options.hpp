@@ -45,6 +45,9 @@ inline constexpr Accepts kPixels{"a whole number of pixels from 64 to 8192", "PI
 /// infinity or overflow) within the rule; else "must be <what>, got '<text>'".
 CLI::Validator number_check(const Accepts& accepts);
 
+/// The whole of `text` as a finite double (no NaN, infinity or overflow).
+std::optional<double> parse_finite(std::string_view text);
+
 /// Adds an option taking a number of the given kind: one line per option.
 template <class T>
 CLI::Option* add_number(CLI::App* cmd, const std::string& flags, T& value, const std::string& help,

@@ -378,18 +378,19 @@ Result<VolumeFormat> volume_format_from_path(const std::filesystem::path& path) 
 bool holds_mixed(VolumeFormat f) {
   return f == VolumeFormat::kMedit || f == VolumeFormat::kVtu || f == VolumeFormat::kGmsh || f == VolumeFormat::kSu2 ||
          f == VolumeFormat::kUgridAscii || f == VolumeFormat::kUgridLittle || f == VolumeFormat::kUgridBig ||
-         f == VolumeFormat::kFoam;
+         f == VolumeFormat::kCgns || f == VolumeFormat::kFoam;
 }
 
 std::string_view mixed_volume_suffixes() {
-  return ".mesh, .vtu, .msh, .ugrid (.lb8.ugrid, .b8.ugrid), .su2 or polyMesh";
+  return ".mesh, .vtu, .msh, .ugrid (.lb8.ugrid, .b8.ugrid), .su2, .cgns or polyMesh";
 }
 
 namespace {
 
 Status write_format(const VolumeMesh& mesh, VolumeFormat format, const std::filesystem::path& path,
                     const VolumeWriteOptions& options) {
-  if (mesh.mixed() && format != VolumeFormat::kFoam) return volio::write_mixed(mesh, format, path);
+  if (mesh.mixed() && format != VolumeFormat::kFoam && format != VolumeFormat::kCgns)
+    return volio::write_mixed(mesh, format, path);
   switch (format) {
     case VolumeFormat::kMedit: return volio::write_medit(mesh, path);
     case VolumeFormat::kMeditBinary: return volio::write_meshb(mesh, path);

@@ -10,7 +10,10 @@
 // Names are boundary_name(), cut to CGNS's 32 characters and made unique.
 // A mesh with regions has one TETRA_4 section per region instead (ascending
 // id, named by region_name(), its tets in mesh order; the tets are numbered
-// in that order). The file is byte-identical for one mesh: what HDF5 and
+// in that order). A mixed mesh (prism layers) has a PENTA_6 section "Prisms"
+// and a PYRA_5 section "Pyramids" after the tets, numbered after them; CGNS's
+// vertex orders are ours (mixed_cells.hpp: a prism's bottom, then the top
+// above it; a pyramid's base, then its apex; each base facing the rest). The file is byte-identical for one mesh: what HDF5 and
 // libcgns write that changes from write to write (object times, unset bytes
 // in fixed-size strings) is cleared afterwards (clear_hdf5_noise).
 #include <cgnslib.h>
@@ -219,10 +222,11 @@ class CgnsFile {
 }  // namespace
 
 Status write_cgns(const VolumeMesh& mesh, const std::filesystem::path& path) {
-  if (mesh.tets.size() + mesh.boundary.size() >= static_cast<std::size_t>(std::numeric_limits<cgsize_t>::max()))
-    return invalid_input(fmt::format("mesh has {} tets and {} boundary triangles; this libcgns numbers elements in "
+  const std::size_t cells = mesh.tets.size() + mesh.prisms.size() + mesh.pyramids.size();
+  if (cells + mesh.boundary.size() >= static_cast<std::size_t>(std::numeric_limits<cgsize_t>::max()))
+    return invalid_input(fmt::format("mesh has {} cells and {} boundary triangles; this libcgns numbers elements in "
                                      "32 bits",
-                                     mesh.tets.size(), mesh.boundary.size()));
+                                     cells, mesh.boundary.size()));
   const std::lock_guard lock(cgns_mutex);
   const auto failed = [&](std::string_view what) {
     return io_error(fmt::format("{}: CGNS {} failed: {}", path.string(), what, cg_get_error()));
@@ -233,7 +237,7 @@ Status write_cgns(const VolumeMesh& mesh, const std::filesystem::path& path) {
   const int fn = file.fn();
   int base = 0, zone = 0, node = 0;
   if (cg_base_write(fn, "Base", 3, 3, &base) != CG_OK) return failed("base");
-  cgsize_t size[3] = {static_cast<cgsize_t>(mesh.points.size()), static_cast<cgsize_t>(mesh.tets.size()), 0};
+  cgsize_t size[3] = {static_cast<cgsize_t>(mesh.points.size()), static_cast<cgsize_t>(cells), 0};
   if (cg_zone_write(fn, base, "Zone", size, CGNS_ENUMV(Unstructured), &zone) != CG_OK) return failed("zone");
 
   std::vector<double> coord(mesh.points.size());
@@ -274,11 +278,26 @@ Status write_cgns(const VolumeMesh& mesh, const std::filesystem::path& path) {
     }
   }
 
+  cgsize_t next = tets + 1;
+  const auto mixed_section = [&](const char* name, CGNS_ENUMT(ElementType_t) type, const auto& list) -> Status {
+    if (list.empty()) return {};
+    conn.clear();
+    for (const auto& c : list)
+      for (Index v : c) conn.push_back(static_cast<cgsize_t>(v) + 1);
+    const auto count = static_cast<cgsize_t>(list.size());
+    used.insert(name);
+    if (cg_section_write(fn, base, zone, name, type, next, next + count - 1, 0, conn.data(), &node) != CG_OK)
+      return failed(name);
+    next += count;
+    return {};
+  };
+  PDR_TRY(mixed_section("Prisms", CGNS_ENUMV(PENTA_6), mesh.prisms));
+  PDR_TRY(mixed_section("Pyramids", CGNS_ENUMV(PYRA_5), mesh.pyramids));
+
   std::vector<std::size_t> order(mesh.boundary.size());
   for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
   std::stable_sort(order.begin(), order.end(),
                    [&](std::size_t a, std::size_t b) { return mesh.boundary_ids[a] < mesh.boundary_ids[b]; });
-  cgsize_t next = tets + 1;
   for (std::size_t k = 0; k < order.size();) {
     const int id = mesh.boundary_ids[order[k]];
     conn.clear();

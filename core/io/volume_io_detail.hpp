@@ -4,8 +4,10 @@
 // a byte reader that reports offsets, and the per-format entry points.
 #pragma once
 
+#include <fmt/compile.h>
 #include <fmt/format.h>
 
+#include <array>
 #include <bit>
 #include <charconv>
 #include <cmath>
@@ -149,6 +151,13 @@ void put(fmt::memory_buffer& buf, T v, bool little) {
   buf.append(p, p + sizeof(T));
 }
 
+/// Appends a cell's point indices plus `base` (0 or 1), separated by spaces.
+template <std::size_t K>
+void put_cell(fmt::memory_buffer& buf, const std::array<Index, K>& cell, Index base) {
+  auto it = std::back_inserter(buf);
+  for (std::size_t i = 0; i < K; ++i) fmt::format_to(it, FMT_COMPILE("{}{}"), i ? " " : "", cell[i] + base);
+}
+
 /// Reads fixed-size values from a byte string; errors name the byte offset.
 class ByteReader {
  public:
@@ -190,6 +199,7 @@ class ByteReader {
 
 // ---------------------------------------------------------------- formats
 
+/// Tets, then Prisms and Pyramids (ref 0) when the mesh has them.
 Status write_medit(const VolumeMesh& mesh, const std::filesystem::path& path);
 Result<VolumeMesh> read_medit(std::string_view text, const std::string& name);
 Status write_meshb(const VolumeMesh& mesh, const std::filesystem::path& path);
@@ -210,8 +220,10 @@ Status read_mapbc_beside(VolumeMesh& mesh, const std::filesystem::path& ugrid);
 Status write_gmsh(const VolumeMesh& mesh, const std::filesystem::path& path);
 Result<VolumeMesh> read_gmsh(std::string_view text, const std::string& name);
 
+/// Tets, then prisms and pyramids when the mesh has them (in VTK's types and vertex order).
 Status write_su2(const VolumeMesh& mesh, const std::filesystem::path& path);
-/// A mesh with prisms or pyramids in `format` (volume_io_mixed.cpp); unsupported for formats that hold tets only.
+/// A mesh with prisms or pyramids in `format` (volume_io_mixed.cpp; .mesh and .su2 through
+/// write_medit and write_su2); unsupported for formats that hold tets only.
 Status write_mixed(const VolumeMesh& mesh, VolumeFormat format, const std::filesystem::path& path);
 Result<VolumeMesh> read_su2(std::string_view text, const std::string& name);
 

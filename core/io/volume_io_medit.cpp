@@ -2,7 +2,7 @@
 // Medit volume meshes: ASCII .mesh and libMeshb binary .meshb.
 //
 // Triangles carry the surface id as their ref, tetrahedra the region (0 when
-// the mesh has none). Medit tets use the same positive orientation as VTK
+// the mesh has none); a mixed mesh adds Prisms and Pyramids (ref 0). Medit tets use the same positive orientation as VTK
 // (refine's ref_import.c reads GmfTetrahedra unchanged and its validation
 // rejects tets with negative volume).
 //
@@ -78,6 +78,19 @@ Status write_medit(const VolumeMesh& mesh, const std::filesystem::path& path) {
       PDR_TRY(out.maybe_flush());
     }
   }
+  // Prisms and pyramids in our vertex order (mixed_cells.hpp), which Gmsh reads unpermuted, ref 0.
+  const auto cells = [&](const char* name, const auto& list) -> Status {
+    if (list.empty()) return {};
+    fmt::format_to(it, "\n{}\n{}\n", name, list.size());
+    for (const auto& c : list) {
+      put_cell(buf, c, 1);
+      fmt::format_to(it, " 0\n");
+      PDR_TRY(out.maybe_flush());
+    }
+    return {};
+  };
+  PDR_TRY(cells("Prisms", mesh.prisms));
+  PDR_TRY(cells("Pyramids", mesh.pyramids));
   fmt::format_to(it, "\nEnd\n");
   return out.close();
 }

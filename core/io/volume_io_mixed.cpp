@@ -1,8 +1,9 @@
 // SPDX-License-Identifier: AGPL-3.0-or-later
 // Writers of mixed meshes (tets, prisms, pyramids: VolumeMesh::mixed()) in the
-// formats that hold prisms: Medit .mesh, VTK XML .vtu (ascii), Gmsh 4.1 .msh,
-// UGRID (ascii and C-binary) and SU2. The tet-only writers stay as they are;
-// write_format sends a mixed mesh here, and the other formats refuse it.
+// formats that hold prisms: VTK XML .vtu (ascii), Gmsh 4.1 .msh and UGRID
+// (ascii and C-binary) here; Medit .mesh and SU2 through their one writer for
+// tets and mixed cells (write_medit, write_su2). write_format sends a mixed
+// mesh here, and the other formats refuse it.
 //
 // Vertex orders (our order is VTK's, mixed_cells.hpp):
 //  - VTK (.vtu), SU2 and Gmsh: ours (wedge 13 / prism 6, pyramid 14 / 7); SU2
@@ -41,42 +42,6 @@ std::vector<std::size_t> by_id(const VolumeMesh& mesh) {
   std::stable_sort(order.begin(), order.end(),
                    [&](std::size_t a, std::size_t b) { return mesh.boundary_ids[a] < mesh.boundary_ids[b]; });
   return order;
-}
-
-template <std::size_t K>
-void put_cell(fmt::memory_buffer& b, const std::array<Index, K>& c, Index base) {
-  auto it = std::back_inserter(b);
-  for (std::size_t i = 0; i < K; ++i) fmt::format_to(it, FMT_COMPILE("{}{}"), i ? " " : "", c[i] + base);
-}
-
-Status write_mixed_medit(const VolumeMesh& mesh, const std::filesystem::path& path) {
-  OutputFile out(path);
-  PDR_TRY(out.open());
-  auto& b = out.buf();
-  auto it = std::back_inserter(b);
-  fmt::format_to(it, "MeshVersionFormatted 2\n\nDimension 3\n\nVertices\n{}\n", mesh.points.size());
-  for (const Vec3& p : mesh.points) fmt::format_to(it, FMT_COMPILE("{} {} {} 0\n"), p[0], p[1], p[2]);
-  fmt::format_to(it, "\nTriangles\n{}\n", mesh.boundary.size());
-  for (std::size_t i = 0; i < mesh.boundary.size(); ++i) {
-    put_cell(b, mesh.boundary[i], 1);
-    fmt::format_to(it, " {}\n", mesh.boundary_ids[i]);
-    PDR_TRY(out.maybe_flush());
-  }
-  const auto section = [&](const char* name, const auto& cells) -> Status {
-    if (cells.empty()) return {};
-    fmt::format_to(it, "\n{}\n{}\n", name, cells.size());
-    for (const auto& c : cells) {
-      put_cell(b, c, 1);
-      fmt::format_to(it, " 0\n");
-      PDR_TRY(out.maybe_flush());
-    }
-    return {};
-  };
-  PDR_TRY(section("Tetrahedra", mesh.tets));
-  PDR_TRY(section("Prisms", mesh.prisms));
-  PDR_TRY(section("Pyramids", mesh.pyramids));
-  fmt::format_to(it, "\nEnd\n");
-  return out.close();
 }
 
 Status write_mixed_vtu(const VolumeMesh& mesh, const std::filesystem::path& path) {
@@ -182,48 +147,6 @@ Status write_mixed_gmsh(const VolumeMesh& mesh, const std::filesystem::path& pat
   return out.close();
 }
 
-Status write_mixed_su2(const VolumeMesh& mesh, const std::filesystem::path& path) {
-  OutputFile out(path);
-  PDR_TRY(out.open());
-  auto& b = out.buf();
-  auto it = std::back_inserter(b);
-  fmt::format_to(it, "% SU2 mesh written by pdrmesh\nNDIME= 3\nNELEM= {}\n",
-                 mesh.tets.size() + mesh.prisms.size() + mesh.pyramids.size());
-  std::size_t index = 0;
-  const auto cells = [&](int type, const auto& list) -> Status {
-    for (const auto& c : list) {
-      fmt::format_to(it, FMT_COMPILE("{} "), type);
-      put_cell(b, c, 0);
-      fmt::format_to(it, FMT_COMPILE(" {}\n"), index++);
-      PDR_TRY(out.maybe_flush());
-    }
-    return {};
-  };
-  PDR_TRY(cells(10, mesh.tets));
-  PDR_TRY(cells(13, mesh.prisms));
-  PDR_TRY(cells(14, mesh.pyramids));
-  fmt::format_to(it, "NPOIN= {}\n", mesh.points.size());
-  for (std::size_t i = 0; i < mesh.points.size(); ++i) {
-    const Vec3& p = mesh.points[i];
-    fmt::format_to(it, FMT_COMPILE("{} {} {} {}\n"), p[0], p[1], p[2], i);
-  }
-  const std::vector<std::size_t> order = by_id(mesh);
-  const std::vector<int> ids = distinct(mesh.boundary_ids);
-  fmt::format_to(it, "NMARK= {}\n", ids.size());
-  std::size_t k = 0;
-  for (int id : ids) {
-    const std::size_t begin = k;
-    while (k < order.size() && mesh.boundary_ids[order[k]] == id) ++k;
-    fmt::format_to(it, "MARKER_TAG= {}\nMARKER_ELEMS= {}\n", boundary_name(mesh.boundary_names, id), k - begin);
-    for (std::size_t j = begin; j < k; ++j) {
-      fmt::format_to(it, "5 ");
-      put_cell(b, mesh.boundary[order[j]], 0);
-      b.push_back('\n');
-    }
-  }
-  return out.close();
-}
-
 /// UGRID, ascii (`binary` false) or C-binary int32/float64 in the given byte order.
 Status write_mixed_ugrid(const VolumeMesh& mesh, const std::filesystem::path& path, bool binary, bool little) {
   OutputFile out(path);
@@ -279,10 +202,10 @@ Status write_mixed_ugrid(const VolumeMesh& mesh, const std::filesystem::path& pa
 Status write_mixed(const VolumeMesh& mesh, VolumeFormat format, const std::filesystem::path& path) {
   PDR_TRY(check_cells(mesh));
   switch (format) {
-    case VolumeFormat::kMedit: return write_mixed_medit(mesh, path);
+    case VolumeFormat::kMedit: return write_medit(mesh, path);
     case VolumeFormat::kVtu: return write_mixed_vtu(mesh, path);
     case VolumeFormat::kGmsh: return write_mixed_gmsh(mesh, path);
-    case VolumeFormat::kSu2: return write_mixed_su2(mesh, path);
+    case VolumeFormat::kSu2: return write_su2(mesh, path);
     case VolumeFormat::kUgridAscii: return write_mixed_ugrid(mesh, path, false, true);
     case VolumeFormat::kUgridLittle: return write_mixed_ugrid(mesh, path, true, true);
     case VolumeFormat::kUgridBig: return write_mixed_ugrid(mesh, path, true, false);

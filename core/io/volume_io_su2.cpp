@@ -2,11 +2,13 @@
 // SU2 native ASCII (.su2) volume meshes.
 //
 //   NDIME= 3
-//   NELEM= <tets>        then "10 a b c d <element index>" (0-based points)
+//   NELEM= <cells>       then "10 a b c d <element index>" (0-based points) per
+//                        tet, then "13 a b c d e f <index>" per prism and
+//                        "14 a b c d e <index>" per pyramid (mixed meshes)
 //   NPOIN= <points>      then "x y z <point index>"
 //   NMARK= <markers>     then per marker "MARKER_TAG= <name>",
 //                        "MARKER_ELEMS= <n>" and "5 a b c" per triangle
-// SU2 tets use the VTK orientation. Markers are written in ascending surface
+// SU2 uses VTK's cell types, orientation and vertex order (ours, mixed_cells.hpp). Markers are written in ascending surface
 // id, tagged with the id's boundary name ("surface_<id>" when it has none).
 // Reading maps "surface_<id>" back to <id> with no name, and gives any other
 // tag the next unused id 1, 2, ... in order of first appearance, named by the
@@ -30,6 +32,8 @@ namespace {
 
 constexpr int kSu2Triangle = 5;
 constexpr int kSu2Tetra = 10;
+constexpr int kSu2Prism = 13;
+constexpr int kSu2Pyramid = 14;
 
 }  // namespace
 
@@ -37,12 +41,25 @@ Status write_su2(const VolumeMesh& mesh, const std::filesystem::path& path) {
   OutputFile out(path);
   PDR_TRY(out.open());
   auto it = std::back_inserter(out.buf());
-  fmt::format_to(it, "% SU2 mesh written by pdrmesh\nNDIME= 3\nNELEM= {}\n", mesh.tets.size());
+  fmt::format_to(it, "% SU2 mesh written by pdrmesh\nNDIME= 3\nNELEM= {}\n",
+                 mesh.tets.size() + mesh.prisms.size() + mesh.pyramids.size());
   for (std::size_t i = 0; i < mesh.tets.size(); ++i) {
     const Tet& t = mesh.tets[i];
     fmt::format_to(it, FMT_COMPILE("{} {} {} {} {} {}\n"), kSu2Tetra, t[0], t[1], t[2], t[3], i);
     PDR_TRY(out.maybe_flush());
   }
+  std::size_t index = mesh.tets.size();
+  const auto cells = [&](int type, const auto& list) -> Status {
+    for (const auto& c : list) {
+      fmt::format_to(it, FMT_COMPILE("{} "), type);
+      put_cell(out.buf(), c, 0);
+      fmt::format_to(it, FMT_COMPILE(" {}\n"), index++);
+      PDR_TRY(out.maybe_flush());
+    }
+    return {};
+  };
+  PDR_TRY(cells(kSu2Prism, mesh.prisms));
+  PDR_TRY(cells(kSu2Pyramid, mesh.pyramids));
   fmt::format_to(it, "NPOIN= {}\n", mesh.points.size());
   for (std::size_t i = 0; i < mesh.points.size(); ++i) {
     const Vec3& p = mesh.points[i];

@@ -218,6 +218,15 @@ Status validate(const LayerOptions& o) {
   return {};
 }
 
+Result<double> first_height_for_yplus(double yplus, double reynolds, double length) {
+  const auto positive = [](double x) { return std::isfinite(x) && x > 0; };
+  if (!positive(yplus)) return invalid_input(fmt::format("--first-height yplus:Y: Y must be positive, got {}", yplus));
+  if (!positive(reynolds)) return invalid_input(fmt::format("--reynolds must be positive, got {}", reynolds));
+  if (!positive(length)) return invalid_input(fmt::format("the reference length must be positive, got {}", length));
+  const double cf = 0.026 * std::pow(reynolds, -1.0 / 7.0);
+  return yplus * length / (reynolds * std::sqrt(cf / 2));
+}
+
 Result<LayerMesh> grow_layers(const SurfaceMesh& s, const LayerOptions& o) {
   PDR_TRY(validate(o));
   PDR_ASSIGN_OR_RETURN(const Wall w, find_wall(s, o));
@@ -364,12 +373,26 @@ Result<LayerMesh> grow_layers(const SurfaceMesh& s, const LayerOptions& o) {
 
   out.thickness_min = std::numeric_limits<double>::infinity();
   out.thickness_max = 0;
+  const double wanted = o.max_thickness ? std::min(full, *o.max_thickness) : full;
   for (Index v = 0; v < nw; ++v) {
     const double along = t[v] * stretch[v];
     out.thickness_min = std::min(out.thickness_min, along);
     out.thickness_max = std::max(out.thickness_max, along);
-    const double wanted = o.max_thickness ? std::min(full, *o.max_thickness) : full;
     if (t[v] < wanted) ++out.compressed_points;
+  }
+  // The layers reached per wall triangle: a stack only ever gets thinner, so
+  // one that kept `wanted` exactly was never compressed.
+  const double smooth_cos = std::cos(LayerMesh::kSmoothAngle * std::acos(-1.0) / 180);
+  for (Index k = 0; k < w.triangles.size(); ++k) {
+    const Tri& f = s.triangles[w.triangles[k]];
+    bool full_stack = true, smooth = true;
+    for (Index v : f) {
+      full_stack = full_stack && t[w.local[v]] >= wanted;
+      for (Index other : w.around[w.local[v]]) smooth = smooth && dot(w.normals[other], w.normals[k]) >= smooth_cos;
+    }
+    out.full_faces += full_stack ? 1 : 0;
+    out.smooth_faces += smooth ? 1 : 0;
+    out.smooth_full_faces += smooth && full_stack ? 1 : 0;
   }
   return out;
 }

@@ -28,6 +28,9 @@ Result<LayerMesh> grow_checked(const SurfaceMesh& surface, const LayerOptions& l
   out.wall_triangles = layers.wall_triangles;
   out.wall_points = layers.wall_points;
   out.compressed_points = layers.compressed_points;
+  out.full_faces = layers.full_faces;
+  out.smooth_faces = layers.smooth_faces;
+  out.smooth_full_faces = layers.smooth_full_faces;
   out.thickness_min = layers.thickness_min;
   out.thickness_max = layers.thickness_max;
   out.shrink_rounds = layers.shrink_rounds;

@@ -78,7 +78,7 @@ if [[ $mode == --openfoam ]]; then
   # outlet, the sides and the body slip.  case_for DIR BODY_PATCH
   case_for() {
     local dir=$1 body=$2
-    mkdir -p "$dir/0" "$dir/system"
+    mkdir -p "$dir/system"
     cat >"$dir/system/controlDict" <<'DICT'
 FoamFile { version 2.0; format ascii; class dictionary; object controlDict; }
 application potentialFoam; startFrom startTime; startTime 0; stopAt endTime; endTime 1;
@@ -102,30 +102,7 @@ solvers
 }
 potentialFlow { nNonOrthogonalCorrectors 3; }
 DICT
-    cat >"$dir/0/U" <<DICT
-FoamFile { version 2.0; format ascii; class volVectorField; object U; }
-dimensions [0 1 -1 0 0 0 0];
-internalField uniform (0 0 0);
-boundaryField
-{
-    inlet { type fixedValue; value uniform (1 0 0); }
-    outlet { type zeroGradient; }
-    sides { type slip; }
-    $body { type slip; }
-}
-DICT
-    cat >"$dir/0/p" <<DICT
-FoamFile { version 2.0; format ascii; class volScalarField; object p; }
-dimensions [0 2 -2 0 0 0 0];
-internalField uniform 0;
-boundaryField
-{
-    inlet { type zeroGradient; }
-    outlet { type fixedValue; value uniform 0; }
-    sides { type zeroGradient; }
-    $body { type zeroGradient; }
-}
-DICT
+    flow_fields "$dir" "$body" slip "(0 0 0)"
   }
   # foam_check DIR BODY_PATCH: checkMesh says Mesh OK and reports the patches by
   # name; potentialFoam ends, its last Phi solve within the tolerance.

@@ -29,3 +29,36 @@ ddtSchemes {} gradSchemes {} divSchemes {} laplacianSchemes {} interpolationSche
 DICT
   echo 'FoamFile { version 2.0; format ascii; class dictionary; object fvSolution; }' >"$1/system/fvSolution"
 }
+
+# flow_fields DIR BODY_PATCH BODY_U U0: 0/U and 0/p of a flow along +x in a
+# far-field box (patches inlet, outlet, sides): U = (1 0 0) at the inlet, p = 0
+# at the outlet, slip sides; at the body U of type BODY_U (slip, noSlip) and
+# p zeroGradient; the internal U is U0, e.g. "(0 0 0)".
+flow_fields() {
+  local dir=$1 body=$2 body_u=$3 u0=$4
+  mkdir -p "$dir/0"
+  cat >"$dir/0/U" <<DICT
+FoamFile { version 2.0; format ascii; class volVectorField; object U; }
+dimensions [0 1 -1 0 0 0 0];
+internalField uniform $u0;
+boundaryField
+{
+    inlet { type fixedValue; value uniform (1 0 0); }
+    outlet { type zeroGradient; }
+    sides { type slip; }
+    $body { type $body_u; }
+}
+DICT
+  cat >"$dir/0/p" <<DICT
+FoamFile { version 2.0; format ascii; class volScalarField; object p; }
+dimensions [0 2 -2 0 0 0 0];
+internalField uniform 0;
+boundaryField
+{
+    inlet { type zeroGradient; }
+    outlet { type fixedValue; value uniform 0; }
+    sides { type zeroGradient; }
+    $body { type zeroGradient; }
+}
+DICT
+}

@@ -9,10 +9,14 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <set>
+#include <string>
+#include <tuple>
+#include <vector>
 
 #include "pdrmesh/farfield.hpp"
 #include "pdrmesh/layered_pipeline.hpp"
@@ -126,6 +130,9 @@ TEST(Layers, SphereGrowsFiveLayersOnEveryTriangle) {
   EXPECT_EQ(r.mesh.prisms.size(), 5 * sphere.triangles.size());
   EXPECT_GT(r.mesh.tets.size(), 0u);
   EXPECT_EQ(r.compressed_points, 0u);  // a smooth sphere needs no compression
+  EXPECT_EQ(r.full_faces, sphere.triangles.size());
+  EXPECT_EQ(r.smooth_faces, sphere.triangles.size());
+  EXPECT_EQ(r.smooth_full_faces, sphere.triangles.size());
   const LayerReport layers = measure_layers(r.mesh);
   EXPECT_EQ(layers.stacks, sphere.triangles.size());
   EXPECT_EQ(layers.min_layers, 5u);
@@ -137,18 +144,16 @@ TEST(Layers, SphereGrowsFiveLayersOnEveryTriangle) {
 TEST(Layers, MixedMeshIsWrittenInFormatsThatHoldPrismsAndReadBackFromMedit) {
   const SurfaceMesh sphere = fixtures::corpus_surface("sphere966");
   const LayeredResult& r = sphere_layers();
-  for (const char* suffix : {".vtu", ".msh", ".su2", ".ugrid", ".lb8.ugrid", ".b8.ugrid"}) {
+  for (const char* suffix : {".vtu", ".msh", ".su2", ".ugrid", ".lb8.ugrid", ".b8.ugrid", ".cgns"}) {
     const auto path = temp_path(std::string("out") + suffix);
     EXPECT_TRUE(write_volume(r.mesh, path).ok()) << suffix;
     EXPECT_GT(std::filesystem::file_size(path), 0u) << suffix;
     std::filesystem::remove(path);
     std::filesystem::remove(mapbc_path(path));
   }
-  for (const char* suffix : {".meshb", ".cgns"}) {
-    const Status s = write_volume(r.mesh, temp_path(std::string("refused") + suffix));
-    EXPECT_EQ(s.code(), StatusCode::kUnsupported) << suffix;
-    EXPECT_NE(s.message().find("prism"), std::string::npos) << s.message();
-  }
+  const Status refused = write_volume(r.mesh, temp_path("refused.meshb"));
+  EXPECT_EQ(refused.code(), StatusCode::kUnsupported);
+  EXPECT_NE(refused.message().find("prism"), std::string::npos) << refused.message();
   const auto path = temp_path("out.mesh");
   ASSERT_TRUE(write_volume(r.mesh, path).ok());
   auto back = read_volume(path);
@@ -264,6 +269,11 @@ TEST(Layers, BoxGrowsFiveLayersAcrossItsEdgesAndCorners) {
   EXPECT_EQ(r.mesh.prisms.size(), 5 * box.triangles.size());
   // The corners stretch their directions so the layers keep their height.
   EXPECT_GT(r.thickness_max, r.thickness_min * 1.3);
+  // Nothing compressed on a convex box; smooth are the 2 x 2 inner squares of
+  // each face's 4 x 4 (a triangle with a point on an edge of the box is not).
+  EXPECT_EQ(r.full_faces, box.triangles.size());
+  EXPECT_EQ(r.smooth_faces, 6u * 8u);
+  EXPECT_EQ(r.smooth_full_faces, 6u * 8u);
 }
 
 TEST(Layers, LShapedDuctKeepsEveryPrismPositiveWhereLayersMeet) {
@@ -275,6 +285,8 @@ TEST(Layers, LShapedDuctKeepsEveryPrismPositiveWhereLayersMeet) {
   const LayeredResult r = mesh_layered(l, o);
   EXPECT_EQ(r.mesh.prisms.size(), 6 * l.triangles.size());
   EXPECT_GT(r.compressed_points, 0u);
+  EXPECT_LT(r.full_faces, l.triangles.size());  // compressed where the layers meet
+  EXPECT_LE(r.smooth_full_faces, r.smooth_faces);
   for (const Prism& p : r.mesh.prisms) ASSERT_TRUE(prism_positive(r.mesh.points, p));
 }
 
@@ -334,6 +346,27 @@ TEST(Layers, RefusesBadOptions) {
   o = five_layers(0.01);
   o.growth_ratio = 0.5;
   EXPECT_NE(validate(o).message().find("--growth-ratio"), std::string::npos);
+}
+
+TEST(Layers, FirstHeightFromYplusFollowsTheFlatPlateSkinFriction) {
+  // Re 1e6 on a length of 1: Cf = 0.026 / 1e6^(1/7) = 3.6126e-3, so a y+ of 1
+  // is 1 / (1e6 sqrt(Cf / 2)) = 2.3529e-5.
+  const Result<double> h = first_height_for_yplus(1, 1e6, 1);
+  ASSERT_TRUE(h.ok()) << h.status().to_string();
+  EXPECT_NEAR(*h, 2.3529e-5, 1e-9);
+  EXPECT_NEAR(*first_height_for_yplus(30, 1e6, 1), 30 * *h, 1e-12);   // linear in y+
+  EXPECT_NEAR(*first_height_for_yplus(1, 1e6, 20), 20 * *h, 1e-12);   // and in the length
+  EXPECT_LT(*first_height_for_yplus(1, 1e7, 1), *h / 5);               // thinner at a higher Re
+  for (const auto& [yplus, re, length, named] :
+       std::vector<std::tuple<double, double, double, std::string>>{{0, 1e6, 1, "yplus"},
+                                                                    {1, -1, 1, "--reynolds"},
+                                                                    {1, std::nan(""), 1, "--reynolds"},
+                                                                    {1, 1e6, 0, "length"}}) {
+    const Result<double> bad = first_height_for_yplus(yplus, re, length);
+    ASSERT_FALSE(bad.ok());
+    EXPECT_EQ(bad.status().code(), StatusCode::kInvalidInput);
+    EXPECT_NE(bad.status().message().find(named), std::string::npos) << bad.status().message();
+  }
 }
 
 TEST(Layers, ValidatorCatchesAnInvertedPrism) {

@@ -50,6 +50,13 @@ struct LayerOptions {
 /// finite and > 0, growth ratio finite and in [1, 10].
 Status validate(const LayerOptions& options);
 
+/// The first layer's height for a wall distance `yplus` in wall units, at
+/// Reynolds number `reynolds` on `length` (U length / nu), from the turbulent
+/// flat-plate skin friction Cf = 0.026 Re^(-1/7) (White, Fluid Mechanics):
+/// the friction velocity u* = U sqrt(Cf / 2), so y = yplus nu / u* =
+/// yplus length / (Re sqrt(Cf / 2)). invalid_input unless all three are finite and > 0.
+Result<double> first_height_for_yplus(double yplus, double reynolds, double length);
+
 struct LayerMesh {
   /// The surface's points (same indices), then the layer points: layer k's
   /// point of wall point w at surface_points + (k - 1) * wall_points + w.
@@ -64,6 +71,12 @@ struct LayerMesh {
   std::vector<Index> top_triangles;  ///< the fill triangles that are the top of a layer stack
   double thickness_min = 0, thickness_max = 0;  ///< of the stacks, along their directions
   std::size_t compressed_points = 0;  ///< wall points whose stack is thinner than N layers of H, R
+  /// Wall triangles whose three stacks have their full thickness (N layers of
+  /// H, R, or the cap): the layers they reach. Smooth: the wall triangles whose
+  /// neighbours at their points all have normals within kSmoothAngle degrees
+  /// of their own (away from the surface's sharp edges and corners).
+  std::size_t full_faces = 0, smooth_faces = 0, smooth_full_faces = 0;
+  static constexpr double kSmoothAngle = 30;
   int shrink_rounds = 0;  ///< rounds of compression for validity
 };
 
