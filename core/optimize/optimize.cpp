@@ -45,10 +45,6 @@ Status validate(const OptimizeOptions& o) {
     return bad("target_max_dihedral", o.target_max_dihedral);
   if (o.sweeps < 0) return bad("sweeps", o.sweeps);
   if (o.repair_cycles < 0) return bad("repair_cycles", o.repair_cycles);
-  if (!std::isfinite(o.insert_min_distance) || o.insert_min_distance < 0)
-    return bad("insert_min_distance", o.insert_min_distance);
-  if (!std::isfinite(o.max_flips_per_tet) || !(o.max_flips_per_tet > 0))
-    return bad("max_flips_per_tet", o.max_flips_per_tet);
   return Status{};
 }
 

@@ -99,7 +99,7 @@ Outcome Optimizer::insert_into(Index t, RepairCriterion* guard) {
   if (!(q > q_old)) return Outcome::kNotBetter;
   const double h = sizing_->at(x);
   for (Index u : link_points_)
-    if (norm(m_.point(u) - x) < o_.insert_min_distance * h) return Outcome::kTooClose;
+    if (norm(m_.point(u) - x) < kInsertMinDistance * h) return Outcome::kTooClose;
   if (guard != nullptr) {  // the repair: the new tets hold the old ones' floors
     guard->bar(cavity);
     const ClassFloors& floors = guard->floors();

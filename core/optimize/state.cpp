@@ -199,7 +199,7 @@ std::vector<Index> Optimizer::interior(const std::vector<Index>& tets) const {
 
 void Optimizer::start_sweep() {
   flips_this_sweep_ = 0;
-  flip_budget_ = static_cast<std::size_t>(o_.max_flips_per_tet * m_.num_tets()) + 1;
+  flip_budget_ = static_cast<std::size_t>(kMaxFlipsPerTet * m_.num_tets()) + 1;
 }
 
 bool Optimizer::push_created() {

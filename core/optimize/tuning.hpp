@@ -13,6 +13,10 @@ namespace pdrmesh::optimize_detail {
 
 /// Full-mesh scans run in parallel from this many tet slots (below: a leaf task's mesh, on its thread).
 constexpr Index kParallelTets = Index{1} << 17;
+/// Safety cap on the successful flips of a sweep, times the tets at its start (the min-max rule already ends it).
+constexpr double kMaxFlipsPerTet = 20;
+/// Sliver removal: a new point keeps at least this times h (at the point) from every vertex of its cavity.
+constexpr double kInsertMinDistance = 0.5;
 /// Smoothing passes per sweep (each over the vertices the previous one left bad).
 constexpr int kSmoothPasses = 4;
 /// Share of the tets (as a count of vertices) that the smoothing passes after the first may try per sweep.

@@ -34,15 +34,18 @@ struct Candidate {
   Tet vertices;  ///< that tet's vertices when the candidate was made
 };
 
-/// Lower bound of the distance from p to triangle (a, b, c): the larger of the
-/// distance to its plane and the distance to its bounding sphere about the centroid.
-double face_distance_bound(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& p) {
+/// Whether a lower bound of the distance from p to triangle (a, b, c) is below
+/// r: the larger of the distance to its plane and the distance to its bounding
+/// sphere about the centroid. The sphere's part is only computed when the
+/// plane's is below r (the larger of the two is below r only if both are).
+bool face_bound_below(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& p, double r) {
   const Vec3 n = cross(b - a, c - a);
   const double ln = norm(n);
   const double plane = ln > 0.0 ? std::fabs(dot(n, p - a)) / ln : 0.0;
+  if (!(plane < r)) return false;
   const Vec3 g = (1.0 / 3.0) * (a + b + c);
-  const double r = std::sqrt(std::max({dot(a - g, a - g), dot(b - g, b - g), dot(c - g, c - g)}));
-  return std::max(plane, norm(p - g) - r);
+  const double radius = std::sqrt(std::max({dot(a - g, a - g), dot(b - g, b - g), dot(c - g, c - g)}));
+  return norm(p - g) - radius < r;
 }
 
 /// Edges whose removal failed during one deferred reconnection loop. A failed
@@ -427,19 +430,20 @@ class Refiner {
         if (f == entry) continue;
         const Index n = m_.neighbour(t, f);
         const bool wall = n == kNoIndex || m_.frozen(t, f);
-        // The bound before the neighbour's mark: most faces are too far to
-        // cross, and the bound gives the mark's prefetch time to arrive.
-        const double lb =
-            face_distance_bound(m_.point(k[topo::kFaceVertex[f][0]]), m_.point(k[topo::kFaceVertex[f][1]]),
-                                m_.point(k[topo::kFaceVertex[f][2]]), p);
+        const Vec3& a = m_.point(k[topo::kFaceVertex[f][0]]);
+        const Vec3& b = m_.point(k[topo::kFaceVertex[f][1]]);
+        const Vec3& c = m_.point(k[topo::kFaceVertex[f][2]]);
         if (wall) {
           // The bound first (most walls are far), then the distance itself:
           // the bound of a needle triangle many h long is its plane's
           // distance, which rejected points far from the triangle.
-          if (lb < r_face && within_distance(k, f, p, r_face) && !is_cut(k, f)) return false;
+          if (face_bound_below(a, b, c, p, r_face) && within_distance(k, f, p, r_face) && !is_cut(k, f))
+            return false;
           continue;
         }
-        if (lb < r_point && stamp_[face_tet(n)] != epoch_) {
+        // The bound before the neighbour's mark: most faces are too far to
+        // cross, and the bound gives the mark's prefetch time to arrive.
+        if (face_bound_below(a, b, c, p, r_point) && stamp_[face_tet(n)] != epoch_) {
           stamp_[face_tet(n)] = epoch_;
           stack_.push_back(n);
           m_.prefetch(face_tet(n));  // read when popped
@@ -821,6 +825,10 @@ class Refiner {
       const Index t = queue_[head];
       if (!m_.alive(t)) continue;
       if (bad_cos_ >= -1.0 && !near_bad(t)) continue;
+      if (memo) {  // the edges' failure records, read after the face flips below
+        const Tet& k = m_.tet(t);
+        for (int e = 0; e < 6; ++e) failed_.prefetch(k[topo::kEdgeVertex[e][0]], k[topo::kEdgeVertex[e][1]]);
+      }
       bool done = false;
       for (int f = 0; f < 4 && !done; ++f) done = flip23(m_, t, f) == FlipOutcome::kDone;
       for (int e = 0; e < 6 && !done; ++e) {

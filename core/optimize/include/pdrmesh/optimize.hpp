@@ -52,7 +52,7 @@
 //     no kept face and its face neighbours are re-tiled as the star of one new
 //     point, placed by the smoothing targets of 3., when every new tet is
 //     positive (exact), the star's worst measure beats the cavity's and the
-//     point keeps insert_min_distance * h from the cavity's points.
+//     point keeps half of h from the cavity's points (tuning.hpp).
 //  3. Smoothing: each free point of a bad tet moves towards the Laplacian and
 //     regular-tet targets (a line search back to its old position), else by a
 //     compass search. A move is taken when every tet of its star stays
@@ -137,9 +137,6 @@ struct OptimizeOptions {
   bool reconnect = true;
   /// Sliver removal by point insertion (needs a sizing field; see above).
   bool insert_points = true;
-  /// A point is inserted only this far (times h at the point) from every
-  /// vertex of the sliver's cavity.
-  double insert_min_distance = 0.5;
   /// Polishing rounds: tets with a fixed point are pinned (must not get worse)
   /// instead of leading the smoothing comparison (see above). Off: the
   /// polishing smoothing compares whole stars as in 3.
@@ -188,9 +185,6 @@ struct OptimizeOptions {
   /// polish (9.), whatever surface_room and late_caps say.
   enum class Schedule { kWholeMesh, kLeafTask };
   Schedule schedule = Schedule::kWholeMesh;
-  /// Safety cap on successful flips per sweep, times the number of tets at the
-  /// start of the sweep (the min-max rule already guarantees an end).
-  double max_flips_per_tet = 20;
 };
 
 /// The kinds of local operation whose outcomes OptimizeStats::tried counts.
@@ -233,8 +227,8 @@ struct OptimizeStats {
 /// many were done and why the others were declined (kinds never tried left out).
 std::string outcome_summary(const OptimizeStats& stats);
 
-/// Validates the options: targets finite with 0 <= min < max <= 180, sweeps >= 0, repair_cycles >= 0,
-/// insert_min_distance >= 0, max_flips_per_tet > 0; invalid_input naming the option.
+/// Validates the options: targets finite with 0 <= min < max <= 180, sweeps >= 0, repair_cycles >= 0;
+/// invalid_input naming the option.
 Status validate(const OptimizeOptions& options);
 
 /// Runs the final optimization on the alive tets of `mesh` (all of them, active
