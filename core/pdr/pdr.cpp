@@ -161,7 +161,6 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
     PDR_ASSIGN_OR_RETURN(ids, SurfaceIdMap::to_engine(cur.boundary_ids));
     return s;
   };
-  std::vector<RoundResult> rounds;
   const auto account = [&](RoundResult&& r) {
     prof.partition_swap += r.fixups.swap_s;
     prof.boundary_extraction += r.fixups.extraction_s;
@@ -276,7 +275,6 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
           prof.max_leaf_tets = std::max(prof.max_leaf_tets, r.max_leaf_tets);
           account(std::move(r));
         }
-        std::sort(done.begin(), done.end());
         return {};
       };
       PDR_TRY(colour_rounds(cur, boundary, sizes, nullptr, 0));
