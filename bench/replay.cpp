@@ -54,9 +54,9 @@ int main(int argc, char** argv) {
              argv[1], profile->depth, deeper > 0 ? fmt::format(" replayed at depth {}", profile->depth + deeper) : "",
              profile->final_tets, rounds.size(), leaves, profile->task_busy, serial,
              profile->wall > 0 ? profile->wall : profile->total);
-  fmt::print("outside the tasks: initial TetGen mesh {:.2f} s (serial), background mesh {:.2f} s (beside it), "
+  fmt::print("outside the tasks: initial mesh {:.2f} s (serial: TetGen's boundary mesh and the seeds), "
              "the rest {:.2f} s serial and {:.2f} CPU s parallel (from wall and CPU time on {} threads)\n",
-             outside.tetgen_s, outside.background_s, outside.serial_s, outside.parallel_s, profile->threads);
+             outside.initial_s, outside.serial_s, outside.parallel_s, profile->threads);
   fmt::print("{:>6} {:>12} {:>12} {:>10} {:>12} {:>12}\n", "P", "leaf_span_s", "leaf_speedup", "leaf_eff",
              "run_s", "run_speedup");
   for (std::size_t p = 1; p <= 1024; p *= 2) {

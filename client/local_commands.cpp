@@ -372,9 +372,9 @@ void print_profile(const PdrProfile& p) {
   const std::pair<const char*, double> phases[] = {
       {"read", p.read},
       {"surface check", p.surface_check},
-      {"background mesh", p.background},
+      {"TetGen mesh", p.background},
       {"sizing", p.sizing},
-      {"initial mesh", p.initial},
+      {"seeds", p.initial},
       {"decomposition", p.decomposition},
       {"fix-ups", p.fixups},
       {"leaf refinement", p.leaves},
@@ -389,7 +389,7 @@ void print_profile(const PdrProfile& p) {
   for (const auto& [name, s] : phases)
     fmt::print(stderr, "  {:<16} {:9.3f} s {:6.1f}%\n", name, s, 100 * s / wall);
   if (p.overlapped > 0) {
-    fmt::print(stderr, "  {:<16} {:9.3f} s {:6.1f}% (steps run side by side: background mesh and sizing beside the initial mesh, validation beside the write)\n",
+    fmt::print(stderr, "  {:<16} {:9.3f} s {:6.1f}% (steps run side by side: sizing beside the seeds, validation beside the write)\n",
                "overlapped", -p.overlapped, -100 * p.overlapped / wall);
   }
   fmt::print(stderr, "  {:<16} {:9.3f} s; engine {:.3f} s; fix-ups moved {} tets by partition swap, {} by "

@@ -10,11 +10,13 @@
 #include <chrono>
 #include <cmath>
 #include <functional>
+#include <optional>
 #include <string>
 #include <utility>
 
 #include <oneapi/tbb/parallel_for.h>
 
+#include "pdrmesh/refine.hpp"
 #include "pdrmesh/stopwatch.hpp"
 #include "pdrmesh/surface_ids.hpp"
 #include "pdrmesh/tetgen_adapter.hpp"
@@ -91,6 +93,24 @@ Result<PdrPlan> plan_pdr(const SurfaceMesh& surface, double surface_h, const Pdr
   return plan;
 }
 
+Result<VolumeMesh> initial_mesh(const SurfaceMesh& surface, const PdrPlan& plan, const VolumeMesh* background) {
+  if (!plan.tetgen.seeds_only || !plan.tetgen.max_volume) return tetrahedralize(surface, plan.tetgen);
+  PDR_ASSIGN_OR_RETURN(const std::vector<Vec3> seeds, seed_points(surface, *plan.tetgen.max_volume));
+  std::optional<VolumeMesh> made;
+  if (background == nullptr) {
+    TetgenOptions boundary_only;
+    boundary_only.time_limit_s = plan.tetgen.time_limit_s;
+    PDR_ASSIGN_OR_RETURN(made, tetrahedralize(surface, boundary_only));
+    background = &*made;
+  }
+  PDR_ASSIGN_OR_RETURN(TetMesh mesh, TetMesh::from_volume_mesh(*background));
+  made.reset();
+  PDR_TRY(insert_points(mesh, seeds).status());
+  VolumeMesh out = mesh.to_volume_mesh();
+  out.boundary_names = surface.surface_names;
+  return out;
+}
+
 Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing, const LeafKernel& kernel,
                            const PdrOptions& options, PdrProfile* profile) {
   const auto t0 = Clock::now();
@@ -104,7 +124,7 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
   if (options.progress && !options.progress({"initial mesh", 0, 0, 0})) {
     return cancelled("stopped before the initial mesh");
   }
-  Result<VolumeMesh> initial = tetrahedralize(surface, plan.tetgen);
+  Result<VolumeMesh> initial = initial_mesh(surface, plan);
   if (!initial.ok()) return initial.status();
   return run_pdr(surface, sizing, kernel, options, profile, plan, std::move(*initial), seconds_since(t0));
 }

@@ -132,7 +132,7 @@ double serial_seconds(const PdrProfile& p) {
 
 double SerialModel::at(std::size_t cores) const {
   const double p = static_cast<double>(std::max<std::size_t>(cores, 1));
-  return tetgen_s + (cores <= 1 ? background_s : 0.0) + serial_s + parallel_s / p;
+  return initial_s + serial_s + parallel_s / p;
 }
 
 SerialModel serial_model(const PdrProfile& p) {
@@ -142,9 +142,8 @@ SerialModel serial_model(const PdrProfile& p) {
     m.serial_s = outside_wall;
     return m;
   }
-  m.tetgen_s = std::min(p.initial, outside_wall);
-  m.background_s = p.background;
-  const double wall = std::max(0.0, outside_wall - m.tetgen_s);
+  m.initial_s = std::min(p.initial + p.background, outside_wall);
+  const double wall = std::max(0.0, outside_wall - m.initial_s);
   const double cpu = std::max(0.0, p.cpu - p.task_cpu - p.initial - p.background);
   const double t = static_cast<double>(p.threads);
   m.parallel_s = std::clamp((cpu - wall) * t / (t - 1), 0.0, cpu);

@@ -197,43 +197,51 @@ Result<ParallelResult> mesh_parallel_one(const SurfaceMesh& surface, const Paral
       !kernel->needs_manifold_hull())
     return serial_as_parallel(surface, options);
   ParallelResult out;
+  // TetGen runs once: its boundary-conforming mesh is the sizing field's
+  // background mesh and, with the seed lattice inserted (initial_mesh), the
+  // initial mesh. From 2 workers on the sizing field is built beside the
+  // seeds: the plan needs only h at the surface points, which the surface
+  // alone gives (SizingField::surface_values). Checked against the built
+  // field afterwards; on any difference the initial mesh is made again from
+  // the field's own plan, so the result is always run_pdr's.
+  auto t = Clock::now();
+  TetgenOptions boundary_only;
+  boundary_only.time_limit_s = options.pdr.tetgen_time_limit_s;
+  PDR_ASSIGN_OR_RETURN(const VolumeMesh background, tetrahedralize(surface, boundary_only));
+  const double background_s = seconds_since(t);
   std::optional<SizingField> sizing_slot;
-  double background_s = 0, build_s = 0;
+  double build_s = 0;
   const auto make_sizing = [&]() -> Status {
-    auto t = Clock::now();
-    PDR_ASSIGN_OR_RETURN(const VolumeMesh background, tetrahedralize(surface));
-    background_s = seconds_since(t);
-    t = Clock::now();
+    const auto tb = Clock::now();
     PDR_ASSIGN_OR_RETURN(SizingField field, SizingField::build(surface, background, options.sizing));
-    build_s = seconds_since(t);
+    build_s = seconds_since(tb);
     sizing_slot.emplace(std::move(field));
     return {};
   };
-  // With 2 or more workers the initial mesh is made beside the background mesh
-  // and the sizing field: its plan needs only h at the surface points, which
-  // the surface alone gives (SizingField::surface_values). Checked against the
-  // built field afterwards; on any difference the initial mesh is made again
-  // from the field's own plan, so the result is always run_pdr's.
-  std::optional<PdrPlan> plan;  // set: `initial` was made from it, beside the sizing field
+  std::optional<PdrPlan> plan = surface_plan;  // set: `initial` was made from it
   std::optional<VolumeMesh> initial;
   double initial_s = 0, overlapped_s = 0;
-  if (options.pdr.workers >= 2) plan = surface_plan;
   if (plan) {
     if (options.pdr.progress && !options.pdr.progress({"initial mesh", 0, 0, 0}))
       return cancelled("stopped before the initial mesh");
     Status sizing_status;
-    std::thread side([&] { sizing_status = make_sizing(); });
-    const auto t = Clock::now();
-    Result<VolumeMesh> made = tetrahedralize(surface, plan->tetgen);
+    std::optional<std::thread> side;
+    if (options.pdr.workers >= 2) side.emplace([&] { sizing_status = make_sizing(); });
+    t = Clock::now();
+    Result<VolumeMesh> made = initial_mesh(surface, *plan, &background);
     initial_s = seconds_since(t);
-    side.join();
-    overlapped_s = std::min(initial_s, background_s + build_s);
+    if (side) {
+      side->join();
+      overlapped_s = std::min(initial_s, build_s);
+    } else {
+      sizing_status = make_sizing();
+    }
     PDR_TRY(sizing_status);
     if (surface_spacing(surface, *sizing_slot) == plan->surface_h) {
       if (!made.ok()) return made.status();
       initial = std::move(*made);
     } else {
-      plan.reset();  // run_pdr makes the initial mesh from the field's own plan
+      plan.reset();
     }
   } else {
     PDR_TRY(make_sizing());
@@ -258,6 +266,12 @@ Result<ParallelResult> mesh_parallel_one(const SurfaceMesh& surface, const Paral
                                const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
       return bounds.outside(a, b, c, d);
     };
+  }
+  if (!plan && pdr.resume == nullptr) {  // the field's own plan
+    PDR_ASSIGN_OR_RETURN(plan, plan_pdr(surface, surface_spacing(surface, sizing), pdr, *kernel));
+    t = Clock::now();
+    PDR_ASSIGN_OR_RETURN(initial, initial_mesh(surface, *plan, &background));
+    initial_s = seconds_since(t);
   }
   if (plan) {
     PDR_ASSIGN_OR_RETURN(out.mesh, run_pdr(surface, sizing, *kernel, pdr, &out.profile, *plan,

@@ -3,6 +3,8 @@
 #include "pdrmesh/insert.hpp"
 
 #include <array>
+#include <unordered_set>
+#include <vector>
 
 #include "pdrmesh/predicates.hpp"
 #include "pdrmesh/topology.hpp"
@@ -79,6 +81,23 @@ std::string_view to_string(InsertOutcome o) {
       return "not applicable";
   }
   return "?";
+}
+
+Location search(const TetMesh& m, Index start, const Vec3& p, Index max_tets) {
+  if (start >= m.num_slots() || !m.alive(start)) return {};
+  std::vector<Index> queue{start};
+  std::unordered_set<Index> seen{start};
+  for (std::size_t head = 0; head < queue.size(); ++head) {
+    const Index t = queue[head];
+    const auto s = face_signs(m, t, p);
+    if (inside(s)) return classify(t, s);
+    for (int f = 0; f < 4; ++f) {
+      const Index n = m.neighbour(t, f);
+      if (n == kNoIndex || seen.size() >= max_tets) continue;
+      if (seen.insert(face_tet(n)).second) queue.push_back(face_tet(n));
+    }
+  }
+  return {};
 }
 
 Location walk(const TetMesh& m, Index start, const Vec3& p, Index max_steps, bool cross_frozen) {

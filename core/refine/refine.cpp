@@ -7,11 +7,13 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <span>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -133,7 +135,8 @@ class FailedEdges {
 
 class Refiner {
  public:
-  Refiner(TetMesh& mesh, const SizingField& sizing, const RefineOptions& options)
+  /// `sizing` may be null for insert_all alone (run() needs it).
+  Refiner(TetMesh& mesh, const SizingField* sizing, const RefineOptions& options)
       : m_(mesh), sizing_(sizing), o_(options) {
     const double angle = o_.min_max_angle;
     bad_cos_ = angle > 0.0 ? std::cos(angle * 3.14159265358979323846 / 180.0) : -2.0;
@@ -154,7 +157,7 @@ class Refiner {
     RefineStats stats;
     if (h_.size() != m_.num_points()) {
       h_.resize(m_.num_points());
-      for (Index v = 0; v < m_.num_points(); ++v) h_[v] = sizing_.at(m_.point(v));
+      for (Index v = 0; v < m_.num_points(); ++v) h_[v] = sizing_->at(m_.point(v));
     }
     while (last_tet_ + 1 < m_.num_slots() && !m_.alive(last_tet_)) ++last_tet_;
     bool midpoints = false;
@@ -210,6 +213,123 @@ class Refiner {
       }
     }
     stats.seconds = seconds_since(t0);
+    return stats;
+  }
+
+  /// insert_points (refine.hpp): the points in rounds, coarse to fine, each
+  /// round in the Morton order of the coordinates (ties by index), so that
+  /// each point lies near the one before. Each is located by a walk from the
+  /// last new tet, then from the tets last made near it, then by a search
+  /// around the last new tet (a walk may meet the hull of a non-convex mesh),
+  /// and last by a scan of the mesh; it goes in by the constrained
+  /// Bowyer-Watson cavity, or a split and Lawson's flips where the cavity
+  /// cannot be used. h plays no part: the options leave delaunay_reach
+  /// unlimited.
+  InsertPointsStats insert_all(std::span<const Vec3> points) {
+    InsertPointsStats stats;
+    // Unbounded cavities (the first points into a boundary mesh take many
+    // tets), so that the result is the constrained Delaunay one.
+    max_cavity_ = std::numeric_limits<std::size_t>::max();
+    h_.assign(m_.num_points(), 1.0);
+    // Where the mesh is not Delaunay (TetGen's boundary recovery leaves such
+    // faces), a cavity may miss tets whose spheres hold the point: Lawson's
+    // flips over the whole mesh, before and after, make it Delaunay where
+    // flips can.
+    stats.flips = delaunay_flips_everywhere();
+    while (last_tet_ + 1 < m_.num_slots() && !m_.alive(last_tet_)) ++last_tet_;
+    Box box;
+    for (const Vec3& p : points)
+      if (is_finite(p)) box.add(p);
+    constexpr double kCells = 2097151.0;  // 21 bits per axis
+    std::vector<std::pair<std::uint64_t, Index>> order;
+    order.reserve(points.size());
+    for (std::size_t j = 0; j < points.size(); ++j) {
+      if (!is_finite(points[j])) {
+        ++stats.declined;
+        continue;
+      }
+      std::uint64_t key = 0;
+      for (int i = 0; i < 3; ++i) {
+        const double side = box.hi[i] - box.lo[i];
+        const double q = side > 0 ? std::clamp((points[j][i] - box.lo[i]) / side * kCells, 0.0, kCells) : 0.0;
+        key |= detail::spread_bits(static_cast<std::uint64_t>(q)) << i;
+      }
+      order.emplace_back(key, static_cast<Index>(j));
+    }
+    // Rounds of a biased randomized insertion order (Amenta, Choi and Rote):
+    // a point is in round r < kRounds with probability about 7/8^(kRounds-r)
+    // (from a hash of its index), the rounds go coarse to fine, each in
+    // Morton order. No region then stays empty while its neighbour fills up,
+    // so no point's cavity reaches across the mesh.
+    constexpr int kRounds = 8;
+    std::vector<std::uint8_t> round(points.size(), 0);
+    for (auto& [key, j] : order) {
+      std::uint64_t x = j + 0x9e3779b97f4a7c15ull;  // splitmix64
+      x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
+      x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
+      x ^= x >> 31;
+      const int level = std::min(kRounds - 1, std::countr_zero(x | (std::uint64_t{1} << 63)) / 3);
+      round[j] = static_cast<std::uint8_t>(kRounds - 1 - level);
+    }
+    std::sort(order.begin(), order.end(), [&](const auto& a, const auto& b) {
+      return std::tie(round[a.second], a.first, a.second) < std::tie(round[b.second], b.first, b.second);
+    });
+    // The last tet made for a point of each cell of a grid over the points
+    // (about two points a cell): where the curve jumps, a walk from the
+    // cells around the point starts near it.
+    const int n = std::max(1, static_cast<int>(std::cbrt(0.5 * static_cast<double>(order.size()))));
+    std::vector<Index> hint(static_cast<std::size_t>(n) * n * n, kNoIndex);
+    const auto coord = [&](const Vec3& p, int i) {
+      const double side = box.hi[i] - box.lo[i];
+      return side > 0 ? std::clamp(static_cast<int>((p[i] - box.lo[i]) / side * n), 0, n - 1) : 0;
+    };
+    const auto cell = [&](int x, int y, int z) {
+      return (static_cast<std::size_t>(z) * n + static_cast<std::size_t>(y)) * n + static_cast<std::size_t>(x);
+    };
+    const auto from_hints = [&](const Vec3& p) {
+      const int x = coord(p, 0), y = coord(p, 1), z = coord(p, 2);
+      for (int dz = -1; dz <= 1; ++dz)
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            if (std::min({x + dx, y + dy, z + dz}) < 0 || std::max({x + dx, y + dy, z + dz}) >= n) continue;
+            const Index t = hint[cell(x + dx, y + dy, z + dz)];
+            if (t == kNoIndex || !m_.alive(t)) continue;
+            const Location l = walk(m_, t, p, m_.num_slots(), /*cross_frozen=*/false);
+            if (l.kind != LocationKind::kOutside) return l;
+          }
+      return Location{};
+    };
+    for (const auto& [key, j] : order) {
+      const Vec3& p = points[j];
+      Location l = walk(m_, last_tet_, p, m_.num_slots(), /*cross_frozen=*/false);
+      if (l.kind == LocationKind::kOutside) l = from_hints(p);
+      if (l.kind == LocationKind::kOutside) l = search(m_, last_tet_, p, 4096);
+      if (l.kind == LocationKind::kOutside) {
+        ++stats.scans;
+        l = locate(m_, last_tet_, p);
+      }
+      if (!insertable(l)) {
+        ++stats.declined;
+        continue;
+      }
+      if (cavity_insert(l, p, 1.0)) {
+        last_tet_ = hint[cell(coord(p, 0), coord(p, 1), coord(p, 2))] = m_.last_created()[0];
+        ++stats.inserted;
+        continue;
+      }
+      const InsertResult r = insert_at(m_, l, p);
+      if (r.outcome != InsertOutcome::kDone) {
+        ++stats.declined;
+        continue;
+      }
+      h_.push_back(1.0);
+      delaunay_flips(r.point);
+      ++stats.split;
+      // The last operation's tets are alive.
+      last_tet_ = hint[cell(coord(p, 0), coord(p, 1), coord(p, 2))] = m_.last_created()[0];
+      ++stats.inserted;
+    }
+    stats.flips += delaunay_flips_everywhere();
     return stats;
   }
 
@@ -481,7 +601,7 @@ class Refiner {
     if (!m_.alive(start)) start = last_tet_;
     const Location l = walk(m_, start, c.p, o_.max_walk_steps, /*cross_frozen=*/false);
     if (!insertable(l)) return false;
-    const double h = sizing_.at(c.p);
+    const double h = sizing_->at(c.p);
     if (!clear_around(l.tet, c.p, o_.reject_distance * h, o_.boundary_reject_distance * h))
       return false;
     ++ps.accepted;
@@ -530,9 +650,8 @@ class Refiner {
   /// dropped, seeds excepted, until the cavity is star-shaped from p, and it is
   /// re-tiled as the star of p over its boundary. False (nothing changed) when
   /// a seed would have to go, a cavity vertex would vanish or the cavity grows
-  /// past kMaxCavity tets: the caller then splits and flips instead.
+  /// past max_cavity_ tets: the caller then splits and flips instead.
   bool cavity_insert(const Location& l, const Vec3& p, double h) {
-    static constexpr std::size_t kMaxCavity = 1024;
     next_epoch();
     const std::uint32_t in = in_, out = out_;
     cavity_.clear();
@@ -585,7 +704,7 @@ class Refiner {
           stamp_[u] = out;
           continue;
         }
-        if (cavity_.size() == kMaxCavity) return false;
+        if (cavity_.size() == max_cavity_) return false;
         add(u);
       }
     }
@@ -669,9 +788,8 @@ class Refiner {
 
   /// Lawson's flips after inserting point p: every face opposite p whose
   /// neighbour's apex lies inside the tet's circumsphere (exact insphere) is
-  /// flipped away, 2-3 when the two tets form a convex pair, else 3-2 across
-  /// the edge that blocks it when three tets surround that edge. Frozen faces
-  /// and region borders are never flipped (a constrained Delaunay repair).
+  /// flipped away (lawson_flip). Frozen faces and region borders are never
+  /// flipped (a constrained Delaunay repair).
   std::size_t delaunay_flips(Index p) {
     queue_.assign(m_.last_created().begin(), m_.last_created().end());
     std::size_t flips = 0;
@@ -680,41 +798,71 @@ class Refiner {
     for (std::size_t head = 0; head < queue_.size() && flips < o_.max_flips_per_point; ++head) {
       const Index t = queue_[head];
       if (!m_.alive(t)) continue;
-      const Tet kt = m_.tet(t);
-      const int f = topo::local_vertex(kt, p);
-      if (f < 0) continue;
-      const Index n = m_.neighbour(t, f);
-      if (n == kNoIndex || m_.frozen(t, f)) continue;
-      const Index u = face_tet(n);
-      if (m_.region(u) != m_.region(t)) continue;
-      const Index e = m_.tet(u)[face_local(n)];
-      const Vec3 pe = m_.point(e) - m_.point(p);
-      if (dot(pe, pe) > reach2) continue;  // would join p to a far point: leave it
-      if (exact::insphere(m_.point(kt[0]), m_.point(kt[1]), m_.point(kt[2]), m_.point(kt[3]),
-                          m_.point(e)) <= 0)
-        continue;
-      const Index a = kt[topo::kFaceVertex[f][0]], b = kt[topo::kFaceVertex[f][1]],
-                  c = kt[topo::kFaceVertex[f][2]];
-      const std::array<Tet, 3> fresh{Tet{a, b, p, e}, Tet{b, c, p, e}, Tet{c, a, p, e}};
-      bool done = false;
-      if (all_positive(fresh)) {
-        const std::array<Index, 2> old{t, u};
-        const std::array<Index, 3> parent{0, 0, 0};
-        m_.replace_cavity(old, fresh, parent);
-        done = true;
-      } else {
-        for (int j = 0; j < 3 && !done; ++j) {
-          const Index x = fresh[j][0], y = fresh[j][1];
-          if (exact::orient3d(m_.point(x), m_.point(y), m_.point(p), m_.point(e)) >= 0) continue;
-          done = flip32_delaunay(t, topo::kEdgeIndex[topo::local_vertex(kt, x)][topo::local_vertex(kt, y)]);
-        }
-      }
-      if (!done) continue;
+      const int f = topo::local_vertex(m_.tet(t), p);
+      if (f < 0 || !lawson_flip(t, f, reach2)) continue;
       ++flips;
       const auto created = m_.last_created();
       queue_.insert(queue_.end(), created.begin(), created.end());
     }
     return flips;
+  }
+
+  /// Lawson's flips over the whole mesh until every face that may be flipped
+  /// is locally Delaunay (each flip lowers the lifted triangulation, so it
+  /// ends); the tets of every flip are tested again.
+  std::size_t delaunay_flips_everywhere() {
+    queue_.clear();
+    for (Index t = 0; t < m_.num_slots(); ++t)
+      if (m_.alive(t)) queue_.push_back(t);
+    std::size_t flips = 0;
+    const double unlimited = std::numeric_limits<double>::infinity();
+    for (std::size_t head = 0; head < queue_.size(); ++head) {
+      const Index t = queue_[head];
+      for (int f = 0; f < 4 && m_.alive(t); ++f) {
+        if (!lawson_flip(t, f, unlimited)) continue;
+        ++flips;
+        const auto created = m_.last_created();
+        queue_.insert(queue_.end(), created.begin(), created.end());
+      }
+      if (head > (std::size_t{1} << 20) && 2 * head > queue_.size()) {  // keep the queue's memory bounded
+        queue_.erase(queue_.begin(), queue_.begin() + static_cast<std::ptrdiff_t>(head + 1));
+        head = static_cast<std::size_t>(-1);
+      }
+    }
+    return flips;
+  }
+
+  /// The flip of face f of tet t (opposite its vertex p) when the apex e
+  /// beyond it lies strictly inside t's circumsphere, within sqrt(reach2) of
+  /// p, and the face is neither frozen nor a region border: 2-3 when the two
+  /// tets form a convex pair, else 3-2 across the edge that blocks it when
+  /// three tets surround that edge. True when it flipped.
+  bool lawson_flip(Index t, int f, double reach2) {
+    const Tet kt = m_.tet(t);
+    const Index p = kt[f];
+    const Index n = m_.neighbour(t, f);
+    if (n == kNoIndex || m_.frozen(t, f)) return false;
+    const Index u = face_tet(n);
+    if (m_.region(u) != m_.region(t)) return false;
+    const Index e = m_.tet(u)[face_local(n)];
+    const Vec3 pe = m_.point(e) - m_.point(p);
+    if (dot(pe, pe) > reach2) return false;  // would join p to a far point: leave it
+    if (exact::insphere(m_.point(kt[0]), m_.point(kt[1]), m_.point(kt[2]), m_.point(kt[3]), m_.point(e)) <= 0)
+      return false;
+    const Index a = kt[topo::kFaceVertex[f][0]], b = kt[topo::kFaceVertex[f][1]], c = kt[topo::kFaceVertex[f][2]];
+    const std::array<Tet, 3> fresh{Tet{a, b, p, e}, Tet{b, c, p, e}, Tet{c, a, p, e}};
+    if (all_positive(fresh)) {
+      const std::array<Index, 2> old{t, u};
+      const std::array<Index, 3> parent{0, 0, 0};
+      m_.replace_cavity(old, fresh, parent);
+      return true;
+    }
+    for (int j = 0; j < 3; ++j) {
+      const Index x = fresh[j][0], y = fresh[j][1];
+      if (exact::orient3d(m_.point(x), m_.point(y), m_.point(p), m_.point(e)) >= 0) continue;
+      if (flip32_delaunay(t, topo::kEdgeIndex[topo::local_vertex(kt, x)][topo::local_vertex(kt, y)])) return true;
+    }
+    return false;
   }
 
   /// tet_quality of the alive tet t, through the mesh's cache.
@@ -849,9 +997,12 @@ class Refiner {
   }
 
   TetMesh& m_;
-  const SizingField& sizing_;
+  const SizingField* sizing_;
   const RefineOptions& o_;
   std::vector<double> h_;  ///< h at each point, evaluated when it entered the mesh
+  /// cavity_insert gives up past this many tets (the refiner's cavities are
+  /// small; a large one means a coarse region that flips repair for less).
+  std::size_t max_cavity_ = 1024;
   std::vector<Tri> cuts_;  ///< frozen faces of boundary id 0 with insert_within, sorted keys
   std::vector<Candidate> candidates_;
   std::vector<Candidate> voids_;  ///< collect's interior candidates, placed after the front's
@@ -899,10 +1050,23 @@ Status validate(const RefineOptions& o) {
 Result<RefineStats> refine(TetMesh& mesh, const SizingField& sizing, const RefineOptions& options,
                            const RefineProgress& progress, std::vector<double>* sizes) {
   PDR_TRY(validate(options));
-  Refiner refiner(mesh, sizing, options);
+  Refiner refiner(mesh, &sizing, options);
   if (sizes != nullptr && sizes->size() == mesh.num_points()) refiner.set_sizes(std::move(*sizes));
   RefineStats stats = refiner.run(progress);
   if (sizes != nullptr) *sizes = refiner.take_sizes();
+#ifndef NDEBUG
+  PDR_TRY(mesh.check());
+#endif
+  return stats;
+}
+
+Result<InsertPointsStats> insert_points(TetMesh& mesh, std::span<const Vec3> points) {
+  RefineOptions options;
+  options.min_max = false;
+  options.delaunay_reach = std::numeric_limits<double>::infinity();
+  options.max_flips_per_point = std::numeric_limits<Index>::max();
+  Refiner refiner(mesh, nullptr, options);
+  const InsertPointsStats stats = refiner.insert_all(points);
 #ifndef NDEBUG
   PDR_TRY(mesh.check());
 #endif

@@ -722,8 +722,8 @@ TEST(Pdr, ACallerMadeInitialMeshGivesRunPdrsResult) {
   Result<PdrPlan> plan = plan_pdr(sp->surface, surface_spacing(sp->surface, *sp->sizing), o, kernel);
   ASSERT_TRUE(plan.ok()) << plan.status().to_string();
   EXPECT_EQ(plan->depth, 2);
-  Result<VolumeMesh> initial = tetrahedralize(sp->surface, plan->tetgen);
-  ASSERT_TRUE(initial.ok());
+  Result<VolumeMesh> initial = initial_mesh(sp->surface, *plan);
+  ASSERT_TRUE(initial.ok()) << initial.status().to_string();
   PdrProfile profile;
   Result<VolumeMesh> split = run_pdr(sp->surface, *sp->sizing, kernel, o, &profile, *plan, std::move(*initial), 1.5);
   ASSERT_TRUE(split.ok()) << split.status().to_string();
@@ -801,7 +801,7 @@ TEST(Pdr, MeshParallelIsByteIdenticalWithTheInitialMeshBesideTheSizing) {
       ref = meshb_bytes(r->mesh, "pdr_mp1");
       continue;
     }
-    EXPECT_GT(r->profile.overlapped, 0.0) << w;  // the two ran side by side
+    EXPECT_GT(r->profile.overlapped, 0.0) << w;  // the sizing field beside the seeds
     EXPECT_GT(r->profile.background, 0.0) << w;
     EXPECT_EQ(meshb_bytes(r->mesh, "pdr_mp" + std::to_string(w)), ref) << w;
   }

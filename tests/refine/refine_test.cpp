@@ -75,6 +75,25 @@ std::vector<bool> boundary_points(const VolumeMesh& m) {
   return b;
 }
 
+/// Checks that every interior face is locally Delaunay (the apex across it
+/// is not strictly inside the tet's circumsphere); returns the faces checked.
+std::size_t expect_locally_delaunay(const TetMesh& m) {
+  std::size_t faces = 0;
+  for (Index t = 0; t < m.num_slots(); ++t) {
+    if (!m.alive(t)) continue;
+    const Tet& k = m.tet(t);
+    for (int f = 0; f < 4; ++f) {
+      const Index n = m.neighbour(t, f);
+      if (n == kNoIndex) continue;
+      ++faces;
+      const Vec3& e = m.point(m.tet(face_tet(n))[face_local(n)]);
+      EXPECT_LE(exact::insphere(m.point(k[0]), m.point(k[1]), m.point(k[2]), m.point(k[3]), e), 0)
+          << "tet " << t << " face " << f;
+    }
+  }
+  return faces;
+}
+
 TetMesh refined_cube(double h, RefineStats* stats = nullptr, const RefineOptions& options = {}) {
   const SurfaceMesh surface = fixtures::unit_cube_surface();
   const VolumeMesh initial = fixtures::unit_cube_mesh();
@@ -158,22 +177,55 @@ TEST(Refine, CavityInsertionKeepsTheMeshDelaunay) {
   ASSERT_TRUE(r.ok()) << r.status().to_string();
   ASSERT_GT(r->points_added, 50u);
   ASSERT_TRUE(m.check().ok()) << m.check().to_string();
-  std::size_t faces = 0;
-  for (Index t = 0; t < m.num_slots(); ++t) {
-    if (!m.alive(t)) continue;
-    const Tet& k = m.tet(t);
-    for (int f = 0; f < 4; ++f) {
-      const Index n = m.neighbour(t, f);
-      if (n == kNoIndex) continue;
-      ++faces;
-      const Vec3& e = m.point(m.tet(face_tet(n))[face_local(n)]);
-      EXPECT_LE(exact::insphere(m.point(k[0]), m.point(k[1]), m.point(k[2]), m.point(k[3]), e), 0)
-          << "tet " << t << " face " << f;
-    }
-  }
-  EXPECT_GT(faces, 100u);
+  EXPECT_GT(expect_locally_delaunay(m), 100u);
   const ValidationReport report = validate_mesh(m.to_volume_mesh(), &surface);
   EXPECT_TRUE(report.ok()) << format_validation(report);
+}
+
+TEST(InsertPoints, IsADelaunayInsertionWhateverTheOrder) {
+  // A jittered lattice inside the cube, plus a point on a vertex, one outside
+  // and one not finite: every lattice point goes in, the three are declined,
+  // the mesh stays valid and locally Delaunay (the cube's initial mesh is), and
+  // the order the points come in changes their numbers, not the tets.
+  const SurfaceMesh surface = fixtures::unit_cube_surface();
+  const VolumeMesh initial = fixtures::unit_cube_mesh();
+  std::vector<Vec3> points;
+  for (int i = 1; i < 8; ++i)
+    for (int j = 1; j < 8; ++j)
+      for (int k = 1; k < 8; ++k)
+        points.push_back({i / 8.0 + 0.01 * std::sin(i * j + k), j / 8.0 + 0.01 * std::cos(i + j * k),
+                          k / 8.0 + 0.01 * std::sin(i * k - j)});
+  const std::size_t lattice = points.size();
+  points.push_back(initial.points[0]);
+  points.push_back({2.0, 0.5, 0.5});
+  points.push_back({std::nan(""), 0.5, 0.5});
+  VolumeMesh results[2];
+  for (int reversed = 0; reversed < 2; ++reversed) {
+    TetMesh m = fixtures::build(initial);
+    if (reversed) std::reverse(points.begin(), points.end());
+    Result<InsertPointsStats> r = insert_points(m, points);
+    ASSERT_TRUE(r.ok()) << r.status().to_string();
+    EXPECT_EQ(r->inserted, lattice);
+    EXPECT_EQ(r->declined, 3u);
+    ASSERT_EQ(m.num_points(), initial.points.size() + lattice);
+    ASSERT_TRUE(m.check().ok()) << m.check().to_string();
+    expect_locally_delaunay(m);
+    results[reversed] = m.to_volume_mesh();
+    const ValidationReport report = validate_mesh(results[reversed], &surface);
+    EXPECT_TRUE(report.ok()) << format_validation(report);
+  }
+  // Each tet as its sorted corners.
+  const auto shapes = [](const VolumeMesh& v) {
+    std::vector<std::array<Vec3, 4>> out;
+    for (const Tet& k : v.tets) {
+      std::array<Vec3, 4> c{v.points[k[0]], v.points[k[1]], v.points[k[2]], v.points[k[3]]};
+      std::sort(c.begin(), c.end());
+      out.push_back(c);
+    }
+    std::sort(out.begin(), out.end());
+    return out;
+  };
+  EXPECT_EQ(shapes(results[0]), shapes(results[1]));
 }
 
 TEST(Refine, InteriorFillsInFewPassesFromACoarseBoundary) {

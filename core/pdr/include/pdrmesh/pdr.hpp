@@ -225,7 +225,7 @@ struct RoundRecord {
 
 struct PdrProfile {
   // Seconds.
-  double initial = 0;          ///< initial TetGen mesh
+  double initial = 0;          ///< the initial mesh: the seeds' insertion into the background mesh (mesh_parallel), or all of initial_mesh
   double decomposition = 0;    ///< both rounds' decompositions
   double fixups = 0;           ///< partition swap + boundary extraction, both rounds
   double partition_swap = 0;
@@ -241,9 +241,9 @@ struct PdrProfile {
   // Outside run_pdr, so that the profile covers the whole run (0 when not measured).
   double read = 0;             ///< reading the surface (CLI)
   double surface_check = 0;    ///< surface_check (CLI)
-  double background = 0;       ///< the background TetGen mesh of the sizing field (mesh_parallel)
+  double background = 0;       ///< TetGen's boundary mesh: the sizing field's background and the initial mesh's start (mesh_parallel)
   double sizing = 0;           ///< SizingField::build (mesh_parallel)
-  double overlapped = 0;       ///< time steps ran side by side: background + sizing beside the initial mesh, validation beside the write (CLI)
+  double overlapped = 0;       ///< time steps ran side by side: the sizing field beside the seeds, validation beside the write (CLI)
   double validation = 0;       ///< validate_mesh of the result (CLI)
   double write = 0;            ///< writing the result (CLI)
   double quality = 0;          ///< the quality summary (CLI)
@@ -295,8 +295,18 @@ double surface_spacing(const SurfaceMesh& surface, const SizingField& sizing);
 Result<PdrPlan> plan_pdr(const SurfaceMesh& checked_surface, double surface_h, const PdrOptions& options,
                          const LeafKernel& kernel);
 
-/// run_pdr from an initial mesh the caller made with tetrahedralize(surface,
-/// plan.tetgen) (in initial_s seconds, counted in the profile), plan from
+/// The plan's initial mesh. With seeds only (TetgenOptions::seeds_only and a
+/// max_volume): TetGen's boundary-conforming mesh of the surface (`background`
+/// when given: tetrahedralize(surface) with no volume bound, as the sizing
+/// field's background mesh is made) with the seed lattice's points
+/// (seed_points) inserted by constrained Delaunay insertion (insert_points):
+/// TetGen runs once, not again with the seeds. Otherwise
+/// tetrahedralize(surface, plan.tetgen).
+Result<VolumeMesh> initial_mesh(const SurfaceMesh& checked_surface, const PdrPlan& plan,
+                                const VolumeMesh* background = nullptr);
+
+/// run_pdr from an initial mesh the caller made with initial_mesh(surface,
+/// plan) (in initial_s seconds, counted in the profile), plan from
 /// plan_pdr(surface, surface_spacing(surface, sizing), options): the same
 /// result as run_pdr above. Lets the caller make the initial mesh while the
 /// sizing field is still being built (mesh_parallel does with 2 or more workers).

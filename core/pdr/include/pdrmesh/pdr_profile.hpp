@@ -42,18 +42,17 @@ Result<PdrProfile> profile_from_json(std::string_view json);
 /// wall time of its rounds' leaf schedules (never below 0).
 double serial_seconds(const PdrProfile& profile);
 
-/// The run's time outside the leaf schedules on P cores. The initial TetGen
-/// mesh is serial (the background mesh runs beside it from 2 cores on). The
-/// rest (decomposition, merges, validation, quality, writing, ...) is split
+/// The run's time outside the leaf schedules on P cores. The initial mesh
+/// (TetGen's boundary mesh, then the seed insertion) is serial. The rest
+/// (sizing, decomposition, merges, validation, quality, writing, ...) is split
 /// by Amdahl's law from its wall and CPU time on the measured run's T threads:
 /// wall = s + w / T and cpu = s + w give its serial seconds s and its
 /// parallel work w, and it takes s + w / P on P cores. Without CPU figures
 /// (older profiles, one thread) everything outside the tasks counts as serial.
 struct SerialModel {
-  double tetgen_s = 0;      ///< the initial mesh (serial)
-  double background_s = 0;  ///< the background mesh, beside the initial one from 2 cores on
-  double serial_s = 0;      ///< the rest's serial seconds
-  double parallel_s = 0;    ///< the rest's parallel work, CPU seconds
+  double initial_s = 0;   ///< the initial mesh (serial)
+  double serial_s = 0;    ///< the rest's serial seconds
+  double parallel_s = 0;  ///< the rest's parallel work, CPU seconds
   double at(std::size_t cores) const;
 };
 SerialModel serial_model(const PdrProfile& profile);

@@ -41,6 +41,13 @@ Location locate(const TetMesh& mesh, Index start, const Vec3& p);
 Location walk(const TetMesh& mesh, Index start, const Vec3& p, Index max_steps,
               bool cross_frozen = true);
 
+/// The tet that contains p, searched breadth first across faces from
+/// `start`, frozen ones included: where a walk from a near tet meets the hull
+/// of a non-convex mesh, this gets round it after the tets in between.
+/// kOutside when p is in none of the first max_tets tets reached (or start is
+/// not alive).
+Location search(const TetMesh& mesh, Index start, const Vec3& p, Index max_tets);
+
 enum class InsertOutcome : std::uint8_t {
   kDone,           ///< inserted; the new tets are mesh.last_created()
   kTooClose,       ///< declined: p coincides with a vertex

@@ -68,6 +68,7 @@
 
 #include <cstddef>
 #include <functional>
+#include <span>
 #include <limits>
 #include <vector>
 
@@ -183,5 +184,24 @@ using RefineProgress = std::function<void(const RefinePassStats&)>;  // may be e
 /// point, the new ones included.
 Result<RefineStats> refine(TetMesh& mesh, const SizingField& sizing, const RefineOptions& options = {},
                            const RefineProgress& progress = {}, std::vector<double>* sizes = nullptr);
+
+struct InsertPointsStats {
+  std::size_t inserted = 0;
+  std::size_t split = 0;     ///< of those, by a split and flips (the cavity would have removed a vertex or crossed its seeds' region)
+  std::size_t declined = 0;  ///< on a vertex, on a frozen face or edge, or in no tet
+  std::size_t scans = 0;     ///< locations that needed a scan of the mesh (the walk met the hull)
+  std::size_t flips = 0;     ///< Lawson's flips over the whole mesh, before and after the insertions
+};
+
+/// Inserts `points` into `mesh` one by one as a constrained Delaunay
+/// insertion: the cavity of tets whose circumsphere holds the point, bounded
+/// by hull and frozen faces and made star-shaped, is re-tiled from the point
+/// (a split and Lawson's flips where a cavity cannot be used). The order is a
+/// biased randomized one (rounds coarse to fine, each in Morton order), and
+/// Lawson's flips over the whole mesh before and after make every face a flip
+/// can change locally Delaunay. A point on a vertex, on a frozen face or
+/// edge, in no tet, or not finite is skipped. Deterministic; the new points
+/// follow the mesh's, in insertion order.
+Result<InsertPointsStats> insert_points(TetMesh& mesh, std::span<const Vec3> points);
 
 }  // namespace pdrmesh
