@@ -151,6 +151,37 @@ std::vector<Index> propagate_seeds(const Grid& g, const std::vector<Vec3>& pts, 
   return seed;
 }
 
+/// Surface components beyond this many share one nearest-point search.
+constexpr std::size_t kMaxBlendedComponents = 8;
+
+/// The used points (original[k]: the surface point of used point k) grouped
+/// by the connected component of the surface's triangles they lie on, as
+/// used-point numbers, components in the order of their first point.
+std::vector<std::vector<Index>> point_components(const SurfaceMesh& surface, const std::vector<Index>& original) {
+  std::vector<Index> parent(surface.points.size());
+  for (Index i = 0; i < parent.size(); ++i) parent[i] = i;
+  const auto root = [&](Index v) {
+    while (parent[v] != v) v = parent[v] = parent[parent[v]];
+    return v;
+  };
+  for (const Tri& t : surface.triangles)
+    for (int c = 1; c < 3; ++c) {
+      const Index a = root(t[0]), b = root(t[c]);
+      if (a != b) parent[std::max(a, b)] = std::min(a, b);
+    }
+  std::vector<std::vector<Index>> out;
+  std::vector<Index> slot(surface.points.size(), kNoIndex);
+  for (Index k = 0; k < original.size(); ++k) {
+    Index& c = slot[root(original[k])];
+    if (c == kNoIndex) {
+      c = static_cast<Index>(out.size());
+      out.emplace_back();
+    }
+    out[c].push_back(k);
+  }
+  return out;
+}
+
 std::string with_thousands(double v) {
   const std::string digits = fmt::format("{:.0f}", v);
   std::string out;
@@ -170,10 +201,12 @@ Result<MeshEstimate> estimate_mesh(const SurfaceMesh& surface, const SizingOptio
   const double hi = options.hmax.value_or(std::numeric_limits<double>::infinity());
   std::vector<Vec3> pts;
   std::vector<double> h;
+  std::vector<Index> original;  // pts[k] is surface point original[k]
   for (std::size_t p = 0; p < surface.points.size(); ++p) {
     if (std::isnan(h_surface[p])) continue;  // used by no triangle
     pts.push_back(surface.points[p]);
     h.push_back(h_surface[p]);
+    original.push_back(static_cast<Index>(p));
   }
   Box box;
   for (const Vec3& p : pts) box.add(p);
@@ -194,10 +227,39 @@ Result<MeshEstimate> estimate_mesh(const SurfaceMesh& surface, const SizingOptio
     }
     const std::vector<std::uint8_t> inside = inside_cells(surface, g);
     const double rate = options.growth - 1;
-    const auto nearest = propagate_seeds(g, pts, [&](Index p, const Vec3& x) {
+    const auto squared_distance = [&](Index p, const Vec3& x) {
       const Vec3 d = x - pts[p];
       return dot(d, d);
-    });
+    };
+    // The nearest boundary point of each surface component (up to
+    // kMaxBlendedComponents; one nearest point of all beyond that).
+    const std::vector<std::vector<Index>> components = point_components(surface, original);
+    std::vector<std::vector<Index>> nearest;
+    if (components.size() <= kMaxBlendedComponents) {
+      for (const std::vector<Index>& c : components) {
+        std::vector<Vec3> cp;
+        for (const Index p : c) cp.push_back(pts[p]);
+        std::vector<Index> seeds = propagate_seeds(g, cp, [&](Index q, const Vec3& x) { return squared_distance(c[q], x); });
+        for (Index& q : seeds) q = c[q];
+        nearest.push_back(std::move(seeds));
+      }
+    } else {
+      nearest.push_back(propagate_seeds(g, pts, squared_distance));
+    }
+    // h between components as the background interpolation gives it: the
+    // nearest points' spacings weighted by inverse distance (one component:
+    // its nearest point's).
+    const auto interpolated = [&](std::size_t cell, const Vec3& x) {
+      if (nearest.size() == 1) return h[nearest[0][cell]];
+      double sum_w = 0, sum_wh = 0;
+      for (const std::vector<Index>& n : nearest) {
+        const double d = std::sqrt(squared_distance(n[cell], x));
+        if (d == 0) return h[n[cell]];
+        sum_w += 1 / d;
+        sum_wh += h[n[cell]] / d;
+      }
+      return sum_wh / sum_w;
+    };
     const auto growth = propagate_seeds(g, pts, [&](Index p, const Vec3& x) { return h[p] + rate * norm(x - pts[p]); });
     double sum = 0;
     std::size_t count = 0;
@@ -208,7 +270,7 @@ Result<MeshEstimate> estimate_mesh(const SurfaceMesh& surface, const SizingOptio
           if (!inside[cell]) continue;
           const Index q = growth[cell];
           const double gx = h[q] + rate * norm(g.centre(i, j, k) - pts[q]);
-          sum += density(std::clamp(std::min(h[nearest[cell]], gx), lo, hi));
+          sum += density(std::clamp(std::min(interpolated(cell, g.centre(i, j, k)), gx), lo, hi));
           ++count;
         }
       }

@@ -111,6 +111,23 @@ TEST(Estimate, GradedDefaultWithinFactorOfARealMesh) {
   expect_estimate_within_factor(subdivided_cube(2.0, 10), SizingOptions{});
 }
 
+TEST(Estimate, ABodyInAFarFieldWithinFactorOfARealMesh) {
+  // A finely split cube (spacing 0.2) in the middle of a coarse one (spacing
+  // 8): far from the body h follows the growth limit, not the body's spacing
+  // (taking the nearest boundary point's spacing everywhere overestimated
+  // such a domain by orders of magnitude).
+  SurfaceMesh outer = subdivided_cube(16.0, 2);
+  const SurfaceMesh body = subdivided_cube(2.0, 10);
+  const Index offset = static_cast<Index>(outer.points.size());
+  for (const Vec3& p : body.points) outer.points.push_back(p + Vec3{7, 7, 7});
+  for (std::size_t t = 0; t < body.triangles.size(); ++t) {  // reversed: a cavity
+    const Tri& k = body.triangles[t];
+    outer.triangles.push_back({k[0] + offset, k[2] + offset, k[1] + offset});
+    outer.surface_ids.push_back(body.surface_ids[t] + 10);
+  }
+  expect_estimate_within_factor(outer, SizingOptions{});
+}
+
 TEST(Estimate, HmaxCapsTheGradedSizeAndHminLiftsIt) {
   const SurfaceMesh cube = subdivided_cube(2.0, 10);
   SizingOptions o;

@@ -14,8 +14,10 @@
 //  - Otherwise the density is averaged over the centres of a coarse grid
 //    (at most kEstimateGridCells a side) that lie inside the surface (a
 //    winding count along grid rows), with h at a centre approximated by
-//    min(s(q), g(x)) clamped: s(q) the spacing of the nearest boundary point q
-//    (what the background interpolation gives near q) and g the growth limit
+//    min(s(x), g(x)) clamped: s(x) the spacings of the nearest boundary point
+//    of each surface component weighted by inverse distance (what the
+//    background interpolation gives between a body and its far field; one
+//    component: its nearest point's spacing) and g the growth limit
 //    min_p s(p) + (G - 1)|x - p|, both over the boundary points found by a
 //    seed propagation over the grid. That mean times the exact volume is the
 //    count. A body thinner than the grid (no centre inside) uses the mean
