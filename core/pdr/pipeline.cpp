@@ -197,10 +197,10 @@ Result<ParallelResult> mesh_parallel_one(const SurfaceMesh& surface, const Paral
       !kernel->needs_manifold_hull())
     return serial_as_parallel(surface, options);
   ParallelResult out;
-  // TetGen runs once: its boundary-conforming mesh is the sizing field's
-  // background mesh and, with the seed lattice inserted (initial_mesh), the
-  // initial mesh. From 2 workers on the sizing field is built beside the
-  // seeds: the plan needs only h at the surface points, which the surface
+  // TetGen's boundary-conforming mesh is the sizing field's background mesh
+  // and, with the seed lattice inserted (initial_mesh), the initial mesh: with
+  // a seeds-only plan (the native kernel) TetGen runs once. From 2 workers on
+  // the sizing field is built beside the initial mesh: the plan needs only h at the surface points, which the surface
   // alone gives (SizingField::surface_values). Checked against the built
   // field afterwards; on any difference the initial mesh is made again from
   // the field's own plan, so the result is always run_pdr's.
