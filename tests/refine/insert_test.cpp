@@ -148,6 +148,28 @@ TEST(Locate, WalksFromAFarTetToTheContainingElement) {
   EXPECT_EQ(locate(m, 0, {1.5, 0.5, 0.5}).kind, LocationKind::kOutside);
 }
 
+TEST(Locate, SearchFindsTheContainingTetBreadthFirstWithinItsBudget) {
+  TetMesh m = build(fixtures::cube());
+  std::mt19937 rng(test_seed());
+  for (int i = 0; i < 200; ++i) (void)insert_point(m, 0, random_point(rng, i));
+  ASSERT_TRUE(m.check().ok());
+  for (int i = 0; i < 50; ++i) {
+    const Vec3 p = random_point(rng, i);
+    const Index start = static_cast<Index>(i) % m.num_slots();
+    const Location want = locate(m, start, p);
+    ASSERT_NE(want.kind, LocationKind::kOutside);
+    const Location got = search(m, start, p, m.num_slots());
+    EXPECT_EQ(got.kind, want.kind);
+    if (want.kind == LocationKind::kInTet) {
+      EXPECT_EQ(got.tet, want.tet);
+    }
+    // With a budget of one tet it finds p only in the start tet.
+    const Location one = search(m, start, p, 1);
+    EXPECT_EQ(one.kind == LocationKind::kOutside, !(want.kind == LocationKind::kInTet && want.tet == start));
+  }
+  EXPECT_EQ(search(m, 0, {1.5, 0.5, 0.5}, m.num_slots()).kind, LocationKind::kOutside);
+}
+
 /// Tries every flip on every tet until a whole pass changes nothing; checks the
 /// mesh after each flip. Returns the number of flips done.
 int flip_sweep(TetMesh& m) {
