@@ -125,10 +125,16 @@ Vec3 random_point(std::mt19937& rng, int i) {
   return p;
 }
 
-TEST(Locate, WalksFromAFarTetToTheContainingElement) {
+/// The cube with 200 random points inserted.
+TetMesh random_cube(std::mt19937& rng) {
   TetMesh m = build(fixtures::cube());
-  std::mt19937 rng(test_seed());
   for (int i = 0; i < 200; ++i) (void)insert_point(m, 0, random_point(rng, i));
+  return m;
+}
+
+TEST(Locate, WalksFromAFarTetToTheContainingElement) {
+  std::mt19937 rng(test_seed());
+  TetMesh m = random_cube(rng);
   ASSERT_TRUE(m.check().ok());
   for (int i = 0; i < 200; ++i) {
     const Vec3 p = random_point(rng, i);
@@ -149,9 +155,8 @@ TEST(Locate, WalksFromAFarTetToTheContainingElement) {
 }
 
 TEST(Locate, SearchFindsTheContainingTetBreadthFirstWithinItsBudget) {
-  TetMesh m = build(fixtures::cube());
   std::mt19937 rng(test_seed());
-  for (int i = 0; i < 200; ++i) (void)insert_point(m, 0, random_point(rng, i));
+  TetMesh m = random_cube(rng);
   ASSERT_TRUE(m.check().ok());
   for (int i = 0; i < 50; ++i) {
     const Vec3 p = random_point(rng, i);
