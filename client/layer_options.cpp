@@ -2,16 +2,11 @@
 #include "layer_options.hpp"
 
 #include <fmt/format.h>
-#include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 
-#include <algorithm>
-#include <charconv>
 #include <limits>
-#include <set>
 
 #include "options.hpp"
-#include "pdrmesh/boundary_names.hpp"
 #include "pdrmesh/volume_io.hpp"
 #include "pdrmesh/volume_mesh.hpp"
 
@@ -71,7 +66,7 @@ void LayerArgs::add_to(CLI::App* cmd) {
       ->type_name("NAMES");
 }
 
-void LayerArgs::check(const CLI::App& cmd, const std::string& output) const {
+void LayerArgs::check(const CLI::App& cmd) const {
   if (layers == 0) {
     for (const char* o : {"--first-height", "--growth-ratio", "--layers-max-thickness", "--layers-on", "--reynolds",
                           "--reference-length"})
@@ -85,57 +80,24 @@ void LayerArgs::check(const CLI::App& cmd, const std::string& output) const {
   if (!yplus)
     for (const char* o : {"--reynolds", "--reference-length"})
       if (cmd.count(o) > 0) usage_error(fmt::format("{}: only with --first-height yplus:Y", o));
-  const auto format = volume_format_from_path(output);
-  if (format.ok() && !holds_mixed(*format))
-    usage_error(fmt::format("--layers: {} cannot hold prisms; write a mesh with layers as {}", output,
-                            mixed_volume_suffixes()));
+}
+
+LayerRequest LayerArgs::request() const {
+  LayerRequest r;
+  r.layers = layers;
+  const FirstHeightValue height = FirstHeightValue::parse(first_height).value_or(FirstHeightValue{});
+  r.first_height = height.value;
+  r.yplus = height.yplus;
+  r.reynolds = reynolds;
+  r.reference_length = reference_length;
+  r.growth_ratio = growth_ratio;
+  if (max_thickness > 0) r.max_thickness = max_thickness;
+  r.on = on;
+  return r;
 }
 
 Result<LayerOptions> LayerArgs::resolve(const SurfaceMesh& surface, const std::vector<int>& default_walls) const {
-  LayerOptions o;
-  o.layers = layers;
-  const FirstHeightValue height = FirstHeightValue::parse(first_height).value_or(FirstHeightValue{});
-  o.first_height = height.value;
-  o.growth_ratio = growth_ratio;
-  if (max_thickness > 0) o.max_thickness = max_thickness;
-  if (on.empty()) o.walls = default_walls;
-  const std::set<int> ids(surface.surface_ids.begin(), surface.surface_ids.end());
-  for (const std::string& name : on) {
-    int found = 0;
-    bool matched = false;
-    for (int id : ids) {
-      const auto it = surface.surface_names.find(id);
-      int number = 0;
-      const auto [end, ec] = std::from_chars(name.data(), name.data() + name.size(), number);
-      const bool as_number = ec == std::errc() && end == name.data() + name.size() && number == id;
-      if ((it != surface.surface_names.end() && it->second == name) || is_default_boundary_name(id, name) || as_number) {
-        found = id;
-        matched = true;
-        break;
-      }
-    }
-    if (!matched) {
-      std::vector<std::string> known;
-      for (int id : ids) known.push_back(fmt::format("{} ({})", boundary_name(surface.surface_names, id), id));
-      return invalid_input(fmt::format("--layers-on: {} names no surface of {}; its surfaces are {}", name, surface.name,
-                                       fmt::join(known, ", ")));
-    }
-    o.walls.push_back(found);
-  }
-  if (height.yplus) {
-    double length = reference_length;
-    if (!(length > 0)) {
-      const std::set<int> walls(o.walls.begin(), o.walls.end());
-      Box box;
-      for (std::size_t t = 0; t < surface.triangles.size(); ++t)
-        if (walls.empty() || walls.count(surface.surface_ids[t]) > 0)
-          for (Index v : surface.triangles[t]) box.add(surface.points[v]);
-      for (int k = 0; k < 3; ++k) length = std::max(length, box.hi[k] - box.lo[k]);
-    }
-    PDR_ASSIGN_OR_RETURN(o.first_height, first_height_for_yplus(height.value, reynolds, length));
-  }
-  PDR_TRY(validate(o));
-  return o;
+  return resolve_layers(request(), surface, default_walls);
 }
 
 std::string layer_growth_line(int layers, const LayeredResult& r) {

@@ -38,14 +38,11 @@ struct LayerArgs {
 
   void add_to(CLI::App* cmd);
   /// Usage errors across options, after parsing: --first-height needed with
-  /// --layers, the other layer options only with it, and an output format
-  /// that holds prisms.
-  void check(const CLI::App& cmd, const std::string& output) const;
-  /// The layer options for `surface`: --layers-on names resolved to surface
-  /// ids (a name of surface_names, "surface_<id>", or the id itself), a
-  /// yplus:Y first height turned into a length on --reference-length or the
-  /// walls' length (the longest side of their bounding box);
-  /// invalid_input naming an unknown one and the names there are. Without
+  /// --layers, the other layer options only with it.
+  void check(const CLI::App& cmd) const;
+  /// The options as given (names and a y+ unresolved): what a job carries.
+  LayerRequest request() const;
+  /// resolve_layers (layers.hpp) of request() on `surface`; without
   /// --layers-on the walls are `default_walls` (empty: every surface; with
   /// --farfield the body's ids, so that the far-field patches grow none).
   Result<LayerOptions> resolve(const SurfaceMesh& surface, const std::vector<int>& default_walls = {}) const;

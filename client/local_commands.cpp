@@ -14,7 +14,6 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
-#include <set>
 #include <string>
 
 #include "exit_codes.hpp"
@@ -142,11 +141,7 @@ int load_checked_surface(const std::string& path, const std::string& names_path,
     progress.say("far field: a {} {:g} body lengths (L = {:.6g}) from the body, {} triangles of about {:.6g}",
                  to_string(farfield->shape), farfield->distance, domain->body_length, domain->farfield_triangles,
                  domain->farfield_size);
-    if (body_ids) {  // the body's triangles come first, the far field's last
-      const auto& ids = domain->surface.surface_ids;
-      const std::set<int> body(ids.begin(), ids.end() - static_cast<std::ptrdiff_t>(domain->farfield_triangles));
-      body_ids->assign(body.begin(), body.end());
-    }
+    if (body_ids) *body_ids = domain->body_ids();
     *surface = std::move(domain->surface);
   }
   if (!surface->surface_names.empty()) progress.say("{}", names_line(surface->surface_names));
@@ -639,7 +634,7 @@ void add_local_commands(CLI::App& app, int& exit_code) {
       if (cmd->count("--max-volume") > 0 && !a->no_refine)
         usage_error("--max-volume: only with --no-refine (the refined mesh follows --size)");
       if (a->layers.layers > 0 && a->no_refine) usage_error("--layers: not with --no-refine");
-      a->layers.check(*cmd, a->output);
+      a->layers.check(*cmd);
       a->growth_given = cmd->count("--growth") > 0;
       exit_code = run_mesh(*a);
     });
@@ -668,7 +663,7 @@ void add_local_commands(CLI::App& app, int& exit_code) {
                               "a finer mesh over a 4x4x4 octree, with the time of each phase"}}));
     cmd->callback([&exit_code, a, cmd] {
       a->mesh.size.check();
-      a->layers.check(*cmd, a->output);
+      a->layers.check(*cmd);
       a->growth_given = cmd->count("--growth") > 0;
       exit_code = run_run(*a);
     });

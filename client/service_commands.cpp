@@ -26,6 +26,7 @@
 
 #include "exit_codes.hpp"
 #include "job_json.hpp"
+#include "layer_options.hpp"
 #include "options.hpp"
 #include "pdrmesh/boundary_names_io.hpp"
 #include "pdrmesh/surface_io.hpp"
@@ -305,7 +306,21 @@ struct SubmitArgs {
   bool wait = false;
   std::string out;
   RunOptionArgs mesh;
+  LayerArgs layers;
+  bool growth_given = false;  ///< --growth on the command line (else the layers' ratio continues)
 };
+
+/// The job's layers as given: the coordinator resolves names and a y+ on the job's surface.
+void set_layers(const LayerRequest& r, v1::BoundaryLayers& out) {
+  out.set_count(r.layers);
+  if (r.yplus) out.set_first_height_yplus(r.first_height);
+  else out.set_first_height(r.first_height);
+  out.set_reynolds(r.reynolds);
+  out.set_reference_length(r.reference_length);
+  out.set_growth_ratio(r.growth_ratio);
+  if (r.max_thickness) out.set_max_thickness(*r.max_thickness);
+  for (const std::string& name : r.on) out.add_on(name);
+}
 
 int run_submit(Common& c, const SubmitArgs& a) {
   // A percentage size is resolved here, from the surface's bounding box: the
@@ -338,6 +353,10 @@ int run_submit(Common& c, const SubmitArgs& a) {
   for (const auto& [id, name] : names) (*options.mutable_surface_names())[id] = name;
   if (a.max_volume > 0) options.set_max_volume(a.max_volume);
   if (a.time_limit_s > 0) options.set_time_limit_s(a.time_limit_s);
+  if (a.layers.layers > 0) {
+    set_layers(a.layers.request(), *options.mutable_layers());
+    if (!a.growth_given) options.clear_growth();  // the coordinator continues the layers' ratio
+  }
   v1::Job job;
   if (auto s = client->submit(a.surface, options, job); !s.ok()) return fail(c, s, "submit");
   const bool wait = a.wait || !a.out.empty();
@@ -377,6 +396,7 @@ void add_service_commands(CLI::App& app, int& exit_code) {
     cmd->add_option("-o,--output", a->out, "download the result here when done (implies --wait) " + volume_formats)
         ->check(output_check(OutputKind::kVolumeMesh));
     a->mesh.add_to(cmd);
+    a->layers.add_to(cmd);
     add_number(cmd, "--max-volume", a->max_volume,
                "write the initial mesh alone, with this maximum tet volume (instead of the mesh options)", kVolume);
     add_time_limit(cmd, a->time_limit_s, "the coordinator's");
@@ -385,12 +405,17 @@ void add_service_commands(CLI::App& app, int& exit_code) {
     cmd->footer(help_footer({{"pdrmesh submit part.stl --server mesh.example:7443 -o part.meshb",
                               "mesh on the coordinator, wait, download the result"},
                              {"pdrmesh submit part.stl --size 1% --time-limit 3600 --json",
-                              "queue a job, print it as JSON and return at once"}}));
+                              "queue a job, print it as JSON and return at once"},
+                             {"pdrmesh submit wing.stl --farfield 20 --layers 20 --first-height yplus:1 "
+                              "--reynolds 1e6 -o wing.cgns",
+                              "an external-flow job with prism layers on the body"}}));
     cmd->callback([&exit_code, c, a, cmd] {
       a->mesh.size.check();
+      a->layers.check(*cmd);
+      a->growth_given = cmd->count("--growth") > 0;
       refuse_together(*cmd, "--max-volume",
                       {"--size", "--hmin", "--hmax", "--growth", "--depth", "--kernel", "--no-interface-round",
-                       "--no-optimize"},
+                       "--no-optimize", "--layers"},
                       "--max-volume writes the initial mesh alone, unrefined");
       exit_code = run_submit(*c, *a);
     });

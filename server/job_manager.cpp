@@ -118,7 +118,8 @@ Result<JobRecord> JobManager::submit(std::string_view user, std::string_view fil
   PDR_TRY(admit(user, bytes.size()));
   // The whole check before anything is stored: a broken surface costs nothing else.
   PDR_ASSIGN_OR_RETURN(SurfaceMesh parsed, parse_surface(bytes, format, name));
-  PDR_ASSIGN_OR_RETURN(const SurfaceMesh surface, job_surface(std::move(parsed), options, name));
+  PDR_ASSIGN_OR_RETURN(const JobDomain domain, job_domain(std::move(parsed), options, name));
+  const SurfaceMesh& surface = domain.surface;
   // What meshing it would cost, before anything is stored (the initial mesh
   // alone, with max_volume, is TetGen's and bounded by its time limit).
   double peak_bytes = 0;

@@ -45,18 +45,31 @@ Status JobOptions::validate() const {
     return invalid_input(fmt::format("job option kernel must be 'native' or 'tetgen', got '{}'", kernel));
   }
   if (farfield) PDR_TRY(check_farfield_distance(farfield->distance, "job option farfield"));
+  if (layers) {
+    if (max_volume) return invalid_input("job option layers: not with max_volume (the initial mesh alone)");
+    if (Status s = pdrmesh::validate(*layers); !s.ok()) return invalid_input("job option layers: " + s.message());
+  }
   return check_boundary_names(surface_names, "job option surface_names");
 }
 
-Result<SurfaceMesh> job_surface(SurfaceMesh surface, const JobOptions& options, std::string_view name) {
+Result<JobDomain> job_domain(SurfaceMesh surface, const JobOptions& options, std::string_view name) {
   PDR_TRY(merge_boundary_names(surface.surface_names, surface.surface_ids, options.surface_names,
                                "job option surface_names"));
+  std::vector<int> body_ids;
   if (options.farfield) {
     PDR_ASSIGN_OR_RETURN(FarfieldDomain domain, make_farfield(surface, *options.farfield));
+    body_ids = domain.body_ids();
     surface = std::move(domain.surface);
   }
   PDR_TRY(require_meshable(check_surface(surface), name));
-  return surface;
+  JobDomain d;
+  if (options.layers) {
+    auto layers = resolve_layers(*options.layers, surface, body_ids);
+    if (!layers.ok()) return invalid_input("job option layers: " + layers.status().message());
+    d.layers = *layers;
+  }
+  d.surface = std::move(surface);
+  return d;
 }
 
 std::string JobOptions::to_json() const {
@@ -77,8 +90,61 @@ std::string JobOptions::to_json() const {
     j["farfield"] = farfield->distance;
     j["farfield_shape"] = to_string(farfield->shape);
   }
+  if (layers) {
+    nlohmann::json& l = j["layers"];
+    l["count"] = layers->layers;
+    l[layers->yplus ? "first_height_yplus" : "first_height"] = layers->first_height;
+    if (layers->yplus) l["reynolds"] = layers->reynolds;
+    if (layers->reference_length > 0) l["reference_length"] = layers->reference_length;
+    l["growth_ratio"] = layers->growth_ratio;
+    if (layers->max_thickness) l["max_thickness"] = *layers->max_thickness;
+    if (!layers->on.empty()) l["on"] = layers->on;
+  }
   return j.dump();
 }
+
+namespace {
+
+/// The layers of a job's options JSON (JobOptions::to_json's "layers").
+Result<LayerRequest> layers_from_json(const nlohmann::json& j) {
+  if (!j.is_object()) return invalid_input("job option layers must be an object");
+  LayerRequest r;
+  for (const auto& [key, value] : j.items()) {
+    if (key == "on") {
+      if (!value.is_array()) return invalid_input("job option layers.on must be an array of names");
+      for (const auto& name : value) {
+        if (!name.is_string()) return invalid_input("job option layers.on must be an array of names");
+        r.on.push_back(name.get<std::string>());
+      }
+      continue;
+    }
+    if (key == "count") {
+      if (!value.is_number_integer() || value < 1 || value > 1000)
+        return invalid_input(fmt::format("job option layers.count must be 1..1000, got {}", value.dump()));
+      r.layers = value.get<int>();
+      continue;
+    }
+    if (!value.is_number()) return invalid_input(fmt::format("job option layers.{} must be a number", key));
+    const double x = value.get<double>();
+    if (key == "first_height" || key == "first_height_yplus") {
+      r.first_height = x;
+      r.yplus = key == "first_height_yplus";
+    } else if (key == "reynolds") {
+      r.reynolds = x;
+    } else if (key == "reference_length") {
+      r.reference_length = x;
+    } else if (key == "growth_ratio") {
+      r.growth_ratio = x;
+    } else if (key == "max_thickness") {
+      r.max_thickness = x;
+    } else {
+      return invalid_input(fmt::format("job option layers: unknown key {}", nlohmann::json(key).dump()));
+    }
+  }
+  return r;
+}
+
+}  // namespace
 
 Result<JobOptions> JobOptions::from_json(std::string_view json) {
   const nlohmann::json j = nlohmann::json::parse(json, nullptr, /*allow_exceptions=*/false);
@@ -135,6 +201,9 @@ Result<JobOptions> JobOptions::from_json(std::string_view json) {
                                                     shape->dump()));
       o.farfield->shape = *parsed;
     }
+  }
+  if (auto it = j.find("layers"); it != j.end()) {
+    PDR_ASSIGN_OR_RETURN(o.layers, layers_from_json(*it));
   }
   PDR_TRY(o.validate());
   return o;
@@ -360,13 +429,13 @@ Status JobRunner::mesh_job(JobRecord& job, JobProgress& progress) {
   PDR_ASSIGN_OR_RETURN(const std::string bytes, read_file(JobPaths::input(data_dir_, job)));
   PDR_ASSIGN_OR_RETURN(SurfaceMesh parsed, parse_surface(bytes, format, job.input_name));
   if (!progress.report("checking", 0.1)) return internal_error("stopped");
-  PDR_ASSIGN_OR_RETURN(const SurfaceMesh surface, job_surface(std::move(parsed), options, job.input_name));
+  PDR_ASSIGN_OR_RETURN(const JobDomain domain, job_domain(std::move(parsed), options, job.input_name));
   // The result depends on the input, the options and the engine's build alone.
   const JobCheckpoint checkpoint(JobPaths::checkpoint(data_dir_, job.id),
                                  fmt::format("pdrmesh {} build {:016x}\noptions {}\ninput {:016x}\n",
                                              PDRMESH_VERSION, executable_digest(), job.options_json,
                                              content_digest(bytes)));
-  PDR_ASSIGN_OR_RETURN(const VolumeMesh mesh, engine_.mesh(job, surface, options, progress, &checkpoint));
+  PDR_ASSIGN_OR_RETURN(const VolumeMesh mesh, engine_.mesh(job, domain, options, progress, &checkpoint));
   if (!progress.report("writing", 0.95)) return internal_error("stopped");
   const auto final_path = JobPaths::result(data_dir_, job.id);
   auto tmp = final_path;

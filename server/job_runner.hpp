@@ -26,6 +26,7 @@
 #include "job_checkpoint.hpp"
 #include "job_store.hpp"
 #include "pdrmesh/farfield.hpp"
+#include "pdrmesh/layers.hpp"
 #include "pdrmesh/sizing.hpp"
 #include "pdrmesh/status.hpp"
 #include "pdrmesh/surface.hpp"
@@ -48,6 +49,8 @@ struct JobOptions {
   std::map<int, std::string> surface_names;
   /// External flow (run --farfield): the domain around the surface (farfield.hpp).
   std::optional<FarfieldOptions> farfield;
+  /// Prism boundary layers (run --layers), resolved on the job's surface by job_domain.
+  std::optional<LayerRequest> layers;
 
   /// invalid_input naming the first option out of range.
   Status validate() const;
@@ -56,10 +59,17 @@ struct JobOptions {
   static Result<JobOptions> from_json(std::string_view json);
 };
 
-/// The surface a job meshes: `surface` (its names merged with the options'),
-/// or with options.farfield the domain around it; checked (require_meshable).
-/// `name` names the upload in messages.
-Result<SurfaceMesh> job_surface(SurfaceMesh surface, const JobOptions& options, std::string_view name);
+/// What a job meshes: the surface and, with layers, their options on it.
+struct JobDomain {
+  SurfaceMesh surface;
+  std::optional<LayerOptions> layers;
+};
+
+/// The domain of a job: `surface` (its names merged with the options'), or
+/// with options.farfield the domain around it, checked (require_meshable);
+/// with options.layers their walls and first height resolved on it (by
+/// default every surface of the body). `name` names the upload in messages.
+Result<JobDomain> job_domain(SurfaceMesh surface, const JobOptions& options, std::string_view name);
 
 /// Where a job's files live under the data directory.
 struct JobPaths {
@@ -119,7 +129,7 @@ class MeshEngine {
   /// `job`: whose mesh it is (id and user for logs and leaf dispatch).
   /// `checkpoint`: where the engine may store its state after each round and
   /// find the state a former run of the job left (null: nowhere).
-  virtual Result<VolumeMesh> mesh(const JobRecord& job, const SurfaceMesh& surface, const JobOptions& options,
+  virtual Result<VolumeMesh> mesh(const JobRecord& job, const JobDomain& domain, const JobOptions& options,
                                   JobProgress& progress, const JobCheckpoint* checkpoint) = 0;
 };
 

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <optional>
 
+#include "pdrmesh/layered_pipeline.hpp"
 #include "pdrmesh/tetgen_adapter.hpp"
 #include "pdrmesh/validate.hpp"
 
@@ -42,8 +43,9 @@ ParallelOptions parallel_options(const JobOptions& options) {
   return o;
 }
 
-Result<VolumeMesh> PdrEngine::mesh(const JobRecord& job, const SurfaceMesh& surface, const JobOptions& options,
+Result<VolumeMesh> PdrEngine::mesh(const JobRecord& job, const JobDomain& domain, const JobOptions& options,
                                    JobProgress& progress, const JobCheckpoint* checkpoint) {
+  const SurfaceMesh& surface = domain.surface;
   const auto start = std::chrono::steady_clock::now();
   const auto deadline = start + std::chrono::duration<double>(options.time_limit_s);
   bool timed_out = false;
@@ -126,7 +128,19 @@ Result<VolumeMesh> PdrEngine::mesh(const JobRecord& job, const SurfaceMesh& surf
     }
     spdlog::debug("job {}: mesh_parallel with the {} kernel, {} leaf task(s) at once", job.id, options.kernel,
                   po.pdr.workers);
-    auto result = mesh_parallel(surface, po, kernel.get(), optimizer.get());
+    // With layers: the layers made here as `pdrmesh mesh` makes them, the tets
+    // that fill the rest by the parallel method.
+    Result<VolumeMesh> result = VolumeMesh{};
+    if (domain.layers) {
+      if (!progress.report("layers", 0.16)) return cancelled("stopped");
+      auto layered = mesh_parallel_layered(surface, *domain.layers, po, kernel.get(), optimizer.get());
+      if (layered.ok()) result = std::move(layered->layered.mesh);
+      else result = layered.status();
+    } else {
+      auto r = mesh_parallel(surface, po, kernel.get(), optimizer.get());
+      if (r.ok()) result = std::move(r->mesh);
+      else result = r.status();
+    }
     progress.leaves(0, 0);
     if (!result.ok()) {
       if (timed_out) {
@@ -135,7 +149,7 @@ Result<VolumeMesh> PdrEngine::mesh(const JobRecord& job, const SurfaceMesh& surf
       }
       return result.status();
     }
-    mesh = std::move(result).value().mesh;
+    mesh = std::move(result).value();
   }
   progress.mesh_size(mesh.tets.size(), mesh.points.size());
   if (!progress.report("validating", 0.9)) return cancelled("stopped");

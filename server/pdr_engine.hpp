@@ -25,7 +25,7 @@ class PdrEngine final : public MeshEngine {
   explicit PdrEngine(std::shared_ptr<LeafDispatch> dispatch) : dispatch_(std::move(dispatch)) {}
   /// With `checkpoint`, goes on from the round it holds (and stores one after
   /// each round); a checkpoint that cannot be stored is logged, the job goes on.
-  Result<VolumeMesh> mesh(const JobRecord& job, const SurfaceMesh& surface, const JobOptions& options,
+  Result<VolumeMesh> mesh(const JobRecord& job, const JobDomain& domain, const JobOptions& options,
                           JobProgress& progress, const JobCheckpoint* checkpoint) override;
 
  private:

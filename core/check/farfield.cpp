@@ -11,6 +11,7 @@
 #include <map>
 #include <string>
 #include <utility>
+#include <set>
 #include <vector>
 
 #include "pdrmesh/boundary_names.hpp"
@@ -255,6 +256,12 @@ Result<FarfieldDomain> make_farfield(const SurfaceMesh& body, const FarfieldOpti
   s.surface_ids.insert(s.surface_ids.end(), ff.ids.begin(), ff.ids.end());
   d.farfield_triangles = ff.triangles.size();
   return d;
+}
+
+std::vector<int> FarfieldDomain::body_ids() const {
+  const auto& ids = surface.surface_ids;
+  const std::set<int> body(ids.begin(), ids.end() - static_cast<std::ptrdiff_t>(farfield_triangles));
+  return {body.begin(), body.end()};
 }
 
 }  // namespace pdrmesh

@@ -375,21 +375,12 @@ Result<VolumeFormat> volume_format_from_path(const std::filesystem::path& path) 
                                  volume_format_suffixes()));
 }
 
-bool holds_mixed(VolumeFormat f) {
-  return f == VolumeFormat::kMedit || f == VolumeFormat::kVtu || f == VolumeFormat::kGmsh || f == VolumeFormat::kSu2 ||
-         f == VolumeFormat::kUgridAscii || f == VolumeFormat::kUgridLittle || f == VolumeFormat::kUgridBig ||
-         f == VolumeFormat::kCgns || f == VolumeFormat::kFoam;
-}
-
-std::string_view mixed_volume_suffixes() {
-  return ".mesh, .vtu, .msh, .ugrid (.lb8.ugrid, .b8.ugrid), .su2, .cgns or polyMesh";
-}
-
 namespace {
 
 Status write_format(const VolumeMesh& mesh, VolumeFormat format, const std::filesystem::path& path,
                     const VolumeWriteOptions& options) {
-  if (mesh.mixed() && format != VolumeFormat::kFoam && format != VolumeFormat::kCgns)
+  if (mesh.mixed() && format != VolumeFormat::kFoam && format != VolumeFormat::kCgns &&
+      format != VolumeFormat::kMeditBinary)
     return volio::write_mixed(mesh, format, path);
   switch (format) {
     case VolumeFormat::kMedit: return volio::write_medit(mesh, path);

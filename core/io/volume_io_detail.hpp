@@ -207,7 +207,22 @@ Result<VolumeMesh> read_meshb(std::string_view data, const std::string& name);
 
 inline constexpr int kVtkTriangle = 5;  ///< VTK cell types
 inline constexpr int kVtkTetra = 10;
+inline constexpr int kVtkWedge = 13;
+inline constexpr int kVtkPyramid = 14;
+/// The corners of a VTK cell type that volume meshes hold; -1 for the others.
+constexpr int corners(int vtk_type) {
+  switch (vtk_type) {
+    case kVtkTriangle: return 3;
+    case kVtkTetra: return 4;
+    case kVtkWedge: return 6;
+    case kVtkPyramid: return 5;
+    default: return -1;
+  }
+}
 Status write_vtu(const VolumeMesh& mesh, const std::filesystem::path& path, VtuEncoding encoding);
+/// The VTU <FieldData> of the boundary and region names (none without names):
+/// `boundary_ids` and `boundary_names` side by side, `region_ids` and `region_names`.
+void write_vtu_field_data(const VolumeMesh& mesh, fmt::memory_buffer& buf);
 Result<VolumeMesh> read_vtu(std::string_view text, const std::string& name);
 
 Status write_ugrid_ascii(const VolumeMesh& mesh, const std::filesystem::path& path);

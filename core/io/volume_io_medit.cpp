@@ -192,12 +192,15 @@ Result<VolumeMesh> read_medit(std::string_view text, const std::string& name) {
 // ---------------------------------------------------------------- binary
 
 Status write_meshb(const VolumeMesh& mesh, const std::filesystem::path& path) {
-  const std::uint64_t np = mesh.points.size(), nb = mesh.boundary.size(), nt = mesh.tets.size();
+  const std::uint64_t np = mesh.points.size(), nb = mesh.boundary.size(), nt = mesh.tets.size(),
+                      nq = mesh.prisms.size(), ny = mesh.pyramids.size();
   // Version 2 (32-bit positions) unless the file outgrows them; then version 3.
   auto total = [&](std::uint64_t pos_bytes) {
     std::uint64_t s = 8 + (8 + pos_bytes) + (8 + pos_bytes + np * 28) + (4 + pos_bytes);
     if (nb > 0) s += 8 + pos_bytes + nb * 16;
     if (nt > 0) s += 8 + pos_bytes + nt * 20;
+    if (nq > 0) s += 8 + pos_bytes + nq * 28;
+    if (ny > 0) s += 8 + pos_bytes + ny * 24;
     return s;
   };
   const bool v3 = total(4) > static_cast<std::uint64_t>(std::numeric_limits<std::int32_t>::max());
@@ -249,6 +252,20 @@ Status write_meshb(const VolumeMesh& mesh, const std::filesystem::path& path) {
       PDR_TRY(out.maybe_flush());
     }
   }
+  // Prisms and pyramids in the ASCII writer's vertex order, ref 0.
+  const auto cells = [&](std::int32_t code, const auto& list) -> Status {
+    if (list.empty()) return {};
+    keyword(code, 4 + list.size() * 4 * (list[0].size() + 1), false);
+    put(buf, static_cast<std::int32_t>(list.size()), kLittle);
+    for (const auto& c : list) {
+      for (Index v : c) put(buf, static_cast<std::int32_t>(v + 1), kLittle);
+      put(buf, std::int32_t{0}, kLittle);
+      PDR_TRY(out.maybe_flush());
+    }
+    return {};
+  };
+  PDR_TRY(cells(kKwPrisms, mesh.prisms));
+  PDR_TRY(cells(kKwPyramids, mesh.pyramids));
   keyword(kKwEnd, 0, true);
   if (offset != total(pos_bytes)) return internal_error("meshb writer: size bookkeeping is off");
   return out.close();
@@ -310,7 +327,7 @@ Result<VolumeMesh> read_meshb(std::string_view data, const std::string& name) {
     PDR_TRY(in.get(dim, "dimension"));
     if (dim != 3) return unsupported(fmt::format("{}: only 3D meshes are read (Dimension {})", name, dim));
   }
-  for (int kw : {kKwQuadrilaterals, kKwPrisms, kKwHexahedra, kKwPyramids}) {
+  for (int kw : {kKwQuadrilaterals, kKwHexahedra}) {
     if (!blocks[static_cast<std::size_t>(kw)].present) continue;
     std::int64_t n = 0;
     PDR_TRY(open_block(kw, n, 1, "element count"));
@@ -359,6 +376,23 @@ Result<VolumeMesh> read_meshb(std::string_view data, const std::string& name) {
     }
     mesh.tet_regions = regions_from_refs(std::move(refs));
   }
+  // Prisms and pyramids (refs ignored: they all belong to the one volume).
+  const auto cells = [&](int kw, auto& list, const char* what) -> Status {
+    if (!blocks[static_cast<std::size_t>(kw)].present) return {};
+    using Cell = typename std::decay_t<decltype(list)>::value_type;
+    const std::size_t corners = std::tuple_size_v<Cell>;
+    const std::string count = fmt::format("{} count", what), vertex = fmt::format("{} vertex", what),
+                      cell_ref = fmt::format("{} ref", what);
+    PDR_TRY(open_block(kw, n, (corners + 1) * static_cast<std::uint64_t>(int_bytes), count.c_str()));
+    list.resize(static_cast<std::size_t>(n));
+    for (Cell& c : list) {
+      for (Index& v : c) PDR_TRY(in.index(v, int_bytes, np, vertex.c_str()));
+      PDR_TRY(in.integer(ref, int_bytes, cell_ref.c_str()));
+    }
+    return {};
+  };
+  PDR_TRY(cells(kKwPrisms, mesh.prisms, "prism"));
+  PDR_TRY(cells(kKwPyramids, mesh.pyramids, "pyramid"));
   return mesh;
 }
 

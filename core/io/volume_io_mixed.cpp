@@ -1,9 +1,9 @@
 // SPDX-License-Identifier: AGPL-3.0-or-later
-// Writers of mixed meshes (tets, prisms, pyramids: VolumeMesh::mixed()) in the
-// formats that hold prisms: VTK XML .vtu (ascii), Gmsh 4.1 .msh and UGRID
-// (ascii and C-binary) here; Medit .mesh and SU2 through their one writer for
-// tets and mixed cells (write_medit, write_su2). write_format sends a mixed
-// mesh here, and the other formats refuse it.
+// Writers of mixed meshes (tets, prisms, pyramids: VolumeMesh::mixed()): VTK
+// XML .vtu (ascii), Gmsh 4.1 .msh and UGRID (ascii and C-binary) here; Medit
+// .mesh and SU2 through their one writer for tets and mixed cells (write_medit,
+// write_su2). Medit .meshb, CGNS and polyMesh write mixed cells in their own
+// writers; write_format sends the others' mixed meshes here.
 //
 // Vertex orders (our order is VTK's, mixed_cells.hpp):
 //  - VTK (.vtu), SU2 and Gmsh: ours (wedge 13 / prism 6, pyramid 14 / 7); SU2
@@ -53,7 +53,10 @@ Status write_mixed_vtu(const VolumeMesh& mesh, const std::filesystem::path& path
   auto it = std::back_inserter(b);
   fmt::format_to(it,
                  "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" "
-                 "header_type=\"UInt64\">\n  <UnstructuredGrid>\n    <Piece NumberOfPoints=\"{}\" NumberOfCells=\"{}\">\n"
+                 "header_type=\"UInt64\">\n  <UnstructuredGrid>\n");
+  write_vtu_field_data(mesh, b);
+  fmt::format_to(it,
+                 "    <Piece NumberOfPoints=\"{}\" NumberOfCells=\"{}\">\n"
                  "      <Points>\n        <DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"ascii\">\n",
                  mesh.points.size(), nt + nq + ny + nb);
   for (const Vec3& p : mesh.points) fmt::format_to(it, FMT_COMPILE("{} {} {}\n"), p[0], p[1], p[2]);
@@ -84,10 +87,10 @@ Status write_mixed_vtu(const VolumeMesh& mesh, const std::filesystem::path& path
   const auto types = [&](std::size_t n, int type) {
     for (std::size_t i = 0; i < n; ++i) fmt::format_to(it, FMT_COMPILE("{}\n"), type);
   };
-  types(nt, 10);
-  types(nq, 13);
-  types(ny, 14);
-  types(nb, 5);
+  types(nt, kVtkTetra);
+  types(nq, kVtkWedge);
+  types(ny, kVtkPyramid);
+  types(nb, kVtkTriangle);
   fmt::format_to(it, "        </DataArray>\n      </Cells>\n      <CellData Scalars=\"surface_id\">\n"
                      "        <DataArray type=\"Int32\" Name=\"surface_id\" format=\"ascii\">\n");
   types(nt + nq + ny, 0);
@@ -211,9 +214,7 @@ Status write_mixed(const VolumeMesh& mesh, VolumeFormat format, const std::files
     case VolumeFormat::kUgridBig: return write_mixed_ugrid(mesh, path, true, false);
     default: break;
   }
-  return unsupported(fmt::format("this format holds tetrahedral meshes only for now; write a mesh with prism layers "
-                                 "as {}",
-                                 mixed_volume_suffixes()));
+  return internal_error("write_mixed: no writer of mixed meshes for this format");
 }
 
 }  // namespace pdrmesh::volio

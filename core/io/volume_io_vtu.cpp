@@ -204,6 +204,30 @@ std::string ascii_strings(const std::vector<std::string>& strings) {
 
 }  // namespace
 
+void write_vtu_field_data(const VolumeMesh& mesh, fmt::memory_buffer& buf) {
+  auto it = std::back_inserter(buf);
+  // Ids and names side by side, boundaries then regions.
+  const auto named = [&](const std::map<int, std::string>& map, std::string_view what) {
+    std::vector<std::string> names;
+    fmt::format_to(it, "      <DataArray type=\"Int32\" Name=\"{}_ids\" NumberOfTuples=\"{}\" format=\"ascii\">\n        ",
+                   what, map.size());
+    for (const auto& [id, name] : map) {
+      fmt::format_to(it, "{} ", id);
+      names.push_back(name);
+    }
+    fmt::format_to(it, "\n      </DataArray>\n      <DataArray type=\"String\" Name=\"{}_names\" "
+                       "NumberOfTuples=\"{}\" format=\"ascii\">\n{}      </DataArray>\n",
+                   what, names.size(), ascii_strings(names));
+  };
+  const bool region_names = !mesh.region_names.empty() && !mesh.tet_regions.empty();
+  if (!mesh.boundary_names.empty() || region_names) {
+    fmt::format_to(it, "    <FieldData>\n");
+    if (!mesh.boundary_names.empty()) named(mesh.boundary_names, "boundary");
+    if (region_names) named(mesh.region_names, "region");
+    fmt::format_to(it, "    </FieldData>\n");
+  }
+}
+
 Status write_vtu(const VolumeMesh& mesh, const std::filesystem::path& path, VtuEncoding encoding) {
   const std::size_t nt = mesh.tets.size(), nb = mesh.boundary.size(), nc = nt + nb;
   const std::vector<double> tet_min = min_dihedral_per_tet(mesh);
@@ -276,26 +300,7 @@ Status write_vtu(const VolumeMesh& mesh, const std::filesystem::path& path, VtuE
                  "header_type=\"UInt64\"{}>\n"
                  "  <UnstructuredGrid>\n",
                  encoding == VtuEncoding::kCompressed ? " compressor=\"vtkZLibDataCompressor\"" : "");
-  // Field data: ids and names side by side, boundaries then regions.
-  const auto named = [&](const std::map<int, std::string>& map, std::string_view what) {
-    std::vector<std::string> names;
-    fmt::format_to(it, "      <DataArray type=\"Int32\" Name=\"{}_ids\" NumberOfTuples=\"{}\" format=\"ascii\">\n        ",
-                   what, map.size());
-    for (const auto& [id, name] : map) {
-      fmt::format_to(it, "{} ", id);
-      names.push_back(name);
-    }
-    fmt::format_to(it, "\n      </DataArray>\n      <DataArray type=\"String\" Name=\"{}_names\" "
-                       "NumberOfTuples=\"{}\" format=\"ascii\">\n{}      </DataArray>\n",
-                   what, names.size(), ascii_strings(names));
-  };
-  const bool region_names = !mesh.region_names.empty() && !mesh.tet_regions.empty();
-  if (!mesh.boundary_names.empty() || region_names) {
-    fmt::format_to(it, "    <FieldData>\n");
-    if (!mesh.boundary_names.empty()) named(mesh.boundary_names, "boundary");
-    if (region_names) named(mesh.region_names, "region");
-    fmt::format_to(it, "    </FieldData>\n");
-  }
+  write_vtu_field_data(mesh, out.buf());
   fmt::format_to(it, "    <Piece NumberOfPoints=\"{}\" NumberOfCells=\"{}\">\n", mesh.points.size(), nc);
   for (std::size_t k = 0; k < arrays.size(); ++k) {
     if (k == 0) fmt::format_to(it, "      <Points>\n");

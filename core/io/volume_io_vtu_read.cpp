@@ -524,9 +524,10 @@ Result<VolumeMesh> VtuReader::read() {
   PDR_TRY(read_array(*offsets_el, nc, offsets, "cell offset"));
   std::int64_t previous = 0;
   for (std::size_t c = 0; c < nc; ++c) {
-    const std::int64_t size = types[c] == kVtkTetra ? 4 : types[c] == kVtkTriangle ? 3 : -1;
+    const std::int64_t size = corners(types[c]);
     if (size < 0)
-      return unsupported(fmt::format("{}:{}: cell {} has VTK type {}; only tetrahedra (10) and triangles (5) are read",
+      return unsupported(fmt::format("{}:{}: cell {} has VTK type {}; tetrahedra (10), wedges (13), pyramids (14) "
+                                     "and triangles (5) are read",
                                      in_.name(), in_.line_at(types_el->start), c, types[c]));
     if (offsets[c] != previous + size)
       return in_.error_at(offsets_el->start, fmt::format("cell {} (type {}) has offset {}, expected {}", c, types[c],
@@ -554,18 +555,23 @@ Result<VolumeMesh> VtuReader::read() {
     }
   }
 
+  // Cells in VTK's vertex order, which is ours (mixed_cells.hpp).
   std::size_t k = 0;
+  const auto take = [&](auto& list) {
+    auto& cell = list.emplace_back();
+    for (Index& v : cell) v = static_cast<Index>(connectivity[k++]);
+  };
   for (std::size_t c = 0; c < nc; ++c) {
-    if (types[c] == kVtkTetra) {
-      mesh.tets.push_back({static_cast<Index>(connectivity[k]), static_cast<Index>(connectivity[k + 1]),
-                           static_cast<Index>(connectivity[k + 2]), static_cast<Index>(connectivity[k + 3])});
-      if (have_region) mesh.tet_regions.push_back(region[c]);
-      k += 4;
-    } else {
-      mesh.boundary.push_back({static_cast<Index>(connectivity[k]), static_cast<Index>(connectivity[k + 1]),
-                               static_cast<Index>(connectivity[k + 2])});
-      mesh.boundary_ids.push_back(surface_id.empty() ? 1 : surface_id[c]);
-      k += 3;
+    switch (types[c]) {
+      case kVtkTetra:
+        take(mesh.tets);
+        if (have_region) mesh.tet_regions.push_back(region[c]);
+        break;
+      case kVtkWedge: take(mesh.prisms); break;
+      case kVtkPyramid: take(mesh.pyramids); break;
+      default:
+        take(mesh.boundary);
+        mesh.boundary_ids.push_back(surface_id.empty() ? 1 : surface_id[c]);
     }
   }
   return mesh;

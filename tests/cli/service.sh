@@ -3,7 +3,7 @@
 # workers: leaves run in its process): `pdrmesh submit --wait -o` gives the same
 # bytes as `pdrmesh run` with the same options; every format fetched validates
 # against the surface; CGNS and polyMesh fetched are run's files, names and regions
-# kept; --json parses; --farfield as in run; the client config file, the
+# kept; --json parses; --farfield and --layers as in run; the client config file, the
 # environment and flags in their order of precedence; delete; exit codes.
 # Usage: service.sh PDRMESH COORDINATOR SURFACE [MESH OPTIONS...]
 set -euo pipefail
@@ -64,6 +64,20 @@ assert o["farfield"] == 3 and o["farfield_shape"] == "sphere", o'
 "$pdrmesh" delete "$far_id" > /dev/null
 expect_exit 64 "$pdrmesh" submit "$surface" --farfield 0.5
 echo "ok: a --farfield job is byte-identical to pdrmesh run --farfield"
+
+# Prism layers: the coordinator grows them as pdrmesh run does (the y+ and the walls resolved
+# there); the CGNS the client writes from the job's VTU is run's, names included.
+lay=(--farfield 3 --layers 3 --first-height yplus:1 --reynolds 1e5 --growth-ratio 1.3)
+lay_id=$("$pdrmesh" submit "$surface" "${options[@]}" "${lay[@]}" --wait -o "$tmp/layers.cgns" 2>/dev/null)
+"$pdrmesh" run -q "$surface" "${options[@]}" "${lay[@]}" -o "$tmp/run-layers.cgns"
+cmp "$tmp/layers.cgns" "$tmp/run-layers.cgns"
+"$pdrmesh" fetch "$lay_id" -o "$tmp/layers.meshb"
+"$pdrmesh" validate "$tmp/layers.meshb" | grep -q "prisms 5544" || { echo "no 5544 prisms in the job's .meshb"; exit 1; }
+"$pdrmesh" delete "$lay_id" > /dev/null
+expect_exit 64 "$pdrmesh" submit "$surface" --layers 3
+expect_exit 65 "$pdrmesh" submit "$surface" --layers 3 --first-height 0.01 --layers-on wing
+grep -q "wing names no surface" "$tmp/err" || { echo "layers-on: $(cat "$tmp/err")"; exit 1; }
+echo "ok: a --layers job is byte-identical to pdrmesh run --layers"
 
 # CGNS and polyMesh, which the client writes from the job's VTU: the files pdrmesh run writes,
 # with the names and the regions, on two regions (the OBJ groups fluid and body: a box in a box).

@@ -141,29 +141,28 @@ TEST(Layers, SphereGrowsFiveLayersOnEveryTriangle) {
   EXPECT_NEAR(layers.ratio_max, 1.2, 0.05);
 }
 
-TEST(Layers, MixedMeshIsWrittenInFormatsThatHoldPrismsAndReadBackFromMedit) {
+TEST(Layers, MixedMeshIsWrittenInEveryFormatAndReadBackFromMeditAndVtu) {
   const SurfaceMesh sphere = fixtures::corpus_surface("sphere966");
   const LayeredResult& r = sphere_layers();
-  for (const char* suffix : {".vtu", ".msh", ".su2", ".ugrid", ".lb8.ugrid", ".b8.ugrid", ".cgns"}) {
+  for (const char* suffix : {".msh", ".su2", ".ugrid", ".lb8.ugrid", ".b8.ugrid", ".cgns"}) {
     const auto path = temp_path(std::string("out") + suffix);
     EXPECT_TRUE(write_volume(r.mesh, path).ok()) << suffix;
     EXPECT_GT(std::filesystem::file_size(path), 0u) << suffix;
     std::filesystem::remove(path);
     std::filesystem::remove(mapbc_path(path));
   }
-  const Status refused = write_volume(r.mesh, temp_path("refused.meshb"));
-  EXPECT_EQ(refused.code(), StatusCode::kUnsupported);
-  EXPECT_NE(refused.message().find("prism"), std::string::npos) << refused.message();
-  const auto path = temp_path("out.mesh");
-  ASSERT_TRUE(write_volume(r.mesh, path).ok());
-  auto back = read_volume(path);
-  std::filesystem::remove(path);
-  ASSERT_TRUE(back.ok()) << back.status().to_string();
-  EXPECT_EQ(back->points, r.mesh.points);
-  EXPECT_EQ(back->tets, r.mesh.tets);
-  EXPECT_EQ(back->prisms, r.mesh.prisms);
-  EXPECT_EQ(back->boundary, r.mesh.boundary);
-  EXPECT_TRUE(validate_mesh(*back, &sphere).ok());
+  for (const char* suffix : {".mesh", ".meshb", ".vtu"}) {
+    const auto path = temp_path(std::string("out") + suffix);
+    ASSERT_TRUE(write_volume(r.mesh, path).ok()) << suffix;
+    auto back = read_volume(path);
+    std::filesystem::remove(path);
+    ASSERT_TRUE(back.ok()) << suffix << ": " << back.status().to_string();
+    EXPECT_EQ(back->points, r.mesh.points) << suffix;
+    EXPECT_EQ(back->tets, r.mesh.tets) << suffix;
+    EXPECT_EQ(back->prisms, r.mesh.prisms) << suffix;
+    EXPECT_EQ(back->boundary, r.mesh.boundary) << suffix;
+    EXPECT_TRUE(validate_mesh(*back, &sphere).ok()) << suffix;
+  }
 }
 
 TEST(Layers, FarfieldBodyGrowsLayersIntoTheFluidAndTheFarFieldNone) {
@@ -346,6 +345,55 @@ TEST(Layers, RefusesBadOptions) {
   o = five_layers(0.01);
   o.growth_ratio = 0.5;
   EXPECT_NE(validate(o).message().find("--growth-ratio"), std::string::npos);
+}
+
+TEST(Layers, RequestResolvesWallNamesAndAYplusOnTheSurface) {
+  SurfaceMesh two = joined(voxel_surface({{0, 0, 0}}, 2, 1, 4), voxel_surface({{0, 0, 0}}, 2, 2, 1, {1.5, 1.5, 1.5}));
+  LayerRequest r;
+  r.layers = 3;
+  r.first_height = 0.01;
+  auto o = resolve_layers(r, two, {2});
+  ASSERT_TRUE(o.ok()) << o.status().to_string();
+  EXPECT_EQ(o->walls, std::vector<int>{2}) << "no names: the default walls";
+  two.surface_names[1] = "hull";
+  r.on = {"hull", "surface_2", "2"};
+  o = resolve_layers(r, two);
+  ASSERT_TRUE(o.ok()) << o.status().to_string();
+  EXPECT_EQ(o->walls, (std::vector<int>{1, 2, 2})) << "a name, a default name and an id";
+  r.on = {"wing"};
+  o = resolve_layers(r, two);
+  ASSERT_FALSE(o.ok());
+  EXPECT_EQ(o.status().code(), StatusCode::kInvalidInput);
+  EXPECT_NE(o.status().message().find("wing names no surface"), std::string::npos) << o.status().message();
+  EXPECT_NE(o.status().message().find("hull (1)"), std::string::npos) << o.status().message();
+
+  // A y+ on the walls' length, the longest side of their bounding box; or on a reference length.
+  r.on = {"hull"};
+  r.yplus = true;
+  r.first_height = 1;
+  r.reynolds = 1e6;
+  o = resolve_layers(r, two);
+  ASSERT_TRUE(o.ok()) << o.status().to_string();
+  double longest = 0;
+  Box box;
+  for (std::size_t t = 0; t < two.triangles.size(); ++t)
+    if (two.surface_ids[t] == 1)
+      for (Index v : two.triangles[t]) box.add(two.points[v]);
+  for (int k = 0; k < 3; ++k) longest = std::max(longest, box.hi[k] - box.lo[k]);
+  EXPECT_DOUBLE_EQ(o->first_height, *first_height_for_yplus(1, 1e6, longest));
+  r.reference_length = 10;
+  EXPECT_DOUBLE_EQ(resolve_layers(r, two)->first_height, *first_height_for_yplus(1, 1e6, 10));
+
+  // The values alone, named.
+  LayerRequest bad = r;
+  bad.reynolds = 0;
+  EXPECT_NE(validate(bad).message().find("--reynolds"), std::string::npos) << validate(bad).message();
+  bad = r;
+  bad.yplus = false;
+  EXPECT_NE(validate(bad).message().find("only with a y+"), std::string::npos) << validate(bad).message();
+  bad = r;
+  bad.layers = 1001;
+  EXPECT_NE(validate(bad).message().find("--layers"), std::string::npos) << validate(bad).message();
 }
 
 TEST(Layers, FirstHeightFromYplusFollowsTheFlatPlateSkinFriction) {

@@ -69,7 +69,7 @@ TEST(JobCheckpoint, AJobStoppedAfterItsFirstRoundGoesOnFromItWithTheBytesOfAWhol
   PdrEngine engine(std::make_shared<LocalLeafDispatch>(2));
 
   Phases whole_run;
-  auto whole = engine.mesh(job, *surface, options, whole_run, nullptr);
+  auto whole = engine.mesh(job, JobDomain{*surface, {}}, options, whole_run, nullptr);
   ASSERT_TRUE(whole.ok()) << whole.status().to_string();
   ASSERT_TRUE(whole_run.saw("refinement"));
   ASSERT_TRUE(whole_run.saw("optimization"));
@@ -77,7 +77,7 @@ TEST(JobCheckpoint, AJobStoppedAfterItsFirstRoundGoesOnFromItWithTheBytesOfAWhol
   const std::filesystem::path file = dir.path() / "checkpoint.pdrck";
   const JobCheckpoint checkpoint(file, "key of job j1");
   Phases stopped("optimization");  // the refinement is done and stored by then
-  EXPECT_FALSE(engine.mesh(job, *surface, options, stopped, &checkpoint).ok());
+  EXPECT_FALSE(engine.mesh(job, JobDomain{*surface, {}}, options, stopped, &checkpoint).ok());
   ASSERT_TRUE(std::filesystem::exists(file));
   {
     const std::optional<PdrCheckpoint> stored = checkpoint.load();
@@ -88,7 +88,7 @@ TEST(JobCheckpoint, AJobStoppedAfterItsFirstRoundGoesOnFromItWithTheBytesOfAWhol
   }
 
   Phases resumed_run;
-  auto resumed = engine.mesh(job, *surface, options, resumed_run, &checkpoint);
+  auto resumed = engine.mesh(job, JobDomain{*surface, {}}, options, resumed_run, &checkpoint);
   ASSERT_TRUE(resumed.ok()) << resumed.status().to_string();
   EXPECT_FALSE(resumed_run.saw("initial mesh"));
   EXPECT_FALSE(resumed_run.saw("refinement"));
@@ -127,10 +127,10 @@ TEST(PdrEngine, AsksItsDispatchForTheConcurrencyAsTheJobGoesAndKeepsTheBytes) {
   const JobRecord& job = sj.job;
   const JobOptions& options = sj.options;
   Phases fixed_run, growing_run;
-  auto fixed = PdrEngine(std::make_shared<LocalLeafDispatch>(1)).mesh(job, *surface, options, fixed_run, nullptr);
+  auto fixed = PdrEngine(std::make_shared<LocalLeafDispatch>(1)).mesh(job, JobDomain{*surface, {}}, options, fixed_run, nullptr);
   ASSERT_TRUE(fixed.ok()) << fixed.status().to_string();
   auto dispatch = std::make_shared<GrowingDispatch>();
-  auto growing = PdrEngine(dispatch).mesh(job, *surface, options, growing_run, nullptr);
+  auto growing = PdrEngine(dispatch).mesh(job, JobDomain{*surface, {}}, options, growing_run, nullptr);
   ASSERT_TRUE(growing.ok()) << growing.status().to_string();
   EXPECT_GT(dispatch->asked(), 20u);  // at every hand-out, not once a job
   EXPECT_EQ(growing->points, fixed->points);

@@ -23,6 +23,7 @@
 #include "job_service.hpp"
 #include "leaf_dispatch.hpp"
 #include "pdr_engine.hpp"
+#include "pdrmesh/layered_pipeline.hpp"
 #include "pdrmesh/leaf_kernels.hpp"
 #include "pdrmesh/surface_io.hpp"
 #include "pdrmesh/validate.hpp"
@@ -198,6 +199,51 @@ TEST_F(Service, PdrJobEqualsMeshParallelInEveryFormatAndReportsLeaves) {
   EXPECT_EQ(file_bytes(dir_.path() / "job.meshb"), file_bytes(local_path)) << "byte-identical to the local run";
 }
 
+TEST_F(Service, LayeredJobEqualsMeshParallelLayeredAndEveryFormatHoldsItsPrisms) {
+  start(1);
+  auto alice = client("tok-alice");
+  v1::MeshOptions options = quick_options();
+  options.mutable_layers()->set_count(3);
+  options.mutable_layers()->set_first_height(0.05);
+  options.mutable_layers()->set_growth_ratio(1.3);
+  v1::Job job;
+  ASSERT_TRUE(alice->submit(kSphere, options, job).ok());
+  const v1::Job done = watch(*alice, job.id());
+  ASSERT_EQ(done.state(), v1::JOB_STATE_SUCCEEDED) << done.error();
+  EXPECT_EQ(done.options().layers().count(), 3);
+  EXPECT_DOUBLE_EQ(done.options().growth(), 1.3) << "the tets' growth continues the layers' ratio";
+
+  // The same pipeline in this process: the same bytes.
+  auto surface = read_surface(kSphere);
+  ASSERT_TRUE(surface.ok());
+  auto job_options = from_proto(options, JobOptions{});
+  ASSERT_TRUE(job_options.ok()) << job_options.status().to_string();
+  LayerOptions layers;
+  layers.layers = 3;
+  layers.first_height = 0.05;
+  layers.growth_ratio = 1.3;
+  auto local = mesh_parallel_layered(*surface, layers, parallel_options(*job_options));
+  ASSERT_TRUE(local.ok()) << local.status().to_string();
+  const VolumeMesh& mesh = local->layered.mesh;
+  EXPECT_EQ(mesh.prisms.size(), 3 * surface->triangles.size());
+  // Every format byte-identical to the local mesh written in it; those read back validate.
+  for (const char* suffix : {".meshb", ".mesh", ".vtu", ".ugrid", ".msh", ".su2"}) {
+    const auto out = dir_.path() / (std::string("layered") + suffix);
+    const grpc::Status s = alice->fetch(job.id(), out);
+    ASSERT_TRUE(s.ok()) << suffix << ": " << s.error_message();
+    const auto local_path = dir_.path() / (std::string("local") + suffix);
+    ASSERT_TRUE(write_volume(mesh, local_path).ok()) << suffix;
+    EXPECT_EQ(file_bytes(out), file_bytes(local_path)) << suffix << ": byte-identical to the local run";
+    if (std::string(suffix).starts_with(".mesh") || std::string(suffix) == ".vtu") {
+      auto back = read_volume(out);
+      ASSERT_TRUE(back.ok()) << suffix << ": " << back.status().to_string();
+      const ValidationReport v = validate_mesh(*back, &*surface);
+      EXPECT_TRUE(v.ok()) << suffix << ": " << format_validation(v);
+      EXPECT_EQ(back->prisms, mesh.prisms) << suffix;
+    }
+  }
+}
+
 TEST_F(Service, RunningJobIsCancelledMidRefinement) {
   auto state = std::make_shared<HoldingDispatch::State>();
   start(1, {}, std::make_unique<PdrEngine>(std::make_shared<HoldingDispatch>(state, 1)));
@@ -337,6 +383,17 @@ TEST_F(Service, RefusalsHaveTheRightCodeAndMessageWhileAnotherUsersJobCompletes)
     bad = quick_options();
     bad.set_depth(11);
     expect(alice->submit(kSphere, bad, job), grpc::StatusCode::INVALID_ARGUMENT, "depth", "depth out of range");
+    bad = quick_options();
+    bad.mutable_layers()->set_count(3);
+    expect(alice->submit(kSphere, bad, job), grpc::StatusCode::INVALID_ARGUMENT, "first layer's height",
+           "layers without a first height");
+    bad.mutable_layers()->set_first_height(0.05);
+    bad.mutable_layers()->add_on("wing");
+    expect(alice->submit(kSphere, bad, job), grpc::StatusCode::INVALID_ARGUMENT, "wing names no surface",
+           "layers on an unknown surface");
+    bad.set_max_volume(1);
+    expect(alice->submit(kSphere, bad, job), grpc::StatusCode::INVALID_ARGUMENT, "not with max_volume",
+           "layers with max_volume");
   }
   const auto channel = grpc::CreateChannel("127.0.0.1:" + std::to_string(coordinator_->port()),
                                            grpc::InsecureChannelCredentials());
@@ -427,6 +484,41 @@ TEST(JobOptions, RoundTripsThroughJsonAndRefusesOutOfRangeValuesByName) {
   auto from = from_proto(proto, JobOptions{});
   ASSERT_TRUE(from.ok()) << from.status().to_string();
   EXPECT_EQ(from->to_json(), o.to_json()) << "proto and JSON carry the same options";
+
+  // Layers: every field through JSON and proto; bad values named.
+  o.layers = LayerRequest{};
+  o.layers->layers = 20;
+  o.layers->first_height = 1;
+  o.layers->yplus = true;
+  o.layers->reynolds = 1e6;
+  o.layers->reference_length = 2;
+  o.layers->growth_ratio = 1.15;
+  o.layers->max_thickness = 0.5;
+  o.layers->on = {"wall", "3"};
+  back = JobOptions::from_json(o.to_json());
+  ASSERT_TRUE(back.ok()) << back.status().to_string();
+  EXPECT_EQ(back->to_json(), o.to_json());
+  ASSERT_TRUE(back->layers.has_value());
+  EXPECT_EQ(back->layers->on, o.layers->on);
+  EXPECT_TRUE(back->layers->yplus);
+  to_proto(o, proto);
+  from = from_proto(proto, JobOptions{});
+  ASSERT_TRUE(from.ok()) << from.status().to_string();
+  EXPECT_EQ(from->to_json(), o.to_json()) << "proto and JSON carry the same layers";
+  const std::pair<const char*, const char*> bad_layers[] = {
+      {R"({"layers": {"count": 0, "first_height": 1}})", "layers.count"},
+      {R"({"layers": {"count": 3, "first_height": -1}})", "--first-height"},
+      {R"({"layers": {"count": 3, "first_height": 1, "growth_ratio": 20}})", "--growth-ratio"},
+      {R"({"layers": {"count": 3, "first_height_yplus": 1}})", "--reynolds"},
+      {R"({"layers": {"count": 3, "first_height": 1, "on": "wall"}})", "layers.on"},
+      {R"({"layers": {"count": 3, "first_height": 1, "colour": 1}})", "colour"},
+      {R"({"max_volume": 1, "layers": {"count": 3, "first_height": 1}})", "max_volume"}};
+  for (const auto& [json, name] : bad_layers) {
+    const auto r = JobOptions::from_json(json);
+    ASSERT_FALSE(r.ok()) << json;
+    EXPECT_EQ(r.status().code(), StatusCode::kInvalidInput) << json;
+    EXPECT_NE(r.status().message().find(name), std::string::npos) << json << ": " << r.status().message();
+  }
 }
 
 TEST(ProgressDisplay, PlainLinesOnPhaseChangesAndAtMostOneAnIntervalWithin) {

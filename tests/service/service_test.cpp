@@ -54,7 +54,7 @@ struct Gate {
 class GatedEngine final : public MeshEngine {
  public:
   explicit GatedEngine(std::shared_ptr<Gate> gate) : gate_(std::move(gate)) {}
-  Result<VolumeMesh> mesh(const JobRecord& job, const SurfaceMesh& surface, const JobOptions& options,
+  Result<VolumeMesh> mesh(const JobRecord& job, const JobDomain& domain, const JobOptions& options,
                           JobProgress& progress, const JobCheckpoint* checkpoint) override {
     {
       std::lock_guard lock(gate_->mu);
@@ -66,7 +66,7 @@ class GatedEngine final : public MeshEngine {
       std::unique_lock lock(gate_->mu);
       if (gate_->cv.wait_for(lock, std::chrono::milliseconds(20), [&] { return gate_->open; })) break;
     }
-    return engine_.mesh(job, surface, options, progress, checkpoint);
+    return engine_.mesh(job, domain, options, progress, checkpoint);
   }
 
  private:
@@ -408,10 +408,10 @@ TEST_F(Service, AJobOverTheTetLimitsIsResourceExhaustedWithTheEstimateAndCreates
 /// Runs out of memory in its first job, then meshes like the PdrEngine.
 class OutOfMemoryOnceEngine final : public MeshEngine {
  public:
-  Result<VolumeMesh> mesh(const JobRecord& job, const SurfaceMesh& surface, const JobOptions& options,
+  Result<VolumeMesh> mesh(const JobRecord& job, const JobDomain& domain, const JobOptions& options,
                           JobProgress& progress, const JobCheckpoint* checkpoint) override {
     if (!thrown_.exchange(true)) throw std::bad_alloc();
-    return engine_.mesh(job, surface, options, progress, checkpoint);
+    return engine_.mesh(job, domain, options, progress, checkpoint);
   }
 
  private:

@@ -27,6 +27,7 @@
 #include <cstddef>
 #include <optional>
 #include <string_view>
+#include <vector>
 
 #include "pdrmesh/status.hpp"
 #include "pdrmesh/surface.hpp"
@@ -59,6 +60,9 @@ struct FarfieldDomain {
   double body_length = 0;             ///< L
   double farfield_size = 0;           ///< the far field's triangle edge length (about)
   std::size_t farfield_triangles = 0;  ///< the last ones of surface.triangles
+
+  /// The body's surface ids, ascending (those of every triangle before the far field's).
+  std::vector<int> body_ids() const;
 };
 
 /// The domain around `body` (see the top of this file). invalid_input when the

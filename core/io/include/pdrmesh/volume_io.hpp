@@ -68,12 +68,6 @@ Result<VolumeFormat> volume_format_from_path(const std::filesystem::path& path);
 /// ".mesh .meshb .vtu .ugrid .lb8.ugrid .b8.ugrid .msh .su2 .cgns polyMesh", for help texts.
 std::string_view volume_format_suffixes();
 
-/// Whether `format` holds prisms and pyramids (a mixed mesh, VolumeMesh::mixed()):
-/// Medit ASCII, VTU (written as ascii), UGRID, Gmsh, SU2 and OpenFOAM polyMesh.
-/// The others refuse a mixed mesh with `unsupported`.
-bool holds_mixed(VolumeFormat format);
-/// ".mesh, .vtu, .msh, .ugrid (.lb8.ugrid, .b8.ugrid), .su2 or polyMesh", for messages.
-std::string_view mixed_volume_suffixes();
 
 /// Writes `mesh` in the format named by the suffix of `path`, atomically: the
 /// bytes go to a hidden file beside `path` (".NAME.PID.partial") that is

@@ -29,6 +29,7 @@
 
 #include <cstddef>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "pdrmesh/status.hpp"
@@ -49,6 +50,34 @@ struct LayerOptions {
 /// invalid_input naming the option: layers 1..1000, first height and cap
 /// finite and > 0, growth ratio finite and in [1, 10].
 Status validate(const LayerOptions& options);
+
+/// Layer options as a user gives them, before they meet a surface: the walls
+/// by boundary name or id, the first height as a length or as a y+. What
+/// `pdrmesh mesh --layers` and a service job (MeshOptions.layers) take.
+struct LayerRequest {
+  int layers = 0;
+  double first_height = 0;  ///< a length, or with `yplus` a wall distance in wall units
+  bool yplus = false;
+  double reynolds = 0;          ///< with yplus: U L / nu on the reference length
+  double reference_length = 0;  ///< with yplus; 0: the walls' length
+  double growth_ratio = 1.2;
+  std::optional<double> max_thickness;
+  std::vector<std::string> on;  ///< boundary names or ids; empty: the default walls
+};
+
+/// The request's values alone (invalid_input naming the option): validate's
+/// ranges, a y+ with a positive Reynolds number and reference length (0: the
+/// walls'), and a Reynolds number or reference length only with a y+.
+Status validate(const LayerRequest& request);
+
+/// The layer options for `surface`: each name of `on` resolved to the surface
+/// id that bears it (a name of surface_names, "surface_<id>", or the id
+/// itself), invalid_input naming an unknown one and the surface's names;
+/// without names the walls are `default_walls` (empty: every surface). A y+
+/// becomes a length by first_height_for_yplus on the reference length, or on
+/// the walls' length (the longest side of their bounding box).
+Result<LayerOptions> resolve_layers(const LayerRequest& request, const SurfaceMesh& surface,
+                                    const std::vector<int>& default_walls = {});
 
 /// The first layer's height for a wall distance `yplus` in wall units, at
 /// Reynolds number `reynolds` on `length` (U length / nu), from the turbulent
