@@ -54,8 +54,8 @@ int main(int argc, char** argv) {
              argv[1], profile->depth, deeper > 0 ? fmt::format(" replayed at depth {}", profile->depth + deeper) : "",
              profile->final_tets, rounds.size(), leaves, profile->task_busy, serial,
              profile->wall > 0 ? profile->wall : profile->total);
-  fmt::print("outside the tasks: initial mesh {:.2f} s (serial: TetGen's boundary mesh and the seeds), "
-             "the rest {:.2f} s serial and {:.2f} CPU s parallel (from wall and CPU time on {} threads)\n",
+  fmt::print("outside the tasks: initial mesh {:.2f} s (serial: TetGen's boundary mesh and the seeds not left to "
+             "leaf tasks), the rest {:.2f} s serial and {:.2f} CPU s parallel (from wall and CPU time on {} threads)\n",
              outside.initial_s, outside.serial_s, outside.parallel_s, profile->threads);
   fmt::print("{:>6} {:>12} {:>12} {:>10} {:>12} {:>12}\n", "P", "leaf_span_s", "leaf_speedup", "leaf_eff",
              "run_s", "run_speedup");

@@ -23,6 +23,7 @@ constexpr double kCheckpointSpacing = 20;
 /// most of the time, leaf by leaf.
 double overall(const PdrProgress& p) {
   const double frac = p.leaves_total > 0 ? static_cast<double>(p.leaves_done) / static_cast<double>(p.leaves_total) : 0;
+  if (p.phase == "seeds") return 0.18 + 0.02 * frac;
   if (p.phase == "refinement") return 0.2 + 0.4 * frac;
   if (p.phase == "interface round") return 0.6 + 0.1 * frac;
   if (p.phase == "second interface round") return 0.7 + 0.05 * frac;

@@ -58,7 +58,14 @@ Result<LeafTaskOutput> NativeLeafKernel::run(const LeafTaskInput& in, const Sizi
     return Status(mesh.status().code(), fmt::format("leaf {}: {}", in.leaf, mesh.status().message()));
   }
   std::vector<double> sizes = in.sizes;
-  if (refine_) {
+  if (!in.seeds.empty()) {  // a seed round's task: the seeds go in, nothing else
+    const Index before = mesh->num_points();
+    const Result<InsertPointsStats> seeded = insert_points(*mesh, in.seeds);
+    if (!seeded.ok())
+      return Status(seeded.status().code(), fmt::format("leaf {}: seeds: {}", in.leaf, seeded.status().message()));
+    if (sizes.size() == before)
+      for (Index v = before; v < mesh->num_points(); ++v) sizes.push_back(sizing.at(mesh->point(v)));
+  } else if (refine_) {
     const Status s = refine_(*mesh, sizing, in.core, sizes);
     if (!s.ok()) return Status(s.code(), fmt::format("leaf {}: refinement: {}", in.leaf, s.message()));
   }

@@ -24,7 +24,7 @@ namespace {
 
 constexpr char kInputMagic[8] = {'P', 'D', 'R', 'L', 'E', 'A', 'F', 'I'};
 constexpr char kOutputMagic[8] = {'P', 'D', 'R', 'L', 'E', 'A', 'F', 'O'};
-constexpr std::uint32_t kVersion = 4;
+constexpr std::uint32_t kVersion = 5;
 
 Status decode_error(std::string_view what, std::string_view detail) {
   return invalid_input(fmt::format("leaf task {}: {}", what, detail));
@@ -112,6 +112,8 @@ std::string LeafTaskInput::encode() const {
     put_point(w, core->hi);
   }
   put_sizes(w, sizes);
+  w.u64(seeds.size());
+  for (const Vec3& p : seeds) put_point(w, p);
   return w.take();
 }
 
@@ -158,6 +160,11 @@ Result<LeafTaskInput> LeafTaskInput::decode(std::string_view bytes) {
     in.core = b;
   }
   if (!get_sizes(r, n, in.sizes)) return decode_error("input", "the sizes are truncated, miscounted or not positive");
+  std::size_t q = 0;
+  if (!r.count(24, q)) return decode_error("input", "seed count exceeds the buffer");
+  in.seeds.resize(q);
+  for (std::size_t i = 0; i < q; ++i)
+    if (!get_point(r, in.seeds[i])) return decode_error("input", fmt::format("seed {} is not finite", i));
   if (r.left() != 0) return decode_error("input", fmt::format("{} trailing bytes", r.left()));
   return in;
 }

@@ -90,12 +90,23 @@ Result<PdrPlan> plan_pdr(const SurfaceMesh& surface, double surface_h, const Pdr
   // mesh that the serial pipeline refines (with seeds sphere966, depth 0 by
   // default, made 0.963 times the serial tets).
   if (plan.depth == 0 && tg.seeds_only) tg.max_volume.reset();
+  plan.leaf_seeds = tg.seeds_only && tg.max_volume && buffered && plan.depth > 0 && kernel.name() == "native";
   return plan;
 }
 
-Result<VolumeMesh> initial_mesh(const SurfaceMesh& surface, const PdrPlan& plan, const VolumeMesh* background) {
-  if (!plan.tetgen.seeds_only || !plan.tetgen.max_volume) return tetrahedralize(surface, plan.tetgen);
-  PDR_ASSIGN_OR_RETURN(const std::vector<Vec3> seeds, seed_points(surface, *plan.tetgen.max_volume));
+Result<InitialMesh> initial_mesh(const SurfaceMesh& surface, const PdrPlan& plan, const VolumeMesh* background) {
+  InitialMesh out;
+  if (!plan.tetgen.seeds_only || !plan.tetgen.max_volume) {
+    PDR_ASSIGN_OR_RETURN(out.mesh, tetrahedralize(surface, plan.tetgen));
+    return out;
+  }
+  PDR_ASSIGN_OR_RETURN(std::vector<Vec3> seeds, seed_points(surface, *plan.tetgen.max_volume));
+  if (plan.leaf_seeds) {
+    std::vector<Vec3> coarse;
+    for (std::size_t i = 0; i < seeds.size(); ++i)
+      (insertion_round(i) < kInsertionRounds - 1 ? coarse : out.leaf_seeds).push_back(seeds[i]);
+    seeds = std::move(coarse);
+  }
   std::optional<VolumeMesh> made;
   if (background == nullptr) {
     TetgenOptions boundary_only;
@@ -106,8 +117,8 @@ Result<VolumeMesh> initial_mesh(const SurfaceMesh& surface, const PdrPlan& plan,
   PDR_ASSIGN_OR_RETURN(TetMesh mesh, TetMesh::from_volume_mesh(*background));
   made.reset();
   PDR_TRY(insert_points(mesh, seeds).status());
-  VolumeMesh out = mesh.to_volume_mesh();
-  out.boundary_names = surface.surface_names;
+  out.mesh = mesh.to_volume_mesh();
+  out.mesh.boundary_names = surface.surface_names;
   return out;
 }
 
@@ -119,18 +130,18 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
   }
   PDR_ASSIGN_OR_RETURN(const PdrPlan plan, plan_pdr(surface, surface_spacing(surface, sizing), options, kernel));
   if (options.resume != nullptr) {
-    return run_pdr(surface, sizing, kernel, options, profile, plan, std::move(options.resume->mesh), 0);
+    return run_pdr(surface, sizing, kernel, options, profile, plan, InitialMesh{std::move(options.resume->mesh), {}}, 0);
   }
   if (options.progress && !options.progress({"initial mesh", 0, 0, 0})) {
     return cancelled("stopped before the initial mesh");
   }
-  Result<VolumeMesh> initial = initial_mesh(surface, plan);
+  Result<InitialMesh> initial = initial_mesh(surface, plan);
   if (!initial.ok()) return initial.status();
   return run_pdr(surface, sizing, kernel, options, profile, plan, std::move(*initial), seconds_since(t0));
 }
 
 Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing, const LeafKernel& kernel,
-                           const PdrOptions& options, PdrProfile* profile, const PdrPlan& plan, VolumeMesh initial,
+                           const PdrOptions& options, PdrProfile* profile, const PdrPlan& plan, InitialMesh initial,
                            double initial_s) {
   using namespace round_detail;
   const auto t_total = Clock::now();
@@ -144,8 +155,8 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
     return !options.progress || options.progress({phase, 0, 0, tets});
   };
   prof.initial = initial_s;
-  prof.initial_tets = initial.tets.size();
-  VolumeMesh cur = std::move(initial);
+  prof.initial_tets = initial.mesh.tets.size();
+  VolumeMesh cur = std::move(initial.mesh);
   if (options.resume != nullptr && cur.tet_regions.size() != cur.tets.size()) {
     return invalid_input("PDR checkpoint: its mesh has no leaf for each tet");
   }
@@ -297,6 +308,42 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
         }
         return {};
       };
+      // A sweep of seed rounds first (PdrPlan::leaf_seeds): the tasks of the
+      // leaves that hold seeds insert them and refine nothing, so that every
+      // seed is in before any leaf refines, as in an initial mesh that holds
+      // them all. Over a grid one level coarser, so that a task's seeds
+      // outweigh its fixed costs.
+      if (!initial.leaf_seeds.empty()) {
+        const Grid seed_grid{box1, std::max(1, depth - 1)};
+        std::vector<std::pair<LeafId, Vec3>> seeds(initial.leaf_seeds.size());
+        tbb::parallel_for(std::size_t{0}, seeds.size(), [&](std::size_t i) {
+          seeds[i] = {leaf_of_point(box1, seed_grid.depth, initial.leaf_seeds[i]), initial.leaf_seeds[i]};
+        });
+        initial.leaf_seeds = {};
+        std::stable_sort(seeds.begin(), seeds.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+        std::vector<LeafId> seeded;
+        for (const auto& s : seeds)
+          if (seeded.empty() || seeded.back() != s.first) seeded.push_back(s.first);
+        if (seed_grid.depth != depth) assign_leaves(cur, box1, seed_grid.depth);
+        for (int colour = 0; colour < 8; ++colour) {
+          const auto td = Clock::now();
+          BufferedRound b = buffered_round(cur, box1, seed_grid.depth, colour, options.buffer_layers, &seeded);
+          prof.decomposition += seconds_since(td);
+          if (b.d.size() == 0) continue;
+          std::vector<std::vector<Vec3>> task_seeds(b.d.size());
+          for (std::size_t l = 0; l < b.d.size(); ++l) {
+            auto it = std::lower_bound(seeds.begin(), seeds.end(), b.d.leaves[l],
+                                       [](const auto& s, LeafId leaf) { return s.first < leaf; });
+            for (; it != seeds.end() && it->first == b.d.leaves[l]; ++it) task_seeds[l].push_back(it->second);
+          }
+          RoundResult r;
+          PDR_TRY(run_round("seeds", cur, std::move(b.d), boundary, sizing, kernel, options, false, r,
+                            {.outside = &b.outside, .cores = &b.cores, .grid = &seed_grid, .sizes = &sizes,
+                             .seeds = &task_seeds}));
+          account(std::move(r));
+        }
+        if (seed_grid.depth != depth) assign_leaves(cur, box1, depth);
+      }
       PDR_TRY(colour_rounds(cur, boundary, sizes, nullptr, 0));
       for (int sweep = 1; sweep < kMaxSweeps; ++sweep) {
         const std::vector<LeafId> todo = leaves_without(cur, depth, done);

@@ -219,7 +219,7 @@ Result<ParallelResult> mesh_parallel_one(const SurfaceMesh& surface, const Paral
     return {};
   };
   std::optional<PdrPlan> plan = surface_plan;  // set: `initial` was made from it
-  std::optional<VolumeMesh> initial;
+  std::optional<InitialMesh> initial;
   double initial_s = 0, overlapped_s = 0;
   if (plan) {
     if (options.pdr.progress && !options.pdr.progress({"initial mesh", 0, 0, 0}))
@@ -228,7 +228,7 @@ Result<ParallelResult> mesh_parallel_one(const SurfaceMesh& surface, const Paral
     std::optional<std::thread> side;
     if (options.pdr.workers >= 2) side.emplace([&] { sizing_status = make_sizing(); });
     t = Clock::now();
-    Result<VolumeMesh> made = initial_mesh(surface, *plan, &background);
+    Result<InitialMesh> made = initial_mesh(surface, *plan, &background);
     initial_s = seconds_since(t);
     if (side) {
       side->join();

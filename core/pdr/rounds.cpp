@@ -280,6 +280,7 @@ Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const
     }
     LeafTaskInput in = build_leaf_input(l, points, leaf_tets[l], boundary, sizes);
     if (extras.cores != nullptr) in.core = (*extras.cores)[l];
+    if (extras.seeds != nullptr) in.seeds = (*extras.seeds)[l];
     r.output.leaf = l;
     r.output.input_points = static_cast<std::uint32_t>(in.points.size());
     if (in.tets.empty()) return r;

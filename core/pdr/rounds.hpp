@@ -58,6 +58,9 @@ struct RoundExtras {
   std::vector<char>* cored = nullptr;
   /// Per tet of `cur`, kept up to date: is_bad (with options.optimize_selects).
   std::vector<char>* bad = nullptr;
+  /// Per leaf of the decomposition: the points its task inserts before it
+  /// refines (LeafTaskInput::seeds).
+  const std::vector<std::vector<Vec3>>* seeds = nullptr;
 };
 Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const FaceIdTable& boundary,
                  const SizingField& sizing, const LeafKernel& kernel, const PdrOptions& options, bool fixups,

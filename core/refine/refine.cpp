@@ -257,20 +257,12 @@ class Refiner {
       order.emplace_back(key, static_cast<Index>(j));
     }
     // Rounds of a biased randomized insertion order (Amenta, Choi and Rote):
-    // a point is in round r < kRounds with probability about 7/8^(kRounds-r)
+    // a point is in round r with probability about 7/8^(kInsertionRounds-r)
     // (from a hash of its index), the rounds go coarse to fine, each in
     // Morton order. No region then stays empty while its neighbour fills up,
     // so no point's cavity reaches across the mesh.
-    constexpr int kRounds = 8;
     std::vector<std::uint8_t> round(points.size(), 0);
-    for (auto& [key, j] : order) {
-      std::uint64_t x = j + 0x9e3779b97f4a7c15ull;  // splitmix64
-      x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
-      x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
-      x ^= x >> 31;
-      const int level = std::min(kRounds - 1, std::countr_zero(x | (std::uint64_t{1} << 63)) / 3);
-      round[j] = static_cast<std::uint8_t>(kRounds - 1 - level);
-    }
+    for (auto& [key, j] : order) round[j] = static_cast<std::uint8_t>(insertion_round(j));
     std::sort(order.begin(), order.end(), [&](const auto& a, const auto& b) {
       return std::tie(round[a.second], a.first, a.second) < std::tie(round[b.second], b.first, b.second);
     });
@@ -1058,6 +1050,15 @@ Result<RefineStats> refine(TetMesh& mesh, const SizingField& sizing, const Refin
   PDR_TRY(mesh.check());
 #endif
   return stats;
+}
+
+int insertion_round(std::size_t index) {
+  std::uint64_t x = index + 0x9e3779b97f4a7c15ull;  // splitmix64
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
+  x ^= x >> 31;
+  const int level = std::min(kInsertionRounds - 1, std::countr_zero(x | (std::uint64_t{1} << 63)) / 3);
+  return kInsertionRounds - 1 - level;
 }
 
 Result<InsertPointsStats> insert_points(TetMesh& mesh, std::span<const Vec3> points) {

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 
@@ -106,6 +107,37 @@ TEST(LeafTask, InputRoundTripsExactly) {
   EXPECT_EQ(LeafTaskInput::decode(in.encode()).status().code(), StatusCode::kInvalidInput);
   in.sizes.pop_back();
   EXPECT_EQ(LeafTaskInput::decode(in.encode()).status().code(), StatusCode::kInvalidInput);
+
+  // A seed round's points travel bit for bit; a non-finite one does not decode.
+  in.sizes.clear();
+  in.seeds = {{0.3, 0.7, 1.1}, {1.0 / 3.0, 0.5, 0.25}};
+  back = LeafTaskInput::decode(in.encode());
+  ASSERT_TRUE(back.ok()) << back.status().to_string();
+  EXPECT_EQ(back->seeds, in.seeds);
+  in.seeds[1][2] = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(LeafTaskInput::decode(in.encode()).status().code(), StatusCode::kInvalidInput);
+}
+
+TEST(LeafTask, ASeedTaskInsertsItsSeedsAndRefinesNothing) {
+  LeafTaskInput in = whole_grid_input(2);  // a 2x2x2 grid of unit cubes, its hull frozen
+  const SizingField h = uniform_sizing(0.05);  // the refiner would add thousands of points
+  in.seeds = {{0.3, 0.6, 0.2}, {1.7, 0.4, 0.3}, {0.4, 1.6, 1.2}, {1.25, 1.5, 1.75}, {5, 5, 5}};
+  for (const Vec3& p : in.points) in.sizes.push_back(h.at(p));
+  const auto kernel = make_leaf_kernel("native").value();
+  Result<LeafTaskOutput> out = run_leaf_kernel(*kernel, in, h);
+  ASSERT_TRUE(out.ok()) << out.status().to_string();
+  EXPECT_TRUE(validate_leaf_output(in, *out).ok());
+  // The four seeds inside, not the one outside every tet; no refinement point.
+  std::vector<Vec3> made = out->new_points, inside(in.seeds.begin(), in.seeds.begin() + 4);
+  std::sort(made.begin(), made.end());
+  std::sort(inside.begin(), inside.end());
+  EXPECT_EQ(made, inside);
+  EXPECT_EQ(out->new_sizes.size(), 4u);
+  // The same task without seeds refines.
+  in.seeds.clear();
+  out = run_leaf_kernel(*kernel, in, h);
+  ASSERT_TRUE(out.ok()) << out.status().to_string();
+  EXPECT_GT(out->new_points.size(), 100u);
 }
 
 TEST(LeafTask, OutputRoundTripsExactly) {

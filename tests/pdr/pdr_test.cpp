@@ -84,10 +84,20 @@ TEST(Pdr, NativeKernelMeshesACube) {
   expect_valid(*m, cube);
   EXPECT_EQ(prof.depth, 2);
   EXPECT_GT(prof.leaf_count, 8u);
-  // Buffered rounds, one per colour of the grid's 2x2x2 parity classes, and
-  // no interface round after them.
-  EXPECT_GE(prof.rounds.size(), 8u);
-  for (const RoundRecord& r : prof.rounds) EXPECT_EQ(r.name, "refinement");
+  // Seed rounds (the finest seeds, inserted by leaf tasks), then buffered
+  // rounds, one per colour of the grid's 2x2x2 parity classes, and no
+  // interface round after them.
+  EXPECT_GE(prof.rounds.size(), 9u);
+  std::size_t seed_rounds = 0;
+  for (const RoundRecord& r : prof.rounds) {
+    if (r.name == "seeds") {
+      EXPECT_EQ(seed_rounds++, static_cast<std::size_t>(&r - prof.rounds.data())) << "the seed rounds come first";
+    } else {
+      EXPECT_EQ(r.name, "refinement");
+    }
+  }
+  EXPECT_GE(seed_rounds, 1u);
+  EXPECT_LE(seed_rounds, 8u);
   EXPECT_EQ(prof.interface_leaf_count, 0u);
   EXPECT_EQ(prof.fixup_swaps + prof.fixup_moves, 0u);  // the native kernel needs no fix-ups
   // Both rounds inserted points: at least 30 per leaf that had a large tet.
@@ -246,7 +256,8 @@ TEST(Pdr, OptimizationRoundsMayMoveInteriorPointsAndStayIdentical) {
   std::vector<std::string> names;
   for (const RoundRecord& r : prof.rounds) names.push_back(r.name);
   ASSERT_GE(names.size(), 10u);
-  EXPECT_EQ(std::count(names.begin(), names.end(), "refinement"), static_cast<std::ptrdiff_t>(names.size() - 2));
+  EXPECT_EQ(std::count(names.begin(), names.end(), "seeds") + std::count(names.begin(), names.end(), "refinement"),
+            static_cast<std::ptrdiff_t>(names.size() - 2));
   EXPECT_EQ(std::vector<std::string>(names.end() - 2, names.end()),
             (std::vector<std::string>{"optimization", "shifted optimization"}));
   // The same with 4 workers; and without the optimization rounds the points
@@ -326,7 +337,11 @@ TEST(Pdr, BufferedTasksAddPointsOnlyInsideTheirLeaf) {
   Result<VolumeMesh> m = run_pdr(sp->surface, *sp->sizing, kernel, o, &prof);
   ASSERT_TRUE(m.ok()) << m.status().to_string();
   expect_valid(*m, sp->surface);
-  EXPECT_EQ(kernel.tasks_, prof.leaf_count);
+  std::size_t seed_tasks = 0;  // the seed rounds' tasks (their seeds lie in their leaf too)
+  for (const RoundRecord& r : prof.rounds)
+    if (r.name == "seeds") seed_tasks += r.leaves.size();
+  EXPECT_GT(seed_tasks, 0u);
+  EXPECT_EQ(kernel.tasks_, prof.leaf_count + seed_tasks);
   EXPECT_GT(kernel.beyond_, 0u);   // the buffer: points of the neighbours' tets
   EXPECT_GT(kernel.added_, 1000u);
   EXPECT_EQ(kernel.stray_, 0u);
@@ -691,7 +706,8 @@ TEST(Pdr, ProgressCountsEveryMergedLeaf) {
   Result<VolumeMesh> m = run_pdr(cube, h, kernel, o, &prof);
   ASSERT_TRUE(m.ok()) << m.status().to_string();
   expect_valid(*m, cube);
-  EXPECT_EQ(phases, (std::vector<std::string>{"initial mesh", "refinement"}));  // leaves counted over all its rounds
+  // Leaves counted over all the refinement's rounds; the seed rounds report as seeds.
+  EXPECT_EQ(phases, (std::vector<std::string>{"initial mesh", "seeds", "refinement"}));
   EXPECT_EQ(merged_refinement, prof.leaf_count);
   EXPECT_EQ(last_tets, m->tets.size());  // the last merge's count is the final one (no optimization)
 }
@@ -722,7 +738,7 @@ TEST(Pdr, ACallerMadeInitialMeshGivesRunPdrsResult) {
   Result<PdrPlan> plan = plan_pdr(sp->surface, surface_spacing(sp->surface, *sp->sizing), o, kernel);
   ASSERT_TRUE(plan.ok()) << plan.status().to_string();
   EXPECT_EQ(plan->depth, 2);
-  Result<VolumeMesh> initial = initial_mesh(sp->surface, *plan);
+  Result<InitialMesh> initial = initial_mesh(sp->surface, *plan);
   ASSERT_TRUE(initial.ok()) << initial.status().to_string();
   PdrProfile profile;
   Result<VolumeMesh> split = run_pdr(sp->surface, *sp->sizing, kernel, o, &profile, *plan, std::move(*initial), 1.5);

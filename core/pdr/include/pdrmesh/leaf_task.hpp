@@ -30,12 +30,11 @@
 //           u64 n, n x (u64 id, 3 x f64), u64 m, m x 4 x u32,
 //           u64 k, k x (3 x u32, u32 id as two's complement),
 //           u32 has_core, then if 1: 6 x f64 (core lo, core hi),
-//           u64 s (0 or n), s x f64 (sizes)
+//           u64 s (0 or n), s x f64 (sizes), u64 q, q x 3 x f64 (seeds)
 //   output: magic "PDRLEAFO", u32 version, u32 leaf, u32 input_points,
 //           u64 n, n x 3 x f64, u64 s (0 or n), s x f64 (new_sizes),
 //           u64 m, m x 4 x u32, u64 k, k x (u32, 3 x f64)
-// (version 2: the moved points were added; version 3: the core box;
-// version 4: the sizes).
+// The version is 5; bytes of any other version are refused.
 // decode() checks every count against the bytes left, indices against the
 // point count, finiteness, repeated vertices and trailing bytes.
 #pragma once
@@ -70,6 +69,11 @@ struct LeafTaskInput {
   /// kernel need not evaluate the sizing field again at points an earlier
   /// task made (their h comes back in LeafTaskOutput::new_sizes).
   std::vector<double> sizes;
+  /// Non-empty: a seed round's task (PdrPlan::leaf_seeds). A refining kernel
+  /// inserts these points (insert_points, refine.hpp), the initial mesh's
+  /// seeds that lie in the core, and refines nothing; those in no tet of the
+  /// task, or on its frozen faces, are skipped.
+  std::vector<Vec3> seeds;
 
   std::string encode() const;
   static Result<LeafTaskInput> decode(std::string_view bytes);

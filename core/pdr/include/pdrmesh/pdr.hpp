@@ -283,6 +283,18 @@ struct PdrPlan {
   double surface_h = 0;
   int depth = 0;
   TetgenOptions tetgen;
+  /// With seeds only, the native kernel and buffered rounds: the initial mesh
+  /// holds the seeds of insert_points' coarser rounds, and those of its finest
+  /// round (about 7/8) go in by leaf tasks, in a sweep of colour rounds before
+  /// the refinement: each to the task of the leaf that holds it
+  /// (LeafTaskInput::seeds), in parallel with the other leaves.
+  bool leaf_seeds = false;
+};
+
+/// The initial mesh, and with PdrPlan::leaf_seeds the seeds left for the leaf tasks.
+struct InitialMesh {
+  VolumeMesh mesh;
+  std::vector<Vec3> leaf_seeds;
 };
 
 /// The mean of sizing.at over the surface points, in point order.
@@ -300,10 +312,11 @@ Result<PdrPlan> plan_pdr(const SurfaceMesh& checked_surface, double surface_h, c
 /// when given: tetrahedralize(surface) with no volume bound, as the sizing
 /// field's background mesh is made) with the seed lattice's points
 /// (seed_points) inserted by constrained Delaunay insertion (insert_points):
-/// TetGen runs once, not again with the seeds. Otherwise
-/// tetrahedralize(surface, plan.tetgen).
-Result<VolumeMesh> initial_mesh(const SurfaceMesh& checked_surface, const PdrPlan& plan,
-                                const VolumeMesh* background = nullptr);
+/// TetGen runs once, not again with the seeds. With plan.leaf_seeds only the
+/// seeds of the coarser rounds (insertion_round) go in here; the others come
+/// back in leaf_seeds, in lattice order. Otherwise tetrahedralize(surface, plan.tetgen).
+Result<InitialMesh> initial_mesh(const SurfaceMesh& checked_surface, const PdrPlan& plan,
+                                 const VolumeMesh* background = nullptr);
 
 /// run_pdr from an initial mesh the caller made with initial_mesh(surface,
 /// plan) (in initial_s seconds, counted in the profile), plan from
@@ -312,7 +325,7 @@ Result<VolumeMesh> initial_mesh(const SurfaceMesh& checked_surface, const PdrPla
 /// sizing field is still being built (mesh_parallel does with 2 or more workers).
 Result<VolumeMesh> run_pdr(const SurfaceMesh& checked_surface, const SizingField& sizing,
                            const LeafKernel& kernel, const PdrOptions& options, PdrProfile* profile,
-                           const PdrPlan& plan, VolumeMesh initial, double initial_s);
+                           const PdrPlan& plan, InitialMesh initial, double initial_s);
 
 // ---- engine pieces, public for tests and for a distributed coordinator
 

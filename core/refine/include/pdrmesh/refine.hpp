@@ -204,4 +204,12 @@ struct InsertPointsStats {
 /// follow the mesh's, in insertion order.
 Result<InsertPointsStats> insert_points(TetMesh& mesh, std::span<const Vec3> points);
 
+/// The rounds of insert_points' order, coarse to fine.
+inline constexpr int kInsertionRounds = 8;
+/// The round (0 coarsest, kInsertionRounds - 1 finest) in which insert_points
+/// inserts the point at `index` of its list: from a hash of the index, about
+/// 7/8 of the points in the finest round and 7/8 of the rest in each round
+/// before it.
+int insertion_round(std::size_t index);
+
 }  // namespace pdrmesh
