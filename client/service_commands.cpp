@@ -310,18 +310,6 @@ struct SubmitArgs {
   bool growth_given = false;  ///< --growth on the command line (else the layers' ratio continues)
 };
 
-/// The job's layers as given: the coordinator resolves names and a y+ on the job's surface.
-void set_layers(const LayerRequest& r, v1::BoundaryLayers& out) {
-  out.set_count(r.layers);
-  if (r.yplus) out.set_first_height_yplus(r.first_height);
-  else out.set_first_height(r.first_height);
-  out.set_reynolds(r.reynolds);
-  out.set_reference_length(r.reference_length);
-  out.set_growth_ratio(r.growth_ratio);
-  if (r.max_thickness) out.set_max_thickness(*r.max_thickness);
-  for (const std::string& name : r.on) out.add_on(name);
-}
-
 int run_submit(Common& c, const SubmitArgs& a) {
   // A percentage size is resolved here, from the surface's bounding box: the
   // coordinator takes lengths.
@@ -354,7 +342,7 @@ int run_submit(Common& c, const SubmitArgs& a) {
   if (a.max_volume > 0) options.set_max_volume(a.max_volume);
   if (a.time_limit_s > 0) options.set_time_limit_s(a.time_limit_s);
   if (a.layers.layers > 0) {
-    set_layers(a.layers.request(), *options.mutable_layers());
+    to_proto(a.layers.request(), *options.mutable_layers());
     if (!a.growth_given) options.clear_growth();  // the coordinator continues the layers' ratio
   }
   v1::Job job;

@@ -25,7 +25,9 @@
 #include <string>
 #include <vector>
 
+#include "layer_options.hpp"
 #include "pdrmesh/farfield.hpp"
+#include "pdrmesh/layered_pipeline.hpp"
 #include "pdrmesh/leaf_kernels.hpp"
 #include "pdrmesh/pipeline.hpp"
 #include "pdrmesh/quality.hpp"
@@ -132,6 +134,39 @@ std::optional<FarfieldOptions> farfield_options(std::optional<double> farfield, 
   return FarfieldOptions{*farfield, *parsed};
 }
 
+std::optional<LayerRequest> layer_request(std::optional<int> layers, const py::handle& first_height,
+                                          std::optional<double> reynolds, std::optional<double> reference_length,
+                                          double growth_ratio, std::optional<double> max_thickness,
+                                          const std::vector<std::string>& on) {
+  if (!layers) {
+    if (!first_height.is_none() || reynolds || reference_length || max_thickness || !on.empty())
+      throw py::value_error("first_height, reynolds, reference_length, layers_max_thickness and layers_on: only "
+                            "with layers");
+    return std::nullopt;
+  }
+  if (first_height.is_none()) throw py::value_error("layers: give the first layer's height with first_height");
+  // A number as its shortest round-trip text, a string as the CLI reads it.
+  const std::string text = py::isinstance<py::str>(first_height)
+                               ? first_height.cast<std::string>()
+                               : py::repr(py::float_(first_height.cast<double>())).cast<std::string>();
+  const auto height = cli::FirstHeightValue::parse(text);
+  if (!height)
+    throw py::value_error(fmt::format(
+        "first_height must be a positive length or 'yplus:Y' with Y a positive number of wall units, got '{}'", text));
+  if (height->yplus && !reynolds) throw py::value_error("first_height yplus:Y: give the Reynolds number with reynolds");
+  LayerRequest r;
+  r.layers = *layers;
+  r.first_height = height->value;
+  r.yplus = height->yplus;
+  r.reynolds = reynolds.value_or(0);
+  r.reference_length = reference_length.value_or(0);
+  r.growth_ratio = growth_ratio;
+  r.max_thickness = max_thickness;
+  r.on = on;
+  if (Status s = validate(r); !s.ok()) throw py::value_error(s.message());
+  return r;
+}
+
 namespace {
 
 using F64Array = py::array_t<double, py::array::c_style | py::array::forcecast>;
@@ -236,10 +271,13 @@ SurfaceMesh to_surface(const py::handle& points, const py::handle& triangles, co
 
 VolumeMesh to_volume(const py::handle& points, const py::handle& tets, const py::handle& boundary,
                      const py::handle& boundary_ids, const py::handle& regions, const py::handle& names,
-                     const py::handle& region_names = py::none()) {
+                     const py::handle& region_names = py::none(), const py::handle& prisms = py::none(),
+                     const py::handle& pyramids = py::none()) {
   VolumeMesh m;
   m.points = to_points(points, "points");
   m.tets = to_cells<4>(tets, "tets", m.points.size());
+  if (!prisms.is_none()) m.prisms = to_cells<6>(prisms, "prisms", m.points.size());
+  if (!pyramids.is_none()) m.pyramids = to_cells<5>(pyramids, "pyramids", m.points.size());
   if (!boundary.is_none()) m.boundary = to_cells<3>(boundary, "boundary", m.points.size());
   if (!boundary_ids.is_none()) m.boundary_ids = to_ints(boundary_ids, "boundary_ids", m.boundary.size());
   if (!regions.is_none()) m.tet_regions = to_ints(regions, "regions", m.tets.size());
@@ -287,6 +325,8 @@ py::dict volume_dict(const VolumeMesh& m) {
   py::dict d;
   d["points"] = points_array(m.points);
   d["tets"] = cells_array(m.tets);
+  d["prisms"] = cells_array(m.prisms);
+  d["pyramids"] = cells_array(m.pyramids);
   d["boundary"] = cells_array(m.boundary);
   d["boundary_ids"] = ints_array(m.boundary_ids);
   d["regions"] = m.tet_regions.empty() ? py::object(py::none()) : py::object(ints_array(m.tet_regions));
@@ -333,7 +373,7 @@ py::dict mesh_py(const py::handle& points, const py::handle& triangles, const py
                  std::optional<double> hmax, double growth, std::optional<double> max_tets, int workers,
                  std::optional<int> depth, const std::string& kernel_name, bool optimize,
                  std::optional<double> time_limit, bool validate, std::optional<double> farfield,
-                 const std::string& farfield_shape) {
+                 const std::string& farfield_shape, const std::optional<LayerRequest>& layer_options) {
   const cli::RunOptionArgs args = run_options(size, hmin, hmax, growth, max_tets, depth, kernel_name, optimize);
   if (workers < 0 || workers > 4096) throw py::value_error(fmt::format("workers must be 0 (serial) or 1 to 4096, got {}", workers));
   if (time_limit) check_number("time_limit", *time_limit, cli::kSeconds);
@@ -350,12 +390,18 @@ py::dict mesh_py(const py::handle& points, const py::handle& triangles, const py
     result = [&]() -> Result<VolumeMesh> {
       const auto start = Clock::now();
       double body_diagonal = 0;  // what a percentage size refers to with a far field
+      std::vector<int> body_ids;   // the default walls of layers with a far field
       if (far) {  // the domain around the body takes its place, as with `pdrmesh mesh --farfield`
         body_diagonal = surface.bounds().diagonal();
         PDR_ASSIGN_OR_RETURN(FarfieldDomain domain, make_farfield(surface, *far));
+        body_ids = domain.body_ids();
         surface = std::move(domain.surface);
       }
       PDR_TRY(require_meshable(check_surface(surface), surface.name));
+      std::optional<LayerOptions> layers;
+      if (layer_options) {
+        PDR_ASSIGN_OR_RETURN(layers, resolve_layers(*layer_options, surface, body_ids));
+      }
       const SizingOptions sizing = args.size.resolve(surface, size_line, true, body_diagonal);
       PDR_TRY(args.size.check_tet_limit(surface, sizing, true));
       const double limit_s = time_limit.value_or(0);
@@ -367,6 +413,10 @@ py::dict mesh_py(const py::handle& points, const py::handle& triangles, const py
         if (limit_s > 0) {
           options.time_limit_s = std::chrono::duration<double>(deadline - Clock::now()).count();
           if (!(options.time_limit_s > 0)) return deadline_exceeded("the time limit ran out while the surface was checked");
+        }
+        if (layers) {
+          PDR_ASSIGN_OR_RETURN(LayeredResult r, mesh_serial_layered(surface, *layers, options));
+          return std::move(r.mesh);
         }
         PDR_ASSIGN_OR_RETURN(SerialResult r, mesh_serial(surface, options));
         return std::move(r.mesh);
@@ -381,11 +431,19 @@ py::dict mesh_py(const py::handle& points, const py::handle& triangles, const py
         options.pdr.tetgen_time_limit_s = std::min(options.pdr.tetgen_time_limit_s, limit_s);
         options.pdr.progress = [deadline](const PdrProgress&) { return Clock::now() < deadline; };
       }
-      auto r = mesh_parallel(surface, options, kernel.get());
+      Result<VolumeMesh> made = VolumeMesh{};
+      if (layers) {
+        auto r = mesh_parallel_layered(surface, *layers, options, kernel.get());
+        if (r.ok()) made = std::move(r->layered.mesh);
+        else made = r.status();
+      } else {
+        auto r = mesh_parallel(surface, options, kernel.get());
+        if (r.ok()) made = std::move(r->mesh);
+        else made = r.status();
+      }
       if (limit_s > 0 && Clock::now() >= deadline)
         return deadline_exceeded(fmt::format("the time limit ({} s) ran out before the mesh was done", limit_s));
-      if (!r.ok()) return r.status();
-      return std::move(r->mesh);
+      return made;
     }();
     if (result.ok() && validate) {
       const ValidationReport report = validate_mesh(*result, &surface);
@@ -413,9 +471,11 @@ py::array_t<double> min_dihedral_py(const py::handle& points, const py::handle& 
 }
 
 py::dict validate_py(const py::handle& points, const py::handle& tets, const py::handle& boundary,
-                     const py::handle& boundary_ids, const py::handle& regions, const py::handle& surface) {
+                     const py::handle& boundary_ids, const py::handle& regions, const py::handle& surface,
+                     const py::handle& prisms, const py::handle& pyramids) {
   // The regions too: a mesh of several regions has its interfaces among the boundary triangles.
-  const VolumeMesh m = to_volume(points, tets, boundary, boundary_ids, regions, py::none());
+  const VolumeMesh m =
+      to_volume(points, tets, boundary, boundary_ids, regions, py::none(), py::none(), prisms, pyramids);
   std::optional<SurfaceMesh> s;
   if (!surface.is_none()) {
     const py::tuple t = surface.cast<py::tuple>();
@@ -449,8 +509,9 @@ py::dict read_volume_py(const std::filesystem::path& path) {
 
 void write_volume_py(const py::handle& points, const py::handle& tets, const py::handle& boundary,
                      const py::handle& boundary_ids, const py::handle& regions, const py::handle& names,
-                     const py::handle& region_names, const std::filesystem::path& path) {
-  const VolumeMesh m = to_volume(points, tets, boundary, boundary_ids, regions, names, region_names);
+                     const py::handle& region_names, const std::filesystem::path& path, const py::handle& prisms,
+                     const py::handle& pyramids) {
+  const VolumeMesh m = to_volume(points, tets, boundary, boundary_ids, regions, names, region_names, prisms, pyramids);
   raise_unless_ok(without_gil([&] { return write_volume(m, path); }));
 }
 
@@ -461,19 +522,23 @@ PYBIND11_MODULE(_pdrmesh, m) {
   using namespace pdrmesh::python;
   using py::arg;
   m.doc() = "pdrmesh's compiled core; use the package pdrmesh, which wraps it";
+  // Opaque: made by layer_request, passed to mesh() and ServiceClient.submit().
+  py::class_<pdrmesh::LayerRequest>(m, "LayerRequest");
   m.def("read_surface", &read_surface_py, arg("path"));
   m.def("write_surface", &write_surface_py, arg("points"), arg("triangles"), arg("surface_ids"), arg("names"),
         arg("path"));
   m.def("check", &check_py, arg("points"), arg("triangles"), arg("surface_ids"), arg("self_intersections"));
   m.def("mesh", &mesh_py, arg("points"), arg("triangles"), arg("surface_ids"), arg("names"), arg("size"),
         arg("hmin"), arg("hmax"), arg("growth"), arg("max_tets"), arg("workers"), arg("depth"), arg("kernel"),
-        arg("optimize"), arg("time_limit"), arg("validate"), arg("farfield"), arg("farfield_shape"));
+        arg("optimize"), arg("time_limit"), arg("validate"), arg("farfield"), arg("farfield_shape"), arg("layers"));
+  m.def("layer_request", &layer_request, arg("layers"), arg("first_height"), arg("reynolds"), arg("reference_length"),
+        arg("growth_ratio"), arg("max_thickness"), arg("on"));
   m.def("quality", &quality_py, arg("points"), arg("tets"));
   m.def("min_dihedral", &min_dihedral_py, arg("points"), arg("tets"));
   m.def("validate", &validate_py, arg("points"), arg("tets"), arg("boundary"), arg("boundary_ids"), arg("regions"),
-        arg("surface"));
+        arg("surface"), arg("prisms"), arg("pyramids"));
   m.def("read_volume", &read_volume_py, arg("path"));
   m.def("write_volume", &write_volume_py, arg("points"), arg("tets"), arg("boundary"), arg("boundary_ids"),
-        arg("regions"), arg("names"), arg("region_names"), arg("path"));
+        arg("regions"), arg("names"), arg("region_names"), arg("path"), arg("prisms"), arg("pyramids"));
   bind_service(m);
 }

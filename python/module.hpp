@@ -8,9 +8,11 @@
 
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "options.hpp"
 #include "pdrmesh/farfield.hpp"
+#include "pdrmesh/layers.hpp"
 #include "pdrmesh/status.hpp"
 #include "run_options.hpp"
 
@@ -35,6 +37,15 @@ cli::RunOptionArgs run_options(const std::optional<std::string>& size, std::opti
 /// take them; ValueError for a distance or shape they refuse, or a sphere
 /// without a distance.
 std::optional<FarfieldOptions> farfield_options(std::optional<double> farfield, const std::string& shape);
+
+/// The layers of the keywords layers (None: none), first_height (a length,
+/// or "yplus:Y" with reynolds), reynolds, reference_length, growth_ratio,
+/// layers_max_thickness and layers_on (boundary names or ids), as `pdrmesh
+/// mesh --layers ...` takes them; ValueError for what the CLI refuses.
+std::optional<LayerRequest> layer_request(std::optional<int> layers, const pybind11::handle& first_height,
+                                          std::optional<double> reynolds, std::optional<double> reference_length,
+                                          double growth_ratio, std::optional<double> max_thickness,
+                                          const std::vector<std::string>& on);
 
 /// Binds the service client (service.cpp).
 void bind_service(pybind11::module_& m);

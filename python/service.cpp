@@ -16,6 +16,7 @@
 #include <string>
 
 #include "job_json.hpp"
+#include "layer_options.hpp"
 #include "module.hpp"
 #include "pdrmesh/volume_io.hpp"
 #include "service_client.hpp"
@@ -60,13 +61,15 @@ class Client {
   }
 
   /// Uploads the surface file with the options of `pdrmesh submit` (`names`
-  /// those of --names, the far field those of --farfield and --farfield-shape);
+  /// those of --names, the far field those of --farfield and --farfield-shape,
+  /// `layers` those of --layers ...);
   /// the job as JSON.
   std::string submit(const std::filesystem::path& surface, const std::optional<std::string>& size,
                      std::optional<double> hmin, std::optional<double> hmax, double growth,
                      std::optional<double> max_tets, std::optional<int> depth, const std::string& kernel,
                      bool optimize, std::optional<double> time_limit, const std::map<int, std::string>& names,
-                     std::optional<double> farfield, const std::string& farfield_shape) {
+                     std::optional<double> farfield, const std::string& farfield_shape,
+                     const std::optional<LayerRequest>& layers) {
     cli::RunOptionArgs args = run_options(size, hmin, hmax, growth, max_tets, depth, kernel, optimize);
     if (const auto far = farfield_options(farfield, farfield_shape)) {
       args.farfield.distance = far->distance;
@@ -86,6 +89,7 @@ class Client {
         v1::MeshOptions options = args.mesh_options(*sizing);
         for (const auto& [id, name] : names) (*options.mutable_surface_names())[id] = name;
         if (time_limit) options.set_time_limit_s(*time_limit);
+        if (layers) cli::to_proto(*layers, *options.mutable_layers());
         s = client_->submit(surface, options, job);
       }
     }
@@ -189,7 +193,7 @@ void bind_service(py::module_& m) {
            arg("token"), arg("tls_ca"), arg("timeout"))
       .def("submit", &Client::submit, arg("surface"), arg("size"), arg("hmin"), arg("hmax"), arg("growth"),
            arg("max_tets"), arg("depth"), arg("kernel"), arg("optimize"), arg("time_limit"), arg("names"),
-           arg("farfield"), arg("farfield_shape"))
+           arg("farfield"), arg("farfield_shape"), arg("layers"))
       .def("get", &Client::get, arg("job"))
       .def("watch", &Client::watch, arg("job"), arg("on_event"))
       .def("list", &Client::list)

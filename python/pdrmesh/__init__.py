@@ -57,19 +57,32 @@ class Mesh:
     boundary_names: dict = field(default_factory=dict)
     region_names: dict = field(default_factory=dict)
     size_text: str = ""  # mesh(): the spacing used, as `pdrmesh mesh` prints it
+    prisms: Optional[np.ndarray] = None  # with layers: K x 6, VTK's wedge order (meshio's too)
+    pyramids: Optional[np.ndarray] = None  # K x 5, quad base then apex
+
+    def _volume_blocks(self):
+        blocks = [("tetra", self.tets)]
+        for kind, cells in (("wedge", self.prisms), ("pyramid", self.pyramids)):
+            if cells is not None and len(cells):
+                blocks.append((kind, cells))
+        return blocks
 
     @property
     def cells(self):
-        """The cell blocks as meshio takes them: [("tetra", tets), ("triangle", boundary)]."""
-        return [("tetra", self.tets), ("triangle", self.boundary)]
+        """The cell blocks as meshio takes them: [("tetra", tets), ("wedge", prisms) and
+        ("pyramid", pyramids) where there are any, ("triangle", boundary)]."""
+        return self._volume_blocks() + [("triangle", self.boundary)]
 
     @property
     def cell_data(self):
-        """Per-cell data for meshio, one array per block of `cells`: surface_id (0 on tets,
-        as in pdrmesh's VTU files) and, when the mesh has regions, region (0 on triangles)."""
-        data = {"surface_id": [np.zeros(len(self.tets), np.int32), np.asarray(self.boundary_ids, np.int32)]}
+        """Per-cell data for meshio, one array per block of `cells`: surface_id (0 on the
+        volume cells, as in pdrmesh's VTU files) and, when the mesh has regions, region (0 on
+        triangles)."""
+        volume = [np.zeros(len(c), np.int32) for _, c in self._volume_blocks()]
+        data = {"surface_id": volume + [np.asarray(self.boundary_ids, np.int32)]}
         if self.regions is not None:
-            data["region"] = [np.asarray(self.regions, np.int32), np.zeros(len(self.boundary), np.int32)]
+            data["region"] = ([np.asarray(self.regions, np.int32)] + volume[1:] +
+                              [np.zeros(len(self.boundary), np.int32)])
         return data
 
     def to_meshio(self):
@@ -87,9 +100,11 @@ class Mesh:
 
     @classmethod
     def from_meshio(cls, m) -> "Mesh":
-        """The tetra and triangle blocks of a meshio.Mesh; boundary ids from its cell data
-        "surface_id" (or "gmsh:physical"), else 1."""
+        """The tetra, wedge, pyramid and triangle blocks of a meshio.Mesh; boundary ids from
+        its cell data "surface_id" (or "gmsh:physical"), else 1."""
         tets = [c.data for c in m.cells if c.type == "tetra"]
+        prisms = [c.data for c in m.cells if c.type == "wedge"]
+        pyramids = [c.data for c in m.cells if c.type == "pyramid"]
         tris = [(k, c.data) for k, c in enumerate(m.cells) if c.type == "triangle"]
         ids = []
         for k, data in tris:
@@ -98,7 +113,9 @@ class Mesh:
         return cls(points=np.asarray(m.points, np.float64),
                    tets=np.concatenate(tets) if tets else np.zeros((0, 4), np.int64),
                    boundary=np.concatenate([d for _, d in tris]) if tris else np.zeros((0, 3), np.int64),
-                   boundary_ids=np.concatenate(ids).astype(np.int32) if ids else np.zeros(0, np.int32))
+                   boundary_ids=np.concatenate(ids).astype(np.int32) if ids else np.zeros(0, np.int32),
+                   prisms=np.concatenate(prisms) if prisms else None,
+                   pyramids=np.concatenate(pyramids) if pyramids else None)
 
     def write(self, path) -> None:
         """write_volume(self, path)."""
@@ -106,9 +123,30 @@ class Mesh:
 
 
 def _mesh_from_dict(d: dict) -> Mesh:
+    def mixed(key):
+        cells = d.get(key)
+        return cells if cells is not None and len(cells) else None
     return Mesh(points=d["points"], tets=d["tets"], boundary=d["boundary"], boundary_ids=d["boundary_ids"],
                 regions=d["regions"], boundary_names=dict(d["boundary_names"]),
-                region_names=dict(d.get("region_names", {})), size_text=d.get("size_text", ""))
+                region_names=dict(d.get("region_names", {})), size_text=d.get("size_text", ""),
+                prisms=mixed("prisms"), pyramids=mixed("pyramids"))
+
+
+def _layers(layers, first_height, growth_ratio, layers_max_thickness, layers_on, reynolds, reference_length):
+    """The compiled layer request of mesh()'s and submit()'s layer keywords (None without layers)."""
+    on = [str(x) for x in (layers_on or [])]
+    return _pdrmesh.layer_request(None if layers is None else int(layers), first_height,
+                                  None if reynolds is None else float(reynolds),
+                                  None if reference_length is None else float(reference_length),
+                                  float(growth_ratio),
+                                  None if layers_max_thickness is None else float(layers_max_thickness), on)
+
+
+def _growth(growth, layers, growth_ratio) -> float:
+    """growth as given, or 1.2; with layers, unless given, the layers' ratio continues."""
+    if growth is not None:
+        return float(growth)
+    return float(growth_ratio) if layers is not None and float(growth_ratio) > 1 else 1.2
 
 
 def _is_path(x) -> bool:
@@ -166,10 +204,13 @@ def check(points, triangles=None, surface_ids=None, *, self_intersections: bool 
 
 
 def mesh(points, triangles=None, surface_ids=None, *, names: Optional[dict] = None, size=None,
-         hmin: Optional[float] = None, hmax: Optional[float] = None, growth: float = 1.2,
+         hmin: Optional[float] = None, hmax: Optional[float] = None, growth: Optional[float] = None,
          max_tets: Optional[float] = None, workers: int = 0, depth: Optional[int] = None,
          kernel: str = "native", optimize: bool = True, time_limit: Optional[float] = None,
-         validate: bool = True, farfield: Optional[float] = None, farfield_shape: str = "box") -> Mesh:
+         validate: bool = True, farfield: Optional[float] = None, farfield_shape: str = "box",
+         layers: Optional[int] = None, first_height=None, growth_ratio: float = 1.2,
+         layers_max_thickness: Optional[float] = None, layers_on=None, reynolds: Optional[float] = None,
+         reference_length: Optional[float] = None) -> Mesh:
     """Meshes the volume inside a closed surface: points (N x 3) and triangles (M x 3), or a
     Surface, or a surface file's path. The options are those of `pdrmesh mesh` and `run`:
     size a length or a percentage of the bounding-box diagonal ("1%"; default: the surface's own
@@ -180,11 +221,18 @@ def mesh(points, triangles=None, surface_ids=None, *, names: Optional[dict] = No
     returned (validate=False skips that). farfield=D (`--farfield D`) meshes the space between
     the surface (the body) and a box (farfield_shape="box": boundary names inlet at -x, outlet
     at +x, sides) or a sphere ("sphere": farfield) D body lengths away; the body is "wall"
-    unless named."""
+    unless named. layers=N (`--layers N`) grows N prism layers from the walls before the tets
+    fill the rest: first_height a length or "yplus:Y" (with reynolds and, optionally,
+    reference_length), growth_ratio, layers_max_thickness, and layers_on the walls by boundary
+    name or id (default: every surface; with farfield the body's); growth then continues the
+    layers' ratio unless given. The mesh's prisms are in `prisms`."""
     s = _surface(points, triangles, surface_ids, names)
+    request = _layers(layers, first_height, growth_ratio, layers_max_thickness, layers_on, reynolds,
+                      reference_length)
     d = _pdrmesh.mesh(s.points, s.triangles, s.surface_ids, s.names or None, _size_text(size), hmin, hmax,
-                      float(growth), max_tets, int(workers), depth, kernel, bool(optimize), time_limit,
-                      bool(validate), None if farfield is None else float(farfield), str(farfield_shape))
+                      _growth(growth, layers, growth_ratio), max_tets, int(workers), depth, kernel,
+                      bool(optimize), time_limit, bool(validate), None if farfield is None else float(farfield),
+                      str(farfield_shape), request)
     return _mesh_from_dict(d)
 
 
@@ -216,7 +264,7 @@ def validate(m, surface=None) -> dict:
         surface_args = (s.points, s.triangles, s.surface_ids)
     boundary = m.boundary if len(m.boundary) else None
     ids = m.boundary_ids if boundary is not None else None
-    return _pdrmesh.validate(m.points, m.tets, boundary, ids, m.regions, surface_args)
+    return _pdrmesh.validate(m.points, m.tets, boundary, ids, m.regions, surface_args, m.prisms, m.pyramids)
 
 
 def read_volume(path) -> Mesh:
@@ -229,7 +277,7 @@ def write_volume(m, path) -> None:
     under its name only once complete."""
     m = _as_mesh(m)
     _pdrmesh.write_volume(m.points, m.tets, m.boundary, m.boundary_ids, m.regions, m.boundary_names or None,
-                          m.region_names or None, os.fspath(path))
+                          m.region_names or None, os.fspath(path), m.prisms, m.pyramids)
 
 
 def _job_id(job) -> str:
@@ -260,18 +308,24 @@ class Client:
         self._client = _pdrmesh.ServiceClient(address, token, os.fspath(tls_ca), float(timeout))
 
     def submit(self, surface, triangles=None, surface_ids=None, *, names: Optional[dict] = None, size=None,
-               hmin=None, hmax=None, growth: float = 1.2, max_tets=None, depth=None, kernel: str = "native",
-               optimize: bool = True, time_limit=None, farfield: Optional[float] = None,
-               farfield_shape: str = "box", wait: bool = False) -> dict:
+               hmin=None, hmax=None, growth: Optional[float] = None, max_tets=None, depth=None,
+               kernel: str = "native", optimize: bool = True, time_limit=None, farfield: Optional[float] = None,
+               farfield_shape: str = "box", layers: Optional[int] = None, first_height=None,
+               growth_ratio: float = 1.2, layers_max_thickness: Optional[float] = None, layers_on=None,
+               reynolds: Optional[float] = None, reference_length: Optional[float] = None,
+               wait: bool = False) -> dict:
         """Uploads a surface (a file, a Surface, or points and triangles) with the options of
         `pdrmesh submit`: names (`--names`: boundary names by surface id; a Surface's own
-        names otherwise), farfield and farfield_shape as in mesh(); the job, or with wait=True
-        the finished job (watch)."""
+        names otherwise), farfield, farfield_shape and the layers as in mesh(); the job, or
+        with wait=True the finished job (watch)."""
+        request = _layers(layers, first_height, growth_ratio, layers_max_thickness, layers_on, reynolds,
+                          reference_length)
+
         def send(path, surface_names):
             return json.loads(self._client.submit(
-                path, _size_text(size), hmin, hmax, float(growth), max_tets, depth, kernel, bool(optimize),
-                time_limit, dict(surface_names or {}), None if farfield is None else float(farfield),
-                str(farfield_shape)))
+                path, _size_text(size), hmin, hmax, _growth(growth, layers, growth_ratio), max_tets, depth, kernel,
+                bool(optimize), time_limit, dict(surface_names or {}), None if farfield is None else float(farfield),
+                str(farfield_shape), request))
         if _is_path(surface) and triangles is None:
             if not os.path.isfile(surface):
                 raise FileNotFoundError(f"{os.fspath(surface)}: no such surface file")

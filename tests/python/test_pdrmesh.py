@@ -214,6 +214,44 @@ class Surfaces(unittest.TestCase):
         self.assertEqual(m.boundary_names, {1: "ball", 2: "inlet", 3: "outlet", 4: "sides"})
         self.assertTrue(pdrmesh.validate(m)["valid"])
 
+    def test_layers_grow_prisms_that_files_and_meshio_carry(self):
+        points, triangles = icosphere(2)
+        m = pdrmesh.mesh(points, triangles, farfield=3, layers=3, first_height=0.01, growth_ratio=1.3)
+        self.assertEqual(m.prisms.shape, (3 * len(triangles), 6))
+        self.assertIsNone(m.pyramids)
+        report = pdrmesh.validate(m, (points, triangles))
+        self.assertFalse(report["valid"], "the far field's triangles are not the body's")
+        report = pdrmesh.validate(m)
+        self.assertTrue(report["valid"], report["text"])
+        # The parallel method grows the same layers; every worker count gives the same mesh.
+        one = pdrmesh.mesh(points, triangles, farfield=3, layers=3, first_height=0.01, growth_ratio=1.3,
+                           workers=1, depth=1)
+        two = pdrmesh.mesh(points, triangles, farfield=3, layers=3, first_height=0.01, growth_ratio=1.3,
+                           workers=2, depth=1)
+        self.assertTrue(np.array_equal(one.prisms, m.prisms))
+        self.assertTrue(np.array_equal(one.tets, two.tets) and np.array_equal(one.points, two.points))
+        with tempfile.TemporaryDirectory() as tmp:
+            for suffix in ("meshb", "vtu"):
+                path = os.path.join(tmp, "layers." + suffix)
+                m.write(path)
+                back = pdrmesh.read_volume(path)
+                self.assertTrue(np.array_equal(back.prisms, m.prisms), suffix)
+                self.assertTrue(pdrmesh.validate(back)["valid"], suffix)
+        self.assertEqual([kind for kind, _ in m.cells], ["tetra", "wedge", "triangle"])
+        self.assertEqual([len(d) for d in m.cell_data["surface_id"]], [len(m.tets), len(m.prisms), len(m.boundary)])
+        # A y+ first height, walls by name; the options the CLI refuses are ValueErrors naming them.
+        yplus = pdrmesh.mesh(points, triangles, farfield=3, layers=2, first_height="yplus:1", reynolds=1e5,
+                             layers_on=["wall"])
+        self.assertEqual(len(yplus.prisms), 2 * len(triangles))
+        for kwargs, message in (({"layers": 3}, "first_height"),
+                                ({"first_height": 0.1}, "only with layers"),
+                                ({"layers": 3, "first_height": "yplus:1"}, "reynolds"),
+                                ({"layers": 0, "first_height": 0.1}, "--layers"),
+                                ({"layers": 3, "first_height": 0.1, "growth_ratio": 0.5}, "--growth-ratio"),
+                                ({"layers": 3, "first_height": 0.1, "layers_on": ["wing"]}, "wing names no surface")):
+            with self.assertRaisesRegex(ValueError, message):
+                pdrmesh.mesh(points, triangles, farfield=3, **kwargs)
+
     def test_two_regions_carry_ids_and_names_through_files(self):
         points, triangles, ids, names = nested_boxes()
         m = pdrmesh.mesh(points, triangles, ids, names=names, size=0.5)

@@ -101,6 +101,21 @@ class Service(unittest.TestCase):
         self.assertEqual(m.boundary_names, names)
         client.delete(job)
 
+    def test_layers_through_the_service(self):
+        points, triangles = icosphere(2)
+        client = pdrmesh.Client(self.address, token=self.token)
+        layered = dict(farfield=3, layers=3, first_height=0.01, growth_ratio=1.3)
+        job = client.submit(points, triangles, depth=1, wait=True, **layered)
+        self.assertEqual(job["state"], "succeeded", job["error"])
+        m = client.result(job)
+        local = pdrmesh.mesh(points, triangles, workers=1, depth=1, **layered)
+        self.assertTrue(np.array_equal(m.prisms, local.prisms))
+        self.assertTrue(np.array_equal(m.tets, local.tets))
+        self.assertTrue(pdrmesh.validate(m)["valid"])
+        client.delete(job)
+        with self.assertRaisesRegex(ValueError, "wing names no surface"):
+            client.submit(points, triangles, layers=3, first_height=0.01, layers_on=["wing"])
+
     def test_errors(self):
         points, triangles = icosphere(1)
         client = pdrmesh.Client(self.address, token=self.token)
