@@ -100,17 +100,6 @@ Result<LayerOptions> LayerArgs::resolve(const SurfaceMesh& surface, const std::v
   return resolve_layers(request(), surface, default_walls);
 }
 
-void to_proto(const LayerRequest& r, v1::BoundaryLayers& out) {
-  out.set_count(r.layers);
-  if (r.yplus) out.set_first_height_yplus(r.first_height);
-  else out.set_first_height(r.first_height);
-  out.set_reynolds(r.reynolds);
-  out.set_reference_length(r.reference_length);
-  out.set_growth_ratio(r.growth_ratio);
-  if (r.max_thickness) out.set_max_thickness(*r.max_thickness);
-  for (const std::string& name : r.on) out.add_on(name);
-}
-
 std::string layer_growth_line(int layers, const LayeredResult& r) {
   return fmt::format(
       "layers: {} on {} wall triangles ({} points), stack {:.4g} to {:.4g} thick, {} stacks compressed ({:.2f} s); "

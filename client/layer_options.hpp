@@ -11,7 +11,6 @@
 #include <vector>
 
 #include "pdrmesh/layered_pipeline.hpp"
-#include "pdrmesh/v1/pdrmesh.pb.h"
 #include "pdrmesh/layers.hpp"
 #include "pdrmesh/status.hpp"
 #include "pdrmesh/surface.hpp"
@@ -48,10 +47,6 @@ struct LayerArgs {
   /// --farfield the body's ids, so that the far-field patches grow none).
   Result<LayerOptions> resolve(const SurfaceMesh& surface, const std::vector<int>& default_walls = {}) const;
 };
-
-/// A job's layers as given (MeshOptions.layers): the coordinator resolves the
-/// names and a y+ on the job's surface.
-void to_proto(const LayerRequest& r, v1::BoundaryLayers& out);
 
 /// The report line of grown layers: stacks, thickness, compression and the
 /// layers reached (wall triangles whose stacks kept all N layers at their

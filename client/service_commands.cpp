@@ -27,6 +27,7 @@
 #include "exit_codes.hpp"
 #include "job_json.hpp"
 #include "layer_options.hpp"
+#include "layers_proto.hpp"
 #include "options.hpp"
 #include "pdrmesh/boundary_names_io.hpp"
 #include "pdrmesh/surface_io.hpp"

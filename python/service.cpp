@@ -16,7 +16,7 @@
 #include <string>
 
 #include "job_json.hpp"
-#include "layer_options.hpp"
+#include "layers_proto.hpp"
 #include "module.hpp"
 #include "pdrmesh/volume_io.hpp"
 #include "service_client.hpp"
@@ -89,7 +89,7 @@ class Client {
         v1::MeshOptions options = args.mesh_options(*sizing);
         for (const auto& [id, name] : names) (*options.mutable_surface_names())[id] = name;
         if (time_limit) options.set_time_limit_s(*time_limit);
-        if (layers) cli::to_proto(*layers, *options.mutable_layers());
+        if (layers) to_proto(*layers, *options.mutable_layers());
         s = client_->submit(surface, options, job);
       }
     }

@@ -8,6 +8,8 @@
 #include <cmath>
 #include <fstream>
 
+#include "layers_proto.hpp"
+
 namespace pdrmesh::server {
 namespace {
 
@@ -89,17 +91,7 @@ void to_proto(const JobOptions& o, v1::MeshOptions& out) {
     out.set_farfield(o.farfield->distance);
     out.set_farfield_shape(std::string(to_string(o.farfield->shape)));
   }
-  if (o.layers) {
-    v1::BoundaryLayers& l = *out.mutable_layers();
-    l.set_count(o.layers->layers);
-    if (o.layers->yplus) l.set_first_height_yplus(o.layers->first_height);
-    else l.set_first_height(o.layers->first_height);
-    l.set_reynolds(o.layers->reynolds);
-    l.set_reference_length(o.layers->reference_length);
-    l.set_growth_ratio(o.layers->growth_ratio);
-    if (o.layers->max_thickness) l.set_max_thickness(*o.layers->max_thickness);
-    for (const std::string& name : o.layers->on) l.add_on(name);
-  }
+  if (o.layers) pdrmesh::to_proto(*o.layers, *out.mutable_layers());
 }
 
 Result<JobOptions> from_proto(const v1::MeshOptions& in, JobOptions o) {
@@ -130,21 +122,9 @@ Result<JobOptions> from_proto(const v1::MeshOptions& in, JobOptions o) {
     }
   }
   if (in.has_layers()) {
-    const v1::BoundaryLayers& l = in.layers();
-    LayerRequest r;
-    r.layers = l.count();
-    if (l.first_case() == v1::BoundaryLayers::FIRST_NOT_SET)
-      return invalid_input("job option layers: give the first layer's height (first_height or first_height_yplus)");
-    r.yplus = l.first_case() == v1::BoundaryLayers::kFirstHeightYplus;
-    r.first_height = r.yplus ? l.first_height_yplus() : l.first_height();
-    r.reynolds = l.reynolds();
-    r.reference_length = l.reference_length();
-    if (l.has_growth_ratio()) r.growth_ratio = l.growth_ratio();
-    if (l.has_max_thickness()) r.max_thickness = l.max_thickness();
-    r.on.assign(l.on().begin(), l.on().end());
+    PDR_ASSIGN_OR_RETURN(o.layers, pdrmesh::from_proto(in.layers()));
     // The tets' growth continues the layers' unless the job sets its own.
-    if (!in.has_growth() && r.growth_ratio > 1) o.sizing.growth = r.growth_ratio;
-    o.layers = std::move(r);
+    if (!in.has_growth() && o.layers->growth_ratio > 1) o.sizing.growth = o.layers->growth_ratio;
   }
   PDR_TRY(o.validate());
   return o;
