@@ -36,6 +36,8 @@ constexpr int kMaxSweeps = 3;
 /// refinement's two buffers of one round would meet and block each other.
 /// A coarser grid makes a few tasks the long pole of their rounds.
 constexpr int kFinalCoarsening = 2;
+/// The seed rounds' leaves are at least this many seed lattice spacings wide.
+constexpr double kSeedLeafSpacings = 6;
 /// Where the final grid would be shallower than this, one task takes the
 /// whole selection: with few leaves per colour the rounds cost more than the
 /// task, and next to wide input triangles (hinge at diag/100, depth 4) the
@@ -311,10 +313,16 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
       // A sweep of seed rounds first (PdrPlan::leaf_seeds): the tasks of the
       // leaves that hold seeds insert them and refine nothing, so that every
       // seed is in before any leaf refines, as in an initial mesh that holds
-      // them all. Over a grid one level coarser, so that a task's seeds
-      // outweigh its fixed costs.
+      // them all. Over a grid at least one level coarser, so that a task's
+      // seeds outweigh its fixed costs, and with leaves of kSeedLeafSpacings
+      // lattice spacings or more: a seed must lie in a tet of its leaf's task
+      // (the tets of the coarser rounds' seeds span about two spacings).
       if (!initial.leaf_seeds.empty()) {
-        const Grid seed_grid{box1, std::max(1, depth - 1)};
+        const double spacing = seed_spacing(*plan.tetgen.max_volume);
+        int seed_depth = depth - 1;
+        while (seed_depth > 0 && (box1.hi[0] - box1.lo[0]) / (1 << seed_depth) < kSeedLeafSpacings * spacing)
+          --seed_depth;
+        const Grid seed_grid{box1, seed_depth};
         std::vector<std::pair<LeafId, Vec3>> seeds(initial.leaf_seeds.size());
         tbb::parallel_for(std::size_t{0}, seeds.size(), [&](std::size_t i) {
           seeds[i] = {leaf_of_point(box1, seed_grid.depth, initial.leaf_seeds[i]), initial.leaf_seeds[i]};

@@ -685,8 +685,10 @@ Result<pid_t> spawn_helper(const std::string& path, Fd& request, Fd& log, Fd& an
 // box (no seed on or next to the boundary), and those outside the domain
 // (drop_outside). (TetGen's own -i for added points crashes in TetGen 1.5 on
 // some inputs, e.g. elephant, even with only interior points.)
+double seed_spacing(double max_volume) { return 0.8 * std::cbrt(12.0 * max_volume); }
+
 Result<std::vector<Vec3>> seed_points(const SurfaceMesh& s, double max_volume) {
-  const double h = 0.8 * std::cbrt(12.0 * max_volume);
+  const double h = seed_spacing(max_volume);
   const SeedLattice lattice(s.bounds(), h);
   if (lattice.size() > 2e8)
     return resource_exhausted(fmt::format("max_volume {} asks for {:.3g} seed points over the bounding box, more "

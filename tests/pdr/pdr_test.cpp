@@ -797,6 +797,33 @@ TEST(Pdr, ASurfaceTooSmallForLeafTasksGetsTheSerialMesh) {
   EXPECT_GT(leaves->profile.leaf_count, 1u);
 }
 
+TEST(Pdr, DeepGridsKeepTheSeedsTheirRoundsInsert) {
+  // sphere966 at 4% of its diagonal: at depth 4 the seed lattice is wider
+  // than a leaf one level up, so the seed rounds' leaves must be coarser
+  // still, or seeds would lie in no tet of their task and be lost (the
+  // refinement then made under half the tets of depth 2).
+  const Sphere* sp = sphere();
+  ASSERT_NE(sp, nullptr) << "sphere966.mesh not readable";
+  ParallelOptions o;
+  o.pdr.workers = 2;
+  o.optimize.reset();
+  o.sizing.size = 0.04 * sp->surface.bounds().diagonal();
+  std::size_t tets[2] = {};
+  for (int i = 0; i < 2; ++i) {
+    o.pdr.depth = i == 0 ? 2 : 4;
+    Result<ParallelResult> r = mesh_parallel(sp->surface, o);
+    ASSERT_TRUE(r.ok()) << r.status().to_string();
+    expect_valid(r->mesh, sp->surface, true);
+    tets[i] = r->mesh.tets.size();
+    int seed_depth = -1;
+    for (const RoundRecord& round : r->profile.rounds)
+      if (round.name == "seeds") seed_depth = round.depth;
+    EXPECT_GE(seed_depth, 0) << "depth " << o.pdr.depth << ": seed rounds";
+    EXPECT_LT(seed_depth, o.pdr.depth);
+  }
+  EXPECT_GT(static_cast<double>(tets[1]), 0.8 * static_cast<double>(tets[0])) << tets[1] << " against " << tets[0];
+}
+
 TEST(Pdr, MeshParallelIsByteIdenticalWithTheInitialMeshBesideTheSizing) {
   // 1 worker: sizing, then the initial mesh; 2 and 4: both at once (the plan
   // from SizingField::surface_values). The bytes must not change.

@@ -82,6 +82,9 @@ Result<VolumeMesh> tetrahedralize(const SurfaceMesh& surface, const TetgenOption
 /// when the lattice over the bounding box would exceed 2e8 points.
 Result<std::vector<Vec3>> seed_points(const SurfaceMesh& surface, double max_volume);
 
+/// The spacing of seed_points' lattice for `max_volume`.
+double seed_spacing(double max_volume);
+
 /// The TetGen switch string used for `options`, e.g. "pYzQMJF" or
 /// "pYzQMJFa0.5" (letters documented in tetgen_adapter.cpp).
 std::string tetgen_switches(const TetgenOptions& options);
