@@ -29,6 +29,8 @@ namespace {
 
 constexpr int kGmshTriangle = 2;
 constexpr int kGmshTetra = 4;
+constexpr int kGmshPrism = 6;    ///< our vertex order (mixed_cells.hpp), as VTK's wedge
+constexpr int kGmshPyramid = 7;  ///< our vertex order, as VTK's pyramid
 
 /// Nodes per element of the Gmsh element types we may meet; 0 for unknown.
 int gmsh_nodes(int type) {
@@ -52,6 +54,11 @@ int gmsh_nodes(int type) {
   }
 }
 bool skippable(int type) { return type == 15 || type == 1 || type == 8 || type == 26 || type == 27; }
+/// The element types a volume mesh is made of: triangles (its boundary), tets, prisms, pyramids.
+bool readable(int type) {
+  return type == kGmshTriangle || type == kGmshTetra || type == kGmshPrism || type == kGmshPyramid;
+}
+constexpr const char* kReadTypes = "3-node triangles, 4-node tetrahedra, 6-node prisms and 5-node pyramids";
 
 /// Entity (1-based) of each value among the sorted distinct values.
 std::vector<int> entity_of(const std::vector<int>& values, const std::vector<int>& keys) {
@@ -213,8 +220,6 @@ class GmshReader {
   /// Binary 2.2: blocks of "type count ntags" and count records of int32
   /// "tag tags... nodes...".
   Status read_elements_v2_binary(std::size_t n);
-  /// One triangle or tet of format 2.2 (`tags`: physical, elementary).
-  Status add_element_v2(int type, std::int64_t tag, const int (&tags)[2], const std::array<Index, 4>& v);
   /// Sorts the points by tag when the tags are not 1..N in order.
   Status index_nodes();
   Status node_index(std::int64_t tag, Index& out);
@@ -242,9 +247,14 @@ class GmshReader {
   };
   std::map<int, std::string> names_;
   std::map<int, std::string> region_names_;
-  std::vector<Raw> tet_raw_, tri_raw_;
+  /// Keeps one element of a readable type; v holds its nodes (as many as the type has).
+  void add_element(int type, const Raw& raw, const std::array<Index, 6>& v);
+
+  std::vector<Raw> tet_raw_, tri_raw_, prism_raw_, pyramid_raw_;
   std::vector<Tet> tets_;
   std::vector<Tri> tris_;
+  std::vector<Prism> prisms_;
+  std::vector<Pyramid> pyramids_;
 };
 
 Status GmshReader::read_format() {
@@ -460,9 +470,9 @@ Status GmshReader::read_elements() {
     const int nodes = gmsh_nodes(type);
     if (nodes == 0) return in_.error(fmt::format("unknown element type {}", type));
     PDR_TRY(in_.count(n, 1, "elements in block"));
-    if (!skippable(type) && type != kGmshTriangle && type != kGmshTetra)
-      return unsupported(fmt::format("{}:{}: {} elements of Gmsh type {}: only 3-node triangles and 4-node "
-                                     "tetrahedra are read", in_.name(), in_.line_at(type_at), n, type));
+    if (!skippable(type) && !readable(type))
+      return unsupported(fmt::format("{}:{}: {} elements of Gmsh type {}: only {} are read", in_.name(),
+                                     in_.line_at(type_at), n, type, kReadTypes));
     if (static_cast<std::uint64_t>(n) * 2 * (static_cast<std::uint64_t>(nodes) + 1) > in_.remaining() + 1)
       return in_.error(fmt::format("{} elements of type {} are more than the rest of the file can hold", n, type));
     seen += n;
@@ -475,18 +485,12 @@ Status GmshReader::read_elements() {
     for (std::size_t i = 0; i < n; ++i) {
       std::int64_t tag = 0, node = 0;
       PDR_TRY(in_.integer(tag, "element tag"));
-      std::array<Index, 4> v{};
+      std::array<Index, 6> v{};
       for (int k = 0; k < nodes; ++k) {
         PDR_TRY(in_.integer(node, "element node"));
         PDR_TRY(node_index(node, v[static_cast<std::size_t>(k)]));
       }
-      if (type == kGmshTetra) {
-        tets_.push_back(v);
-        tet_raw_.push_back({tag, entity, 0});
-      } else {
-        tris_.push_back({v[0], v[1], v[2]});
-        tri_raw_.push_back({tag, entity, 0});
-      }
+      add_element(type, {tag, entity, 0}, v);
     }
   }
   if (seen != total) return in_.error(fmt::format("element blocks hold {} elements, the header announced {}", seen, total));
@@ -506,9 +510,9 @@ Status GmshReader::read_elements_v2() {
     const std::size_t type_at = in_.last_token_start();
     const int nodes = gmsh_nodes(type);
     if (nodes == 0) return in_.error(fmt::format("unknown element type {}", type));
-    if (!skippable(type) && type != kGmshTriangle && type != kGmshTetra)
-      return unsupported(fmt::format("{}:{}: an element of Gmsh type {}: only 3-node triangles and 4-node "
-                                     "tetrahedra are read", in_.name(), in_.line_at(type_at), type));
+    if (!skippable(type) && !readable(type))
+      return unsupported(fmt::format("{}:{}: an element of Gmsh type {}: only {} are read", in_.name(),
+                                     in_.line_at(type_at), type, kReadTypes));
     PDR_TRY(in_.integer(ntags, "tag count"));
     if (ntags < 0 || static_cast<std::size_t>(ntags) * 2 > in_.remaining() + 1)
       return in_.error(fmt::format("tag count {} is not valid", ntags));
@@ -518,26 +522,37 @@ Status GmshReader::read_elements_v2() {
       PDR_TRY(in_.integer(t, "element tag"));
       if (k < 2) tags[k] = t;
     }
-    std::array<Index, 4> v{};
+    std::array<Index, 6> v{};
     for (int k = 0; k < nodes; ++k) {
       std::int64_t node = 0;
       PDR_TRY(in_.integer(node, "element node"));
-      if (k < 4 && !skippable(type)) PDR_TRY(node_index(node, v[static_cast<std::size_t>(k)]));
+      if (!skippable(type)) PDR_TRY(node_index(node, v[static_cast<std::size_t>(k)]));
     }
-    PDR_TRY(add_element_v2(type, tag, tags, v));
+    if (!skippable(type)) add_element(type, {tag, tags[1], tags[0]}, v);
   }
   return in_.expect("$EndElements");
 }
 
-Status GmshReader::add_element_v2(int type, std::int64_t tag, const int (&tags)[2], const std::array<Index, 4>& v) {
-  if (type == kGmshTetra) {
-    tets_.push_back(v);
-    tet_raw_.push_back({tag, tags[1], tags[0]});
-  } else if (type == kGmshTriangle) {
-    tris_.push_back({v[0], v[1], v[2]});
-    tri_raw_.push_back({tag, tags[1], tags[0]});
+void GmshReader::add_element(int type, const Raw& raw, const std::array<Index, 6>& v) {
+  switch (type) {
+    case kGmshTriangle:
+      tris_.push_back({v[0], v[1], v[2]});
+      tri_raw_.push_back(raw);
+      break;
+    case kGmshTetra:
+      tets_.push_back({v[0], v[1], v[2], v[3]});
+      tet_raw_.push_back(raw);
+      break;
+    case kGmshPrism:
+      prisms_.push_back(v);
+      prism_raw_.push_back(raw);
+      break;
+    case kGmshPyramid:
+      pyramids_.push_back({v[0], v[1], v[2], v[3], v[4]});
+      pyramid_raw_.push_back(raw);
+      break;
+    default: break;
   }
-  return {};
 }
 
 Status GmshReader::read_elements_v2_binary(std::size_t n) {
@@ -551,9 +566,9 @@ Status GmshReader::read_elements_v2_binary(std::size_t n) {
     PDR_TRY(bytes_.integer(ntags, 4, "tag count"));
     const int nodes = type > 0 && type < 100 ? gmsh_nodes(static_cast<int>(type)) : 0;
     if (nodes == 0) return bytes_.error_at(block_at, fmt::format("unknown element type {}", type));
-    if (!skippable(static_cast<int>(type)) && type != kGmshTriangle && type != kGmshTetra)
-      return unsupported(fmt::format("{}: byte offset {}: elements of Gmsh type {}: only 3-node triangles and "
-                                     "4-node tetrahedra are read", in_.name(), block_at, type));
+    if (!skippable(static_cast<int>(type)) && !readable(static_cast<int>(type)))
+      return unsupported(fmt::format("{}: byte offset {}: elements of Gmsh type {}: only {} are read", in_.name(),
+                                     block_at, type, kReadTypes));
     if (count < 1 || static_cast<std::uint64_t>(count) > n - seen || ntags < 0 || ntags > 1000)
       return bytes_.error_at(block_at, fmt::format("element block of {} elements with {} tags is not valid", count, ntags));
     const std::uint64_t record = 4 * (1 + static_cast<std::uint64_t>(ntags) + static_cast<std::uint64_t>(nodes));
@@ -566,15 +581,15 @@ Status GmshReader::read_elements_v2_binary(std::size_t n) {
         PDR_TRY(bytes_.integer(x, 4, "element tag"));
         if (k < 2) tags[k] = static_cast<int>(x);
       }
-      std::array<Index, 4> v{};
+      std::array<Index, 6> v{};
       for (int k = 0; k < nodes; ++k) {
         PDR_TRY(bytes_.integer(x, 4, "element node"));
-        if (k < 4 && !skippable(static_cast<int>(type))) {
+        if (!skippable(static_cast<int>(type))) {
           if (Status s = node_index(x, v[static_cast<std::size_t>(k)]); !s.ok())
             return bytes_.error(fmt::format("node tag {} is not in $Nodes", x));
         }
       }
-      PDR_TRY(add_element_v2(static_cast<int>(type), tag, tags, v));
+      if (!skippable(static_cast<int>(type))) add_element(static_cast<int>(type), {tag, tags[1], tags[0]}, v);
     }
     seen += static_cast<std::size_t>(count);
   }
@@ -665,6 +680,9 @@ Result<VolumeMesh> GmshReader::read() {
     mesh.tet_regions = std::move(regions);
     mesh.region_names = std::move(region_names_);
   }
+  // Prisms and pyramids belong to no region (a mixed mesh has one).
+  for (std::size_t i : by_tag(prism_raw_)) mesh.prisms.push_back(prisms_[i]);
+  for (std::size_t i : by_tag(pyramid_raw_)) mesh.pyramids.push_back(pyramids_[i]);
   mesh.boundary_names = std::move(names_);
   return mesh;
 }

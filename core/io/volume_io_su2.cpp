@@ -23,6 +23,7 @@
 #include <limits>
 #include <map>
 #include <set>
+#include <type_traits>
 
 #include "pdrmesh/boundary_names.hpp"
 #include "volume_io_detail.hpp"
@@ -174,15 +175,26 @@ Result<VolumeMesh> Su2Reader::read() {
       std::size_t n = 0;
       PDR_TRY(in_.parse_count(value, n, 6, "NELEM"));
       mesh.tets.reserve(n);
+      // Cells in VTK's vertex order, which is ours (mixed_cells.hpp).
+      const auto cell = [&](auto& list) -> Status {
+        typename std::remove_reference_t<decltype(list)>::value_type k{};
+        for (Index& v : k) PDR_TRY(raw_index(v, "element point"));
+        list.push_back(k);
+        return {};
+      };
       for (std::size_t i = 0; i < n; ++i) {
         int type = 0;
         PDR_TRY(in_.integer(type, "element type"));
-        if (type != kSu2Tetra)
-          return unsupported(fmt::format("{}:{}: element of VTK type {}: only tetrahedra (10) are read", in_.name(),
-                                         in_.line_at(in_.last_token_start()), type));
-        Tet k{};
-        for (Index& v : k) PDR_TRY(raw_index(v, "element point"));
-        mesh.tets.push_back(k);
+        if (type == kSu2Tetra) {
+          PDR_TRY(cell(mesh.tets));
+        } else if (type == kSu2Prism) {
+          PDR_TRY(cell(mesh.prisms));
+        } else if (type == kSu2Pyramid) {
+          PDR_TRY(cell(mesh.pyramids));
+        } else {
+          return unsupported(fmt::format("{}:{}: element of VTK type {}: only tetrahedra (10), prisms (13) and "
+                                         "pyramids (14) are read", in_.name(), in_.line_at(in_.last_token_start()), type));
+        }
         in_.skip_line();  // the optional element index
       }
     } else if (key == "NPOIN") {

@@ -18,7 +18,9 @@
 // AFLR3 accepts either normal direction on a closed surface (UG_IO "3D
 // Input/Output Grids"); refine's own fixtures use inward normals. We write the
 // mesh's outward triangles unchanged so that a round trip is exact.
-// UGRID holds no regions.
+// Pyramids and prisms in UGRID's vertex order, a mirror of VTK's (see
+// volume_io_mixed.cpp, which writes them): prism (1, 0, 2, 4, 3, 5) and
+// pyramid (1, 0, 4, 2, 3) of our vertices. UGRID holds no regions.
 //
 // Boundary names go into FUN3D's .mapbc beside the grid (volume_io.hpp,
 // mapbc_path): "N" on the first line, then "ID BC NAME" per surface id.
@@ -38,12 +40,16 @@ struct Header {
   std::int64_t nodes = 0, tri = 0, quad = 0, tet = 0, pyr = 0, prz = 0, hex = 0;
 };
 
-Status only_tets(const Header& h, const std::string& name) {
-  if (h.quad != 0 || h.pyr != 0 || h.prz != 0 || h.hex != 0)
-    return unsupported(fmt::format("{}: {} quads, {} pyramids, {} prisms, {} hexes: only tetrahedral meshes are read",
-                                   name, h.quad, h.pyr, h.prz, h.hex));
+Status no_quads_or_hexes(const Header& h, const std::string& name) {
+  if (h.quad != 0 || h.hex != 0)
+    return unsupported(fmt::format("{}: {} boundary quads, {} hexes: only triangles, tets, pyramids and prisms are read",
+                                   name, h.quad, h.hex));
   return {};
 }
+
+/// Our vertex order from UGRID's: the inverses of the orders above.
+Pyramid pyramid_from_ugrid(const Pyramid& u) { return {u[1], u[0], u[3], u[4], u[2]}; }
+Prism prism_from_ugrid(const Prism& u) { return {u[1], u[0], u[2], u[4], u[3], u[5]}; }
 
 }  // namespace
 
@@ -77,15 +83,16 @@ Result<VolumeMesh> read_ugrid_ascii(std::string_view text, const std::string& na
   std::string_view counts[7];
   for (std::string_view& c : counts) c = in.next();
   PDR_TRY(in.parse_integer(counts[2], h.quad, "quad count"));
-  PDR_TRY(in.parse_integer(counts[4], h.pyr, "pyramid count"));
-  PDR_TRY(in.parse_integer(counts[5], h.prz, "prism count"));
   PDR_TRY(in.parse_integer(counts[6], h.hex, "hex count"));
-  PDR_TRY(only_tets(h, name));
-  std::size_t np = 0, nb = 0, nt = 0;  // each checked against the file size
+  PDR_TRY(no_quads_or_hexes(h, name));
+  std::size_t np = 0, nb = 0, nt = 0, ny = 0, nq = 0;  // each checked against the file size
   PDR_TRY(in.parse_count(counts[0], np, 3, "node count"));
   PDR_TRY(in.parse_count(counts[1], nb, 4, "triangle count"));
   PDR_TRY(in.parse_count(counts[3], nt, 4, "tet count"));
-  if (static_cast<std::uint64_t>(np) * 6 + static_cast<std::uint64_t>(nb) * 8 + static_cast<std::uint64_t>(nt) * 8 >
+  PDR_TRY(in.parse_count(counts[4], ny, 5, "pyramid count"));
+  PDR_TRY(in.parse_count(counts[5], nq, 6, "prism count"));
+  if (static_cast<std::uint64_t>(np) * 6 + static_cast<std::uint64_t>(nb) * 8 + static_cast<std::uint64_t>(nt) * 8 +
+          static_cast<std::uint64_t>(ny) * 10 + static_cast<std::uint64_t>(nq) * 12 >
       in.remaining() + 1)
     return in.error("the header counts are more than the rest of the file can hold");
 
@@ -104,6 +111,16 @@ Result<VolumeMesh> read_ugrid_ascii(std::string_view text, const std::string& na
   mesh.tets.resize(nt);
   for (Tet& t : mesh.tets)
     for (Index& v : t) PDR_TRY(in.index(v, 1, np, "tet node"));
+  mesh.pyramids.resize(ny);
+  for (Pyramid& c : mesh.pyramids) {
+    for (Index& v : c) PDR_TRY(in.index(v, 1, np, "pyramid node"));
+    c = pyramid_from_ugrid(c);
+  }
+  mesh.prisms.resize(nq);
+  for (Prism& c : mesh.prisms) {
+    for (Index& v : c) PDR_TRY(in.index(v, 1, np, "prism node"));
+    c = prism_from_ugrid(c);
+  }
   return mesh;
 }
 
@@ -141,13 +158,16 @@ Result<VolumeMesh> read_ugrid_binary(std::string_view data, const std::string& n
       return in.error_at(at, fmt::format("negative count {} in the header (wrong byte order? this reader "
                                          "expects {} endian)", *v, little ? "little" : "big"));
   }
-  PDR_TRY(only_tets(h, name));
+  PDR_TRY(no_quads_or_hexes(h, name));
   const auto np = static_cast<std::uint64_t>(h.nodes), nb = static_cast<std::uint64_t>(h.tri),
-             nt = static_cast<std::uint64_t>(h.tet);
-  const std::uint64_t need = np * 24 + nb * 16 + nt * 16;
-  if (np >= kNoIndex || nb >= kNoIndex || nt >= kNoIndex || need > data.size() - in.pos())
-    return in.error(fmt::format("header counts ({} nodes, {} triangles, {} tets) need {} bytes after the header, "
-                                "the file has {}", np, nb, nt, need, data.size() - in.pos()));
+             nt = static_cast<std::uint64_t>(h.tet), ny = static_cast<std::uint64_t>(h.pyr),
+             nq = static_cast<std::uint64_t>(h.prz);
+  const std::uint64_t need = np * 24 + nb * 16 + nt * 16 + ny * 20 + nq * 24;
+  if (np >= kNoIndex || nb >= kNoIndex || nt >= kNoIndex || ny >= kNoIndex || nq >= kNoIndex ||
+      need > data.size() - in.pos())
+    return in.error(fmt::format("header counts ({} nodes, {} triangles, {} tets, {} pyramids, {} prisms) need {} "
+                                "bytes after the header, the file has {}",
+                                np, nb, nt, ny, nq, need, data.size() - in.pos()));
   VolumeMesh mesh;
   mesh.points.resize(static_cast<std::size_t>(np));
   for (Vec3& p : mesh.points)
@@ -164,6 +184,16 @@ Result<VolumeMesh> read_ugrid_binary(std::string_view data, const std::string& n
   mesh.tets.resize(static_cast<std::size_t>(nt));
   for (Tet& t : mesh.tets)
     for (Index& v : t) PDR_TRY(in.index(v, 4, mesh.points.size(), "tet node"));
+  mesh.pyramids.resize(static_cast<std::size_t>(ny));
+  for (Pyramid& c : mesh.pyramids) {
+    for (Index& v : c) PDR_TRY(in.index(v, 4, mesh.points.size(), "pyramid node"));
+    c = pyramid_from_ugrid(c);
+  }
+  mesh.prisms.resize(static_cast<std::size_t>(nq));
+  for (Prism& c : mesh.prisms) {
+    for (Index& v : c) PDR_TRY(in.index(v, 4, mesh.points.size(), "prism node"));
+    c = prism_from_ugrid(c);
+  }
   return mesh;
 }
 

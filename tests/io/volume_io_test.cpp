@@ -211,6 +211,26 @@ TEST_F(VolumeIo, RoundTripsGridWithInterleavedRegionsAndNoRegions) {
   }
 }
 
+TEST_F(VolumeIo, RoundTripsPrismsAndPyramidsInEveryFormat) {
+  // Cell arrays only (a format keeps what it is given; validate_mesh judges
+  // conformity): the cube's tets and boundary, and cells on its corners whose
+  // vertices are all different, so that a permuted vertex order shows.
+  VolumeMesh m = grid_mesh(1);
+  m.tet_regions.clear();
+  m.prisms = {{0, 1, 2, 4, 5, 6}, {7, 3, 1, 6, 2, 0}};
+  m.pyramids = {{0, 1, 3, 2, 4}, {5, 7, 6, 4, 3}};
+  for (const FormatCase& f : kFormats) {
+    SCOPED_TRACE(f.suffix);
+    const fs::path p = path(std::string("mixed") + f.suffix);
+    ASSERT_TRUE(write_volume(m, p).ok());
+    const auto r = read_volume(p);
+    ASSERT_TRUE(r.ok()) << r.status().to_string();
+    expect_same_mesh(m, *r, false);
+    EXPECT_EQ(r->prisms, m.prisms);
+    EXPECT_EQ(r->pyramids, m.pyramids);
+  }
+}
+
 TEST_F(VolumeIo, GmshRestoresElementOrderAcrossEntityBlocks) {
   // Boundary ids interleaved: Gmsh groups them by entity, element tags restore the order.
   VolumeMesh m = grid_mesh(1);

@@ -141,21 +141,21 @@ TEST(Layers, SphereGrowsFiveLayersOnEveryTriangle) {
   EXPECT_NEAR(layers.ratio_max, 1.2, 0.05);
 }
 
-TEST(Layers, MixedMeshIsWrittenInEveryFormatAndReadBackFromMeditAndVtu) {
+TEST(Layers, MixedMeshIsWrittenInEveryFormatAndReadBackValid) {
   const SurfaceMesh sphere = fixtures::corpus_surface("sphere966");
   const LayeredResult& r = sphere_layers();
-  for (const char* suffix : {".msh", ".su2", ".ugrid", ".lb8.ugrid", ".b8.ugrid", ".cgns"}) {
-    const auto path = temp_path(std::string("out") + suffix);
-    EXPECT_TRUE(write_volume(r.mesh, path).ok()) << suffix;
-    EXPECT_GT(std::filesystem::file_size(path), 0u) << suffix;
+  {  // CGNS is written, not read
+    const auto path = temp_path("out.cgns");
+    EXPECT_TRUE(write_volume(r.mesh, path).ok());
+    EXPECT_GT(std::filesystem::file_size(path), 0u);
     std::filesystem::remove(path);
-    std::filesystem::remove(mapbc_path(path));
   }
-  for (const char* suffix : {".mesh", ".meshb", ".vtu"}) {
+  for (const char* suffix : {".mesh", ".meshb", ".vtu", ".msh", ".su2", ".ugrid", ".lb8.ugrid", ".b8.ugrid"}) {
     const auto path = temp_path(std::string("out") + suffix);
     ASSERT_TRUE(write_volume(r.mesh, path).ok()) << suffix;
     auto back = read_volume(path);
     std::filesystem::remove(path);
+    std::filesystem::remove(mapbc_path(path));
     ASSERT_TRUE(back.ok()) << suffix << ": " << back.status().to_string();
     EXPECT_EQ(back->points, r.mesh.points) << suffix;
     EXPECT_EQ(back->tets, r.mesh.tets) << suffix;
