@@ -64,12 +64,17 @@ void LayerArgs::add_to(CLI::App* cmd) {
                   "(default: every surface; with --farfield every surface of the body)")
       ->delimiter(',')
       ->type_name("NAMES");
+  cmd->add_option("--layers-in", in,
+                  "with --layers, for a surface of several regions (nested shells): the regions on whose side "
+                  "the walls grow layers, by name or id, comma-separated (the others get tets only)")
+      ->delimiter(',')
+      ->type_name("REGIONS");
 }
 
 void LayerArgs::check(const CLI::App& cmd) const {
   if (layers == 0) {
-    for (const char* o : {"--first-height", "--growth-ratio", "--layers-max-thickness", "--layers-on", "--reynolds",
-                          "--reference-length"})
+    for (const char* o : {"--first-height", "--growth-ratio", "--layers-max-thickness", "--layers-on", "--layers-in",
+                          "--reynolds", "--reference-length"})
       if (cmd.count(o) > 0) usage_error(fmt::format("{}: only with --layers", o));
     return;
   }
@@ -93,6 +98,7 @@ LayerRequest LayerArgs::request() const {
   r.growth_ratio = growth_ratio;
   if (max_thickness > 0) r.max_thickness = max_thickness;
   r.on = on;
+  r.in = in;
   return r;
 }
 

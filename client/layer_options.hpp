@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: AGPL-3.0-or-later
 // The prism-layer options of `pdrmesh mesh` (--layers, --first-height,
-// --growth-ratio, --layers-max-thickness, --layers-on) and their checks.
+// --growth-ratio, --layers-max-thickness, --layers-on, --layers-in) and their checks.
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -35,6 +35,7 @@ struct LayerArgs {
   double growth_ratio = 1.2;
   double max_thickness = 0;  ///< 0: no cap
   std::vector<std::string> on;  ///< boundary names or ids; empty: every surface
+  std::vector<std::string> in;  ///< region names or ids (LayerOptions::regions)
 
   void add_to(CLI::App* cmd);
   /// Usage errors across options, after parsing: --first-height needed with

@@ -137,11 +137,11 @@ std::optional<FarfieldOptions> farfield_options(std::optional<double> farfield, 
 std::optional<LayerRequest> layer_request(std::optional<int> layers, const py::handle& first_height,
                                           std::optional<double> reynolds, std::optional<double> reference_length,
                                           double growth_ratio, std::optional<double> max_thickness,
-                                          const std::vector<std::string>& on) {
+                                          const std::vector<std::string>& on, const std::vector<std::string>& in) {
   if (!layers) {
-    if (!first_height.is_none() || reynolds || reference_length || max_thickness || !on.empty())
-      throw py::value_error("first_height, reynolds, reference_length, layers_max_thickness and layers_on: only "
-                            "with layers");
+    if (!first_height.is_none() || reynolds || reference_length || max_thickness || !on.empty() || !in.empty())
+      throw py::value_error("first_height, reynolds, reference_length, layers_max_thickness, layers_on and "
+                            "layers_in: only with layers");
     return std::nullopt;
   }
   if (first_height.is_none()) throw py::value_error("layers: give the first layer's height with first_height");
@@ -163,6 +163,7 @@ std::optional<LayerRequest> layer_request(std::optional<int> layers, const py::h
   r.growth_ratio = growth_ratio;
   r.max_thickness = max_thickness;
   r.on = on;
+  r.in = in;
   if (Status s = validate(r); !s.ok()) throw py::value_error(s.message());
   return r;
 }
@@ -280,7 +281,15 @@ VolumeMesh to_volume(const py::handle& points, const py::handle& tets, const py:
   if (!pyramids.is_none()) m.pyramids = to_cells<5>(pyramids, "pyramids", m.points.size());
   if (!boundary.is_none()) m.boundary = to_cells<3>(boundary, "boundary", m.points.size());
   if (!boundary_ids.is_none()) m.boundary_ids = to_ints(boundary_ids, "boundary_ids", m.boundary.size());
-  if (!regions.is_none()) m.tet_regions = to_ints(regions, "regions", m.tets.size());
+  // Regions: one per volume cell, tets then prisms then pyramids (as meshio's blocks).
+  if (!regions.is_none()) {
+    std::vector<int> all = to_ints(regions, "regions", m.tets.size() + m.prisms.size() + m.pyramids.size());
+    const auto at = [&](std::size_t k) { return all.begin() + static_cast<std::ptrdiff_t>(k); };
+    m.prism_regions.assign(at(m.tets.size()), at(m.tets.size() + m.prisms.size()));
+    m.pyramid_regions.assign(at(m.tets.size() + m.prisms.size()), all.end());
+    all.resize(m.tets.size());
+    m.tet_regions = std::move(all);
+  }
   m.boundary_names = to_names(names);
   m.region_names = to_names(region_names);
   return m;
@@ -329,7 +338,12 @@ py::dict volume_dict(const VolumeMesh& m) {
   d["pyramids"] = cells_array(m.pyramids);
   d["boundary"] = cells_array(m.boundary);
   d["boundary_ids"] = ints_array(m.boundary_ids);
-  d["regions"] = m.tet_regions.empty() ? py::object(py::none()) : py::object(ints_array(m.tet_regions));
+  std::vector<int> regions = m.tet_regions;  // per volume cell: tets, prisms, pyramids
+  if (!regions.empty()) {
+    regions.insert(regions.end(), m.prism_regions.begin(), m.prism_regions.end());
+    regions.insert(regions.end(), m.pyramid_regions.begin(), m.pyramid_regions.end());
+  }
+  d["regions"] = regions.empty() ? py::object(py::none()) : py::object(ints_array(regions));
   d["boundary_names"] = m.boundary_names;
   d["region_names"] = m.region_names;
   return d;
@@ -532,7 +546,7 @@ PYBIND11_MODULE(_pdrmesh, m) {
         arg("hmin"), arg("hmax"), arg("growth"), arg("max_tets"), arg("workers"), arg("depth"), arg("kernel"),
         arg("optimize"), arg("time_limit"), arg("validate"), arg("farfield"), arg("farfield_shape"), arg("layers"));
   m.def("layer_request", &layer_request, arg("layers"), arg("first_height"), arg("reynolds"), arg("reference_length"),
-        arg("growth_ratio"), arg("max_thickness"), arg("on"));
+        arg("growth_ratio"), arg("max_thickness"), arg("on"), arg("in"));
   m.def("quality", &quality_py, arg("points"), arg("tets"));
   m.def("min_dihedral", &min_dihedral_py, arg("points"), arg("tets"));
   m.def("validate", &validate_py, arg("points"), arg("tets"), arg("boundary"), arg("boundary_ids"), arg("regions"),

@@ -40,12 +40,13 @@ std::optional<FarfieldOptions> farfield_options(std::optional<double> farfield, 
 
 /// The layers of the keywords layers (None: none), first_height (a length,
 /// or "yplus:Y" with reynolds), reynolds, reference_length, growth_ratio,
-/// layers_max_thickness and layers_on (boundary names or ids), as `pdrmesh
-/// mesh --layers ...` takes them; ValueError for what the CLI refuses.
+/// layers_max_thickness, layers_on (boundary names or ids) and layers_in
+/// (region names or ids), as `pdrmesh mesh --layers ...` takes them;
+/// ValueError for what the CLI refuses.
 std::optional<LayerRequest> layer_request(std::optional<int> layers, const pybind11::handle& first_height,
                                           std::optional<double> reynolds, std::optional<double> reference_length,
                                           double growth_ratio, std::optional<double> max_thickness,
-                                          const std::vector<std::string>& on);
+                                          const std::vector<std::string>& on, const std::vector<std::string>& in);
 
 /// Binds the service client (service.cpp).
 void bind_service(pybind11::module_& m);

@@ -19,6 +19,7 @@
 #include "pdrmesh/boundary_names.hpp"
 #include "pdrmesh/boundary_names_io.hpp"
 #include "pdrmesh/digest.hpp"
+#include "pdrmesh/layered_pipeline.hpp"
 #include "pdrmesh/pipeline.hpp"
 #include "pdrmesh/surface_check.hpp"
 #include "pdrmesh/surface_io.hpp"
@@ -66,6 +67,8 @@ Result<JobDomain> job_domain(SurfaceMesh surface, const JobOptions& options, std
   if (options.layers) {
     auto layers = resolve_layers(*options.layers, surface, body_ids);
     if (!layers.ok()) return invalid_input("job option layers: " + layers.status().message());
+    if (Status s = check_layer_regions(surface, *layers); !s.ok())
+      return invalid_input("job option layers: " + s.message());
     d.layers = *layers;
   }
   d.surface = std::move(surface);
@@ -99,6 +102,7 @@ std::string JobOptions::to_json() const {
     l["growth_ratio"] = layers->growth_ratio;
     if (layers->max_thickness) l["max_thickness"] = *layers->max_thickness;
     if (!layers->on.empty()) l["on"] = layers->on;
+    if (!layers->in.empty()) l["in"] = layers->in;
   }
   return j.dump();
 }
@@ -110,11 +114,11 @@ Result<LayerRequest> layers_from_json(const nlohmann::json& j) {
   if (!j.is_object()) return invalid_input("job option layers must be an object");
   LayerRequest r;
   for (const auto& [key, value] : j.items()) {
-    if (key == "on") {
-      if (!value.is_array()) return invalid_input("job option layers.on must be an array of names");
-      for (const auto& name : value) {
-        if (!name.is_string()) return invalid_input("job option layers.on must be an array of names");
-        r.on.push_back(name.get<std::string>());
+    if (key == "on" || key == "in") {
+      std::vector<std::string>& names = key == "on" ? r.on : r.in;
+      for (const auto& name : value.is_array() ? value : nlohmann::json::array({nullptr})) {
+        if (!name.is_string()) return invalid_input(fmt::format("job option layers.{} must be an array of names", key));
+        names.push_back(name.get<std::string>());
       }
       continue;
     }

@@ -11,9 +11,11 @@
 // A mesh with regions has one TETRA_4 section per region instead (ascending
 // id, named by region_name(), its tets in mesh order; the tets are numbered
 // in that order). A mixed mesh (prism layers) has a PENTA_6 section "Prisms"
-// and a PYRA_5 section "Pyramids" after the tets, numbered after them; CGNS's
-// vertex orders are ours (mixed_cells.hpp: a prism's bottom, then the top
-// above it; a pyramid's base, then its apex; each base facing the rest). The file is byte-identical for one mesh: what HDF5 and
+// and a PYRA_5 section "Pyramids" after the tets, numbered after them (with
+// regions one of each per region, "<region>_Prisms", "<region>_Pyramids", as
+// for the tets); CGNS's vertex orders are ours (mixed_cells.hpp: a prism's
+// bottom, then the top above it; a pyramid's base, then its apex; each base
+// facing the rest). The file is byte-identical for one mesh: what HDF5 and
 // libcgns write that changes from write to write (object times, unset bytes
 // in fixed-size strings) is cleared afterwards (clear_hdf5_noise).
 #include <cgnslib.h>
@@ -279,20 +281,30 @@ Status write_cgns(const VolumeMesh& mesh, const std::filesystem::path& path) {
   }
 
   cgsize_t next = tets + 1;
-  const auto mixed_section = [&](const char* name, CGNS_ENUMT(ElementType_t) type, const auto& list) -> Status {
-    if (list.empty()) return {};
-    conn.clear();
-    for (const auto& c : list)
-      for (Index v : c) conn.push_back(static_cast<cgsize_t>(v) + 1);
-    const auto count = static_cast<cgsize_t>(list.size());
-    used.insert(name);
-    if (cg_section_write(fn, base, zone, name, type, next, next + count - 1, 0, conn.data(), &node) != CG_OK)
-      return failed(name);
-    next += count;
+  // One section of a kind, or with regions one per region as for the tets.
+  const auto mixed_section = [&](const char* kind, CGNS_ENUMT(ElementType_t) type, const auto& list,
+                                 const std::vector<int>& regions) -> Status {
+    std::vector<std::size_t> by_region(list.size());
+    for (std::size_t i = 0; i < by_region.size(); ++i) by_region[i] = i;
+    const bool per_region = regions.size() == list.size() && !list.empty();
+    if (per_region)
+      std::stable_sort(by_region.begin(), by_region.end(), [&](std::size_t a, std::size_t b) { return regions[a] < regions[b]; });
+    for (std::size_t k = 0; k < by_region.size();) {
+      const int id = per_region ? regions[by_region[k]] : 0;
+      conn.clear();
+      cgsize_t count = 0;
+      for (; k < by_region.size() && (!per_region || regions[by_region[k]] == id); ++k, ++count)
+        for (Index v : list[by_region[k]]) conn.push_back(static_cast<cgsize_t>(v) + 1);
+      const std::string name = per_region ? cgns_name(fmt::format("{}_{}", region_name(mesh.region_names, id), kind), id, used)
+                                          : cgns_name(kind, 0, used);
+      if (cg_section_write(fn, base, zone, name.c_str(), type, next, next + count - 1, 0, conn.data(), &node) != CG_OK)
+        return failed(name);
+      next += count;
+    }
     return {};
   };
-  PDR_TRY(mixed_section("Prisms", CGNS_ENUMV(PENTA_6), mesh.prisms));
-  PDR_TRY(mixed_section("Pyramids", CGNS_ENUMV(PYRA_5), mesh.pyramids));
+  PDR_TRY(mixed_section("Prisms", CGNS_ENUMV(PENTA_6), mesh.prisms, mesh.prism_regions));
+  PDR_TRY(mixed_section("Pyramids", CGNS_ENUMV(PYRA_5), mesh.pyramids, mesh.pyramid_regions));
 
   std::vector<std::size_t> order(mesh.boundary.size());
   for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;

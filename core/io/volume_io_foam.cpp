@@ -198,9 +198,12 @@ Status write_foam_faces(const VolumeMesh& mesh, const Faces& cf, std::size_t nce
     return {};
   }));
 
-  // Regions as cellZones named by region_name(), ascending id, when there are two or more.
+  // Regions as cellZones named by region_name(), ascending id, when there are
+  // two or more; cells numbered as the faces' owners are: tets, prisms, pyramids.
   std::map<int, std::vector<Index>> zones;
-  for (std::size_t t = 0; t < mesh.tet_regions.size(); ++t) zones[mesh.tet_regions[t]].push_back(static_cast<Index>(t));
+  Index cell = 0;
+  for (const std::vector<int>* regions : {&mesh.tet_regions, &mesh.prism_regions, &mesh.pyramid_regions})
+    for (int r : *regions) zones[r].push_back(cell++);
   if (zones.size() < 2) return {};
   return write_foam_file(dir / "cellZones", [&](OutputFile& out) -> Status {
     foam_header(out.buf(), "regIOobject", "cellZones");

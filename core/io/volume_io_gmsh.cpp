@@ -665,24 +665,28 @@ Result<VolumeMesh> GmshReader::read() {
     mesh.boundary.push_back(tris_[i]);
     mesh.boundary_ids.push_back(resolve(2, tri_raw_[i], "surface_", named));
   }
-  const std::vector<std::size_t> tet_order = by_tag(tet_raw_);
-  std::vector<int> regions;
+  // Cells of each kind in tag order, with the region of their volume.
   std::vector<int> entities;
   bool any_named = false;
-  for (std::size_t i : tet_order) {
-    mesh.tets.push_back(tets_[i]);
-    regions.push_back(resolve(3, tet_raw_[i], "region_", named));
-    any_named = any_named || named;
-    entities.push_back(major_ == 2 ? regions.back() : tet_raw_[i].entity);
-  }
+  const auto cells = [&](const auto& list, const std::vector<Raw>& raw, auto& to, std::vector<int>& regions) {
+    for (std::size_t i : by_tag(raw)) {
+      to.push_back(list[i]);
+      regions.push_back(resolve(3, raw[i], "region_", named));
+      any_named = any_named || named;
+      entities.push_back(major_ == 2 ? regions.back() : raw[i].entity);
+    }
+  };
+  cells(tets_, tet_raw_, mesh.tets, mesh.tet_regions);
+  cells(prisms_, prism_raw_, mesh.prisms, mesh.prism_regions);
+  cells(pyramids_, pyramid_raw_, mesh.pyramids, mesh.pyramid_regions);
   // One unnamed volume means "no regions" (what we write for a mesh without them).
   if (any_named || distinct(std::move(entities)).size() > 1) {
-    mesh.tet_regions = std::move(regions);
     mesh.region_names = std::move(region_names_);
+  } else {
+    mesh.tet_regions.clear();
+    mesh.prism_regions.clear();
+    mesh.pyramid_regions.clear();
   }
-  // Prisms and pyramids belong to no region (a mixed mesh has one).
-  for (std::size_t i : by_tag(prism_raw_)) mesh.prisms.push_back(prisms_[i]);
-  for (std::size_t i : by_tag(pyramid_raw_)) mesh.pyramids.push_back(pyramids_[i]);
   mesh.boundary_names = std::move(names_);
   return mesh;
 }

@@ -37,13 +37,27 @@ constexpr int kKwHexahedra = 10;
 constexpr int kKwPyramids = 49;
 constexpr int kKwEnd = 54;
 
-/// Regions from element refs: all zero means the mesh had none.
-std::vector<int> regions_from_refs(std::vector<int> refs) {
-  if (std::all_of(refs.begin(), refs.end(), [](int r) { return r == 0; })) refs.clear();
-  return refs;
-}
+/// The element refs of every kind of cell: their regions, all zero when the
+/// mesh has none (VolumeMesh::tet_regions, prism_regions, pyramid_regions).
+struct CellRefs {
+  std::vector<int> tets, prisms, pyramids;
+  void set_regions(VolumeMesh& mesh) {
+    const auto zero = [](const std::vector<int>& refs) {
+      return std::all_of(refs.begin(), refs.end(), [](int r) { return r == 0; });
+    };
+    if (zero(tets) && zero(prisms) && zero(pyramids)) return;
+    tets.resize(mesh.tets.size());
+    prisms.resize(mesh.prisms.size());
+    pyramids.resize(mesh.pyramids.size());
+    mesh.tet_regions = std::move(tets);
+    mesh.prism_regions = std::move(prisms);
+    mesh.pyramid_regions = std::move(pyramids);
+  }
+};
 
-int tet_ref(const VolumeMesh& mesh, std::size_t t) { return mesh.tet_regions.empty() ? 0 : mesh.tet_regions[t]; }
+/// Cell i's ref: its region, 0 in a mesh without regions.
+int ref_of(const std::vector<int>& regions, std::size_t i) { return regions.empty() ? 0 : regions[i]; }
+int tet_ref(const VolumeMesh& mesh, std::size_t t) { return ref_of(mesh.tet_regions, t); }
 
 bool starts_alpha(std::string_view t) { return !t.empty() && std::isalpha(static_cast<unsigned char>(t[0])); }
 
@@ -78,19 +92,19 @@ Status write_medit(const VolumeMesh& mesh, const std::filesystem::path& path) {
       PDR_TRY(out.maybe_flush());
     }
   }
-  // Prisms and pyramids in our vertex order (mixed_cells.hpp), which Gmsh reads unpermuted, ref 0.
-  const auto cells = [&](const char* name, const auto& list) -> Status {
+  // Prisms and pyramids in our vertex order (mixed_cells.hpp), which Gmsh reads unpermuted, ref their region.
+  const auto cells = [&](const char* name, const auto& list, const std::vector<int>& regions) -> Status {
     if (list.empty()) return {};
     fmt::format_to(it, "\n{}\n{}\n", name, list.size());
-    for (const auto& c : list) {
-      put_cell(buf, c, 1);
-      fmt::format_to(it, " 0\n");
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      put_cell(buf, list[i], 1);
+      fmt::format_to(it, FMT_COMPILE(" {}\n"), ref_of(regions, i));
       PDR_TRY(out.maybe_flush());
     }
     return {};
   };
-  PDR_TRY(cells("Prisms", mesh.prisms));
-  PDR_TRY(cells("Pyramids", mesh.pyramids));
+  PDR_TRY(cells("Prisms", mesh.prisms, mesh.prism_regions));
+  PDR_TRY(cells("Pyramids", mesh.pyramids, mesh.pyramid_regions));
   fmt::format_to(it, "\nEnd\n");
   return out.close();
 }
@@ -98,7 +112,7 @@ Status write_medit(const VolumeMesh& mesh, const std::filesystem::path& path) {
 Result<VolumeMesh> read_medit(std::string_view text, const std::string& name) {
   TextScanner in(text, name, '#');
   VolumeMesh mesh;
-  std::vector<int> refs;
+  CellRefs refs;
   bool have_vertices = false, have_triangles = false, have_tets = false;
   for (;;) {
     const std::string_view kw = in.next();
@@ -146,11 +160,11 @@ Result<VolumeMesh> read_medit(std::string_view text, const std::string& name) {
       std::size_t n = 0;
       PDR_TRY(in.count(n, 5, "tetrahedron count"));
       mesh.tets.resize(n);
-      refs.resize(n);
+      refs.tets.resize(n);
       const std::size_t np = mesh.points.size();
       for (std::size_t i = 0; i < n; ++i) {
         for (Index& v : mesh.tets[i]) PDR_TRY(in.index(v, 1, np, "tetrahedron vertex"));
-        PDR_TRY(in.integer(refs[i], "tetrahedron ref"));
+        PDR_TRY(in.integer(refs.tets[i], "tetrahedron ref"));
       }
     } else if (iequals(kw, "Prisms") || iequals(kw, "Pyramids")) {
       if (!have_vertices) return in.error(fmt::format("{} before Vertices", std::string(kw)));
@@ -160,7 +174,8 @@ Result<VolumeMesh> read_medit(std::string_view text, const std::string& name) {
       std::size_t n = 0;
       PDR_TRY(in.count(n, prisms ? 7 : 6, "element count"));
       const std::size_t np = mesh.points.size();
-      int ref = 0;
+      std::vector<int>& cell_refs = prisms ? refs.prisms : refs.pyramids;
+      cell_refs.resize(n);
       if (prisms) mesh.prisms.resize(n);
       else mesh.pyramids.resize(n);
       for (std::size_t i = 0; i < n; ++i) {
@@ -168,7 +183,7 @@ Result<VolumeMesh> read_medit(std::string_view text, const std::string& name) {
           for (Index& v : mesh.prisms[i]) PDR_TRY(in.index(v, 1, np, "prism vertex"));
         else
           for (Index& v : mesh.pyramids[i]) PDR_TRY(in.index(v, 1, np, "pyramid vertex"));
-        PDR_TRY(in.integer(ref, "element ref"));
+        PDR_TRY(in.integer(cell_refs[i], "element ref"));
       }
     } else if (iequals(kw, "Quadrilaterals") || iequals(kw, "Hexahedra")) {
       const std::size_t at = in.last_token_start();
@@ -185,7 +200,7 @@ Result<VolumeMesh> read_medit(std::string_view text, const std::string& name) {
     }
   }
   if (!have_vertices) return invalid_input(fmt::format("{}: no Vertices section", name));
-  mesh.tet_regions = regions_from_refs(std::move(refs));
+  refs.set_regions(mesh);
   return mesh;
 }
 
@@ -252,20 +267,20 @@ Status write_meshb(const VolumeMesh& mesh, const std::filesystem::path& path) {
       PDR_TRY(out.maybe_flush());
     }
   }
-  // Prisms and pyramids in the ASCII writer's vertex order, ref 0.
-  const auto cells = [&](std::int32_t code, const auto& list) -> Status {
+  // Prisms and pyramids in the ASCII writer's vertex order, ref their region.
+  const auto cells = [&](std::int32_t code, const auto& list, const std::vector<int>& regions) -> Status {
     if (list.empty()) return {};
     keyword(code, 4 + list.size() * 4 * (list[0].size() + 1), false);
     put(buf, static_cast<std::int32_t>(list.size()), kLittle);
-    for (const auto& c : list) {
-      for (Index v : c) put(buf, static_cast<std::int32_t>(v + 1), kLittle);
-      put(buf, std::int32_t{0}, kLittle);
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      for (Index v : list[i]) put(buf, static_cast<std::int32_t>(v + 1), kLittle);
+      put(buf, static_cast<std::int32_t>(ref_of(regions, i)), kLittle);
       PDR_TRY(out.maybe_flush());
     }
     return {};
   };
-  PDR_TRY(cells(kKwPrisms, mesh.prisms));
-  PDR_TRY(cells(kKwPyramids, mesh.pyramids));
+  PDR_TRY(cells(kKwPrisms, mesh.prisms, mesh.prism_regions));
+  PDR_TRY(cells(kKwPyramids, mesh.pyramids, mesh.pyramid_regions));
   keyword(kKwEnd, 0, true);
   if (offset != total(pos_bytes)) return internal_error("meshb writer: size bookkeeping is off");
   return out.close();
@@ -364,20 +379,20 @@ Result<VolumeMesh> read_meshb(std::string_view data, const std::string& name) {
       PDR_TRY(ref_int(ref, pos, mesh.boundary_ids[i]));
     }
   }
+  CellRefs refs;
   if (blocks[kKwTetrahedra].present) {
     PDR_TRY(open_block(kKwTetrahedra, n, 5 * static_cast<std::uint64_t>(int_bytes), "tetrahedron count"));
     mesh.tets.resize(static_cast<std::size_t>(n));
-    std::vector<int> refs(mesh.tets.size());
+    refs.tets.resize(mesh.tets.size());
     for (std::size_t i = 0; i < mesh.tets.size(); ++i) {
       for (Index& v : mesh.tets[i]) PDR_TRY(in.index(v, int_bytes, np, "tetrahedron vertex"));
       const std::size_t pos = in.pos();
       PDR_TRY(in.integer(ref, int_bytes, "tetrahedron ref"));
-      PDR_TRY(ref_int(ref, pos, refs[i]));
+      PDR_TRY(ref_int(ref, pos, refs.tets[i]));
     }
-    mesh.tet_regions = regions_from_refs(std::move(refs));
   }
-  // Prisms and pyramids (refs ignored: they all belong to the one volume).
-  const auto cells = [&](int kw, auto& list, const char* what) -> Status {
+  // Prisms and pyramids, their refs their regions.
+  const auto cells = [&](int kw, auto& list, std::vector<int>& cell_refs, const char* what) -> Status {
     if (!blocks[static_cast<std::size_t>(kw)].present) return {};
     using Cell = typename std::decay_t<decltype(list)>::value_type;
     const std::size_t corners = std::tuple_size_v<Cell>;
@@ -385,14 +400,18 @@ Result<VolumeMesh> read_meshb(std::string_view data, const std::string& name) {
                       cell_ref = fmt::format("{} ref", what);
     PDR_TRY(open_block(kw, n, (corners + 1) * static_cast<std::uint64_t>(int_bytes), count.c_str()));
     list.resize(static_cast<std::size_t>(n));
-    for (Cell& c : list) {
-      for (Index& v : c) PDR_TRY(in.index(v, int_bytes, np, vertex.c_str()));
+    cell_refs.resize(list.size());
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      for (Index& v : list[i]) PDR_TRY(in.index(v, int_bytes, np, vertex.c_str()));
+      const std::size_t pos = in.pos();
       PDR_TRY(in.integer(ref, int_bytes, cell_ref.c_str()));
+      PDR_TRY(ref_int(ref, pos, cell_refs[i]));
     }
     return {};
   };
-  PDR_TRY(cells(kKwPrisms, mesh.prisms, "prism"));
-  PDR_TRY(cells(kKwPyramids, mesh.pyramids, "pyramid"));
+  PDR_TRY(cells(kKwPrisms, mesh.prisms, refs.prisms, "prism"));
+  PDR_TRY(cells(kKwPyramids, mesh.pyramids, refs.pyramids, "pyramid"));
+  refs.set_regions(mesh);
   return mesh;
 }
 

@@ -95,56 +95,101 @@ Status write_mixed_vtu(const VolumeMesh& mesh, const std::filesystem::path& path
                      "        <DataArray type=\"Int32\" Name=\"surface_id\" format=\"ascii\">\n");
   types(nt + nq + ny, 0);
   for (int id : mesh.boundary_ids) fmt::format_to(it, FMT_COMPILE("{}\n"), id);
-  fmt::format_to(it, "        </DataArray>\n      </CellData>\n    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n");
+  fmt::format_to(it, "        </DataArray>\n");
+  if (!mesh.tet_regions.empty()) {  // as write_vtu's `region`, 0 for triangles
+    fmt::format_to(it, "        <DataArray type=\"Int32\" Name=\"region\" format=\"ascii\">\n");
+    for (const std::vector<int>* regions : {&mesh.tet_regions, &mesh.prism_regions, &mesh.pyramid_regions})
+      for (int r : *regions) fmt::format_to(it, FMT_COMPILE("{}\n"), r);
+    types(nb, 0);
+    fmt::format_to(it, "        </DataArray>\n");
+  }
+  fmt::format_to(it, "      </CellData>\n    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n");
   return out.close();
 }
 
 Status write_mixed_gmsh(const VolumeMesh& mesh, const std::filesystem::path& path) {
-  const std::size_t np = mesh.points.size();
+  const std::size_t np = mesh.points.size(), nt = mesh.tets.size(), nq = mesh.prisms.size(),
+                    ny = mesh.pyramids.size();
   const std::vector<std::size_t> order = by_id(mesh);
   const std::vector<int> ids = distinct(mesh.boundary_ids);
+  // Volumes: one per region (ascending id), or one named "volume".
+  const bool regions = !mesh.tet_regions.empty();
+  const std::vector<int> region_ids =
+      regions ? distinct([&] {
+        std::vector<int> all = mesh.tet_regions;
+        all.insert(all.end(), mesh.prism_regions.begin(), mesh.prism_regions.end());
+        all.insert(all.end(), mesh.pyramid_regions.begin(), mesh.pyramid_regions.end());
+        return all;
+      }())
+              : std::vector<int>{0};
+  const bool positive = std::all_of(region_ids.begin(), region_ids.end(), [](int r) { return r > 0; });
   Box box;
   for (const Vec3& p : mesh.points) box.add(p);
   OutputFile out(path);
   PDR_TRY(out.open());
   auto& b = out.buf();
   auto it = std::back_inserter(b);
-  // Physical and entity tags: surface k (ids ascending) is k + 1; the volume is 1.
-  const int volume_physical = static_cast<int>(ids.size()) + 1;
-  fmt::format_to(it, "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$PhysicalNames\n{}\n", ids.size() + 1);
+  // Physical and entity tags: surface k (ids ascending) is k + 1; volume v is
+  // entity v + 1, its physical the region id (when all are positive) or
+  // ids.size() + v + 1.
+  const auto volume_physical = [&](std::size_t v) {
+    return regions && positive ? region_ids[v] : static_cast<int>(ids.size() + v + 1);
+  };
+  fmt::format_to(it, "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$PhysicalNames\n{}\n", ids.size() + region_ids.size());
   for (std::size_t k = 0; k < ids.size(); ++k)
     fmt::format_to(it, "2 {} \"{}\"\n", k + 1, boundary_name(mesh.boundary_names, ids[k]));
-  fmt::format_to(it, "3 {} \"volume\"\n$EndPhysicalNames\n$Entities\n0 0 {} 1\n", volume_physical, ids.size());
+  for (std::size_t v = 0; v < region_ids.size(); ++v)
+    fmt::format_to(it, "3 {} \"{}\"\n", volume_physical(v),
+                   regions ? region_name(mesh.region_names, region_ids[v]) : std::string("volume"));
+  fmt::format_to(it, "$EndPhysicalNames\n$Entities\n0 0 {} {}\n", ids.size(), region_ids.size());
   const std::string bounds = fmt::format("{} {} {} {} {} {}", box.lo[0], box.lo[1], box.lo[2], box.hi[0], box.hi[1], box.hi[2]);
   for (std::size_t k = 0; k < ids.size(); ++k) fmt::format_to(it, "{} {} 1 {} 0\n", k + 1, bounds, k + 1);
-  fmt::format_to(it, "1 {} 1 {} 0\n$EndEntities\n", bounds, volume_physical);
-  fmt::format_to(it, "$Nodes\n1 {} 1 {}\n3 1 0 {}\n", np, np, np);
+  for (std::size_t v = 0; v < region_ids.size(); ++v)
+    fmt::format_to(it, "{} {} 1 {} 0\n", v + 1, bounds, volume_physical(v));
+  fmt::format_to(it, "$EndEntities\n$Nodes\n1 {} 1 {}\n3 1 0 {}\n", np, np, np);
   for (std::size_t i = 1; i <= np; ++i) fmt::format_to(it, FMT_COMPILE("{}\n"), i);
   for (const Vec3& p : mesh.points) fmt::format_to(it, FMT_COMPILE("{} {} {}\n"), p[0], p[1], p[2]);
-  const std::size_t ncells = mesh.tets.size() + mesh.prisms.size() + mesh.pyramids.size() + mesh.boundary.size();
-  const std::size_t blocks = (mesh.tets.empty() ? 0 : 1) + (mesh.prisms.empty() ? 0 : 1) +
-                             (mesh.pyramids.empty() ? 0 : 1) + ids.size();
-  fmt::format_to(it, "$EndNodes\n$Elements\n{} {} 1 {}\n", blocks, ncells, ncells);
-  std::size_t tag = 0;
-  const auto block = [&](int dim, std::size_t entity, int type, const auto& list) -> Status {
-    if (list.empty()) return {};
-    fmt::format_to(it, "{} {} {} {}\n", dim, entity, type, list.size());
-    for (const auto& c : list) {
-      fmt::format_to(it, FMT_COMPILE("{} "), ++tag);
-      put_cell(b, c, 1);
+  // Element tags follow the mesh's order within each kind (tets, prisms,
+  // pyramids, triangles), whatever block holds the element.
+  struct Block {
+    int dim, entity, type;
+    std::vector<std::size_t> members;
+    std::size_t tag0;
+  };
+  std::vector<Block> blocks;
+  const auto of_region = [&](const std::vector<int>& cell_regions, std::size_t n, std::size_t v) {
+    std::vector<std::size_t> members;
+    for (std::size_t i = 0; i < n; ++i)
+      if (!regions || cell_regions[i] == region_ids[v]) members.push_back(i);
+    return members;
+  };
+  for (std::size_t v = 0; v < region_ids.size(); ++v) {
+    const int entity = static_cast<int>(v + 1);
+    blocks.push_back({3, entity, 4, of_region(mesh.tet_regions, nt, v), 0});
+    blocks.push_back({3, entity, 6, of_region(mesh.prism_regions, nq, v), nt});
+    blocks.push_back({3, entity, 7, of_region(mesh.pyramid_regions, ny, v), nt + nq});
+  }
+  for (std::size_t s = 0, k = 0; s < ids.size(); ++s) {
+    Block tris{2, static_cast<int>(s + 1), 2, {}, nt + nq + ny};
+    for (; k < order.size() && mesh.boundary_ids[order[k]] == ids[s]; ++k) tris.members.push_back(order[k]);
+    blocks.push_back(std::move(tris));
+  }
+  std::erase_if(blocks, [](const Block& k) { return k.members.empty(); });
+  const std::size_t ncells = nt + nq + ny + mesh.boundary.size();
+  fmt::format_to(it, "$EndNodes\n$Elements\n{} {} 1 {}\n", blocks.size(), ncells, ncells);
+  for (const Block& k : blocks) {
+    fmt::format_to(it, "{} {} {} {}\n", k.dim, k.entity, k.type, k.members.size());
+    for (std::size_t i : k.members) {
+      fmt::format_to(it, FMT_COMPILE("{} "), k.tag0 + i + 1);
+      switch (k.type) {
+        case 4: put_cell(b, mesh.tets[i], 1); break;
+        case 6: put_cell(b, mesh.prisms[i], 1); break;
+        case 7: put_cell(b, mesh.pyramids[i], 1); break;
+        default: put_cell(b, mesh.boundary[i], 1); break;
+      }
       b.push_back('\n');
       PDR_TRY(out.maybe_flush());
     }
-    return {};
-  };
-  PDR_TRY(block(3, 1, 4, mesh.tets));
-  PDR_TRY(block(3, 1, 6, mesh.prisms));
-  PDR_TRY(block(3, 1, 7, mesh.pyramids));
-  std::size_t k = 0;
-  for (std::size_t s = 0; s < ids.size(); ++s) {
-    std::vector<Tri> tris;
-    for (; k < order.size() && mesh.boundary_ids[order[k]] == ids[s]; ++k) tris.push_back(mesh.boundary[order[k]]);
-    PDR_TRY(block(2, s + 1, 2, tris));
   }
   fmt::format_to(it, "$EndElements\n");
   return out.close();

@@ -567,8 +567,14 @@ Result<VolumeMesh> VtuReader::read() {
         take(mesh.tets);
         if (have_region) mesh.tet_regions.push_back(region[c]);
         break;
-      case kVtkWedge: take(mesh.prisms); break;
-      case kVtkPyramid: take(mesh.pyramids); break;
+      case kVtkWedge:
+        take(mesh.prisms);
+        if (have_region) mesh.prism_regions.push_back(region[c]);
+        break;
+      case kVtkPyramid:
+        take(mesh.pyramids);
+        if (have_region) mesh.pyramid_regions.push_back(region[c]);
+        break;
       default:
         take(mesh.boundary);
         mesh.boundary_ids.push_back(surface_id.empty() ? 1 : surface_id[c]);

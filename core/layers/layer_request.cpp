@@ -61,6 +61,7 @@ Result<LayerOptions> resolve_layers(const LayerRequest& r, const SurfaceMesh& su
                                     const std::vector<int>& default_walls) {
   PDR_TRY(validate(r));
   LayerOptions o = values_of(r);
+  o.regions = r.in;  // resolved against the surface's regions by the layered pipelines
   if (r.on.empty()) o.walls = default_walls;
   const std::set<int> ids(surface.surface_ids.begin(), surface.surface_ids.end());
   for (const std::string& name : r.on) {

@@ -105,6 +105,14 @@ VolumeMesh split_to_tets(const VolumeMesh& mesh) {
     for (const Tet& t : prism_tets(p)) out.tets.push_back(t);
   for (const Pyramid& p : mesh.pyramids)
     for (const Tet& t : pyramid_tets(p)) out.tets.push_back(t);
+  // Regions follow the cells, when every kind of cell has them.
+  if (!mesh.tet_regions.empty() && mesh.tet_regions.size() == mesh.tets.size() &&
+      mesh.prism_regions.size() == mesh.prisms.size() && mesh.pyramid_regions.size() == mesh.pyramids.size()) {
+    out.tet_regions = mesh.tet_regions;
+    for (int r : mesh.prism_regions) out.tet_regions.insert(out.tet_regions.end(), 3, r);
+    for (int r : mesh.pyramid_regions) out.tet_regions.insert(out.tet_regions.end(), 2, r);
+    out.region_names = mesh.region_names;
+  }
   return out;
 }
 
@@ -228,6 +236,14 @@ ValidationReport validate_mixed_mesh(const VolumeMesh& mesh, const SurfaceMesh* 
   };
   check_indices(mesh.prisms, "prism");
   check_indices(mesh.pyramids, "pyramid");
+  // Regions: none, or one per cell of every kind.
+  if (!mesh.tet_regions.empty() || !mesh.prism_regions.empty() || !mesh.pyramid_regions.empty()) {
+    if (mesh.tet_regions.size() != mesh.tets.size() || mesh.prism_regions.size() != mesh.prisms.size() ||
+        mesh.pyramid_regions.size() != mesh.pyramids.size())
+      add(fmt::format("regions: {} tet, {} prism and {} pyramid regions for {} tets, {} prisms and {} pyramids",
+                      mesh.tet_regions.size(), mesh.prism_regions.size(), mesh.pyramid_regions.size(),
+                      mesh.tets.size(), mesh.prisms.size(), mesh.pyramids.size()));
+  }
   if (error_count == 0) {
     for (std::size_t c = 0; c < mesh.prisms.size(); ++c)
       if (!prism_positive(mesh.points, mesh.prisms[c]))

@@ -3,9 +3,11 @@
 #include "pdrmesh/layered_pipeline.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <chrono>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -14,14 +16,55 @@
 namespace pdrmesh {
 namespace {
 
-/// The layers of `surface`, their figures into `out`.
+/// The regions of `surface` (regions.hpp; none: empty) and, per region,
+/// whether it grows layers (layers.regions names it, by name or id).
+/// invalid_input for a surface of several regions that names none of them,
+/// for a name that is no region's, and for names on a surface of one region.
+Result<std::vector<SurfaceRegion>> layered_regions(const SurfaceMesh& surface, const LayerOptions& layers,
+                                                   std::vector<char>& grows) {
+  PDR_ASSIGN_OR_RETURN(std::vector<SurfaceRegion> regions, surface_regions(surface));
+  if (regions.empty()) {
+    if (!layers.regions.empty())
+      return invalid_input(fmt::format("--layers-in names regions, but {} is one region", surface.name));
+    return regions;
+  }
+  std::vector<std::string> known;
+  for (const SurfaceRegion& r : regions) known.push_back(fmt::format("{} ({})", r.name, r.id));
+  if (layers.regions.empty())
+    return invalid_input(fmt::format("{} has {} regions, {}: name those on whose side the walls grow layers "
+                                     "(--layers-in)", surface.name, regions.size(), fmt::join(known, ", ")));
+  grows.assign(regions.size(), 0);
+  for (const std::string& name : layers.regions) {
+    const auto it = std::find_if(regions.begin(), regions.end(), [&](const SurfaceRegion& r) {
+      return r.name == name || std::to_string(r.id) == name;
+    });
+    if (it == regions.end())
+      return invalid_input(fmt::format("--layers-in: {} names no region of {}; its regions are {}", name, surface.name,
+                                       fmt::join(known, ", ")));
+    grows[static_cast<std::size_t>(it - regions.begin())] = 1;
+  }
+  return regions;
+}
+
+/// Adds one region's layer figures to a run's (counts and times summed,
+/// thickness extremes combined).
+void add_layer_figures(LayeredResult& all, const LayeredResult& part) {
+  const bool first = all.wall_triangles == 0;
+  all.wall_triangles += part.wall_triangles;
+  all.wall_points += part.wall_points;
+  all.compressed_points += part.compressed_points;
+  all.full_faces += part.full_faces;
+  all.smooth_faces += part.smooth_faces;
+  all.smooth_full_faces += part.smooth_full_faces;
+  all.thickness_min = first ? part.thickness_min : std::min(all.thickness_min, part.thickness_min);
+  all.thickness_max = std::max(all.thickness_max, part.thickness_max);
+  all.shrink_rounds = std::max(all.shrink_rounds, part.shrink_rounds);
+  all.seconds_layers += part.seconds_layers;
+}
+
+/// The layers of `surface` (one region), their figures into `out`.
 Result<LayerMesh> grow_checked(const SurfaceMesh& surface, const LayerOptions& layer_options,
                                LayeredResult& out) {
-  // Regions (regions.hpp) would lose their tet_regions in the merge below.
-  PDR_ASSIGN_OR_RETURN(const std::vector<SurfaceRegion> regions, surface_regions(surface));
-  if (!regions.empty())
-    return invalid_input(fmt::format("{}: prism layers in a surface of {} regions are not supported yet",
-                                     surface.name, regions.size()));
   const auto t = std::chrono::steady_clock::now();
   PDR_ASSIGN_OR_RETURN(LayerMesh layers, grow_layers(surface, layer_options));
   out.seconds_layers = std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
@@ -93,10 +136,9 @@ Status merge_layers_and_fill(const SurfaceMesh& surface, LayerMesh& layers, cons
   return {};
 }
 
-}  // namespace
-
-Result<LayeredResult> mesh_serial_layered(const SurfaceMesh& surface, const LayerOptions& layer_options,
-                                          const SerialOptions& options, const RefineProgress& progress) {
+/// mesh_serial_layered of a surface of one region.
+Result<LayeredResult> serial_layered_one(const SurfaceMesh& surface, const LayerOptions& layer_options,
+                                         const SerialOptions& options, const RefineProgress& progress) {
   LayeredResult out;
   PDR_ASSIGN_OR_RETURN(LayerMesh layers, grow_checked(surface, layer_options, out));
   PDR_ASSIGN_OR_RETURN(out.fill, mesh_serial(layers.fill, options, progress));
@@ -105,14 +147,85 @@ Result<LayeredResult> mesh_serial_layered(const SurfaceMesh& surface, const Laye
   return out;
 }
 
-Result<LayeredParallelResult> mesh_parallel_layered(const SurfaceMesh& surface, const LayerOptions& layer_options,
-                                                    const ParallelOptions& options, const LeafKernel* kernel,
-                                                    const LeafKernel* optimize_kernel) {
+/// mesh_parallel_layered of a surface of one region.
+Result<LayeredParallelResult> parallel_layered_one(const SurfaceMesh& surface, const LayerOptions& layer_options,
+                                                   const ParallelOptions& options, const LeafKernel* kernel,
+                                                   const LeafKernel* optimize_kernel) {
   LayeredParallelResult out;
   PDR_ASSIGN_OR_RETURN(LayerMesh layers, grow_checked(surface, layer_options, out.layered));
   PDR_ASSIGN_OR_RETURN(out.fill, mesh_parallel(layers.fill, options, kernel, optimize_kernel));
   PDR_TRY(merge_layers_and_fill(surface, layers, out.fill.mesh, out.layered.mesh));
   out.fill.mesh = VolumeMesh{};
+  return out;
+}
+
+}  // namespace
+
+Status check_layer_regions(const SurfaceMesh& surface, const LayerOptions& layers) {
+  std::vector<char> grows;
+  return layered_regions(surface, layers, grows).status();
+}
+
+Result<LayeredResult> mesh_serial_layered(const SurfaceMesh& surface, const LayerOptions& layer_options,
+                                          const SerialOptions& options, const RefineProgress& progress) {
+  std::vector<char> grows;
+  PDR_ASSIGN_OR_RETURN(const std::vector<SurfaceRegion> regions, layered_regions(surface, layer_options, grows));
+  if (regions.empty()) return serial_layered_one(surface, layer_options, options, progress);
+  // Region by region (as mesh_serial), within what is left of the time limit.
+  const auto start = std::chrono::steady_clock::now();
+  LayeredResult out;
+  std::vector<VolumeMesh> parts;
+  for (std::size_t k = 0; k < regions.size(); ++k) {
+    SerialOptions o = options;
+    if (options.time_limit_s > 0) {
+      o.time_limit_s = options.time_limit_s - std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      if (!(o.time_limit_s > 0))
+        return deadline_exceeded(fmt::format("the time limit ran out before region {} was meshed", regions[k].id));
+    }
+    if (grows[k]) {
+      PDR_ASSIGN_OR_RETURN(LayeredResult part, serial_layered_one(regions[k].domain, layer_options, o, progress));
+      add_layer_figures(out, part);
+      add_region(out.fill, part.fill, parts.empty());
+      parts.push_back(std::move(part.mesh));
+    } else {
+      PDR_ASSIGN_OR_RETURN(SerialResult part, mesh_serial(regions[k].domain, o, progress));
+      add_region(out.fill, part, parts.empty());
+      parts.push_back(std::move(part.mesh));
+    }
+  }
+  PDR_ASSIGN_OR_RETURN(out.mesh, merge_regions(surface, regions, std::move(parts)));
+  return out;
+}
+
+Result<LayeredParallelResult> mesh_parallel_layered(const SurfaceMesh& surface, const LayerOptions& layer_options,
+                                                    const ParallelOptions& options, const LeafKernel* kernel,
+                                                    const LeafKernel* optimize_kernel) {
+  std::vector<char> grows;
+  PDR_ASSIGN_OR_RETURN(const std::vector<SurfaceRegion> regions, layered_regions(surface, layer_options, grows));
+  if (regions.empty()) return parallel_layered_one(surface, layer_options, options, kernel, optimize_kernel);
+  // Region by region (as mesh_parallel), which writes no checkpoint.
+  if (options.pdr.resume != nullptr)
+    return invalid_input(fmt::format("{}: a surface of {} regions cannot resume from a checkpoint", surface.name,
+                                     regions.size()));
+  ParallelOptions o = options;
+  o.pdr.checkpoint = nullptr;
+  LayeredParallelResult out;
+  std::vector<VolumeMesh> parts;
+  for (std::size_t k = 0; k < regions.size(); ++k) {
+    if (grows[k]) {
+      PDR_ASSIGN_OR_RETURN(LayeredParallelResult part,
+                           parallel_layered_one(regions[k].domain, layer_options, o, kernel, optimize_kernel));
+      add_layer_figures(out.layered, part.layered);
+      parts.push_back(std::move(part.layered.mesh));
+      add_region(out.fill, std::move(part.fill));
+    } else {
+      PDR_ASSIGN_OR_RETURN(ParallelResult part, mesh_parallel(regions[k].domain, o, kernel, optimize_kernel));
+      parts.push_back(std::move(part.mesh));
+      add_region(out.fill, std::move(part));
+    }
+  }
+  PDR_ASSIGN_OR_RETURN(out.layered.mesh, merge_regions(surface, regions, std::move(parts)));
+  out.fill.profile.final_tets = out.layered.mesh.tets.size();
   return out;
 }
 

@@ -96,6 +96,30 @@ Result<SerialResult> mesh_serial_one(const SurfaceMesh& surface, const SerialOpt
 
 }  // namespace
 
+void add_region(SerialResult& all, const SerialResult& part, bool first) {
+  all.seconds_initial += part.seconds_initial;
+  all.seconds_sizing += part.seconds_sizing;
+  all.seconds_refine += part.seconds_refine;
+  all.seconds_optimize += part.seconds_optimize;
+  all.refine.passes.insert(all.refine.passes.end(), part.refine.passes.begin(), part.refine.passes.end());
+  all.refine.points_added += part.refine.points_added;
+  all.refine.seconds += part.refine.seconds;
+  all.refine.stopped_at_deadline = all.refine.stopped_at_deadline || part.refine.stopped_at_deadline;
+  // The optimization's summary: the first region's, with the extremes of all.
+  if (first) {
+    all.optimize = part.optimize;
+    return;
+  }
+  OptimizeStats& s = all.optimize;
+  s.min_dihedral_before = std::min(s.min_dihedral_before, part.optimize.min_dihedral_before);
+  s.min_dihedral_after = std::min(s.min_dihedral_after, part.optimize.min_dihedral_after);
+  s.max_dihedral_before = std::max(s.max_dihedral_before, part.optimize.max_dihedral_before);
+  s.max_dihedral_after = std::max(s.max_dihedral_after, part.optimize.max_dihedral_after);
+  s.bad_before += part.optimize.bad_before;
+  s.bad_after += part.optimize.bad_after;
+  s.seconds += part.optimize.seconds;
+}
+
 Result<SerialResult> mesh_serial(const SurfaceMesh& surface, const SerialOptions& options,
                                  const RefineProgress& progress) {
   PDR_ASSIGN_OR_RETURN(const std::vector<SurfaceRegion> regions, surface_regions(surface));
@@ -112,27 +136,7 @@ Result<SerialResult> mesh_serial(const SurfaceMesh& surface, const SerialOptions
         return deadline_exceeded(fmt::format("the time limit ran out before region {} was meshed", r.id));
     }
     PDR_ASSIGN_OR_RETURN(SerialResult part, mesh_serial_one(r.domain, o, progress));
-    out.seconds_initial += part.seconds_initial;
-    out.seconds_sizing += part.seconds_sizing;
-    out.seconds_refine += part.seconds_refine;
-    out.seconds_optimize += part.seconds_optimize;
-    out.refine.passes.insert(out.refine.passes.end(), part.refine.passes.begin(), part.refine.passes.end());
-    out.refine.points_added += part.refine.points_added;
-    out.refine.seconds += part.refine.seconds;
-    out.refine.stopped_at_deadline = out.refine.stopped_at_deadline || part.refine.stopped_at_deadline;
-    // The optimization's summary: the first region's, with the extremes of all.
-    if (parts.empty()) {
-      out.optimize = part.optimize;
-    } else {
-      OptimizeStats& s = out.optimize;
-      s.min_dihedral_before = std::min(s.min_dihedral_before, part.optimize.min_dihedral_before);
-      s.min_dihedral_after = std::min(s.min_dihedral_after, part.optimize.min_dihedral_after);
-      s.max_dihedral_before = std::max(s.max_dihedral_before, part.optimize.max_dihedral_before);
-      s.max_dihedral_after = std::max(s.max_dihedral_after, part.optimize.max_dihedral_after);
-      s.bad_before += part.optimize.bad_before;
-      s.bad_after += part.optimize.bad_after;
-      s.seconds += part.optimize.seconds;
-    }
+    add_region(out, part, parts.empty());
     parts.push_back(std::move(part.mesh));
   }
   PDR_ASSIGN_OR_RETURN(out.mesh, merge_regions(surface, regions, std::move(parts)));
@@ -308,6 +312,12 @@ void add_profile(PdrProfile& all, PdrProfile&& p) {
 
 }  // namespace
 
+void add_region(ParallelResult& all, ParallelResult&& part) {
+  add_profile(all.profile, std::move(part.profile));
+  all.boundary_points += part.boundary_points;
+  all.seconds_sizing += part.seconds_sizing;
+}
+
 Result<ParallelResult> mesh_parallel(const SurfaceMesh& surface, const ParallelOptions& options,
                                      const LeafKernel* kernel, const LeafKernel* optimize_kernel) {
   PDR_ASSIGN_OR_RETURN(const std::vector<SurfaceRegion> regions, surface_regions(surface));
@@ -330,10 +340,8 @@ Result<ParallelResult> mesh_parallel(const SurfaceMesh& surface, const ParallelO
   std::vector<VolumeMesh> parts;
   for (const SurfaceRegion& r : regions) {
     PDR_ASSIGN_OR_RETURN(ParallelResult part, mesh_parallel_one(r.domain, o, kernel, optimize_kernel));
-    add_profile(out.profile, std::move(part.profile));
-    out.boundary_points += part.boundary_points;
-    out.seconds_sizing += part.seconds_sizing;
     parts.push_back(std::move(part.mesh));
+    add_region(out, std::move(part));
   }
   PDR_ASSIGN_OR_RETURN(out.mesh, merge_regions(surface, regions, std::move(parts)));
   out.profile.final_tets = out.mesh.tets.size();

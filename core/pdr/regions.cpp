@@ -155,6 +155,17 @@ Result<VolumeMesh> merge_regions(const SurfaceMesh& surface, const std::vector<S
       out.tets.push_back({to_out[t[0]], to_out[t[1]], to_out[t[2]], to_out[t[3]]});
       out.tet_regions.push_back(r.id);
     }
+    // A part's prism layers (layered_pipeline.hpp) keep their region too.
+    for (Prism c : part.prisms) {
+      for (Index& v : c) v = to_out[v];
+      out.prisms.push_back(c);
+      out.prism_regions.push_back(r.id);
+    }
+    for (Pyramid c : part.pyramids) {
+      for (Index& v : c) v = to_out[v];
+      out.pyramids.push_back(c);
+      out.pyramid_regions.push_back(r.id);
+    }
     out.region_names[r.id] = r.name;
     part = VolumeMesh{};
   }

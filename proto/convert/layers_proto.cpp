@@ -12,6 +12,7 @@ void to_proto(const LayerRequest& r, v1::BoundaryLayers& out) {
   out.set_growth_ratio(r.growth_ratio);
   if (r.max_thickness) out.set_max_thickness(*r.max_thickness);
   for (const std::string& name : r.on) out.add_on(name);
+  for (const std::string& name : r.in) out.add_in_regions(name);
 }
 
 Result<LayerRequest> from_proto(const v1::BoundaryLayers& in) {
@@ -26,6 +27,7 @@ Result<LayerRequest> from_proto(const v1::BoundaryLayers& in) {
   if (in.has_growth_ratio()) r.growth_ratio = in.growth_ratio();
   if (in.has_max_thickness()) r.max_thickness = in.max_thickness();
   r.on.assign(in.on().begin(), in.on().end());
+  r.in.assign(in.in_regions().begin(), in.in_regions().end());
   return r;
 }
 

@@ -46,7 +46,8 @@ class Surface:
 class Mesh:
     """A tetrahedral mesh: points (N x 3 float64), tets (M x 4 int64, positively oriented),
     the boundary triangles (K x 3 int64, outward) with one id each (int32), optional
-    per-tet regions (int32), the names of boundary ids (a far field's inlet, outlet, sides or
+    regions (int32, one per volume cell: the tets, then the prisms, then the pyramids), the
+    names of boundary ids (a far field's inlet, outlet, sides or
     farfield, the body's wall or its own names) and of region ids. A mesh of several regions
     lists the interfaces between them among the boundary triangles too."""
     points: np.ndarray
@@ -78,11 +79,13 @@ class Mesh:
         """Per-cell data for meshio, one array per block of `cells`: surface_id (0 on the
         volume cells, as in pdrmesh's VTU files) and, when the mesh has regions, region (0 on
         triangles)."""
-        volume = [np.zeros(len(c), np.int32) for _, c in self._volume_blocks()]
+        blocks = self._volume_blocks()
+        volume = [np.zeros(len(c), np.int32) for _, c in blocks]
         data = {"surface_id": volume + [np.asarray(self.boundary_ids, np.int32)]}
         if self.regions is not None:
-            data["region"] = ([np.asarray(self.regions, np.int32)] + volume[1:] +
-                              [np.zeros(len(self.boundary), np.int32)])
+            regions = np.asarray(self.regions, np.int32)
+            ends = np.cumsum([len(c) for _, c in blocks])
+            data["region"] = np.split(regions, ends[:-1]) + [np.zeros(len(self.boundary), np.int32)]
         return data
 
     def to_meshio(self):
@@ -132,14 +135,17 @@ def _mesh_from_dict(d: dict) -> Mesh:
                 prisms=mixed("prisms"), pyramids=mixed("pyramids"))
 
 
-def _layers(layers, first_height, growth_ratio, layers_max_thickness, layers_on, reynolds, reference_length):
+def _layers(layers, first_height, growth_ratio, layers_max_thickness, layers_on, reynolds, reference_length,
+            layers_in=None):
     """The compiled layer request of mesh()'s and submit()'s layer keywords (None without layers)."""
     on = [str(x) for x in (layers_on or [])]
+    regions = [str(x) for x in (layers_in or [])]
     return _pdrmesh.layer_request(None if layers is None else int(layers), first_height,
                                   None if reynolds is None else float(reynolds),
                                   None if reference_length is None else float(reference_length),
                                   float(growth_ratio),
-                                  None if layers_max_thickness is None else float(layers_max_thickness), on)
+                                  None if layers_max_thickness is None else float(layers_max_thickness), on,
+                                  regions)
 
 
 def _growth(growth, layers, growth_ratio) -> float:
@@ -210,7 +216,7 @@ def mesh(points, triangles=None, surface_ids=None, *, names: Optional[dict] = No
          validate: bool = True, farfield: Optional[float] = None, farfield_shape: str = "box",
          layers: Optional[int] = None, first_height=None, growth_ratio: float = 1.2,
          layers_max_thickness: Optional[float] = None, layers_on=None, reynolds: Optional[float] = None,
-         reference_length: Optional[float] = None) -> Mesh:
+         reference_length: Optional[float] = None, layers_in=None) -> Mesh:
     """Meshes the volume inside a closed surface: points (N x 3) and triangles (M x 3), or a
     Surface, or a surface file's path. The options are those of `pdrmesh mesh` and `run`:
     size a length or a percentage of the bounding-box diagonal ("1%"; default: the surface's own
@@ -225,10 +231,12 @@ def mesh(points, triangles=None, surface_ids=None, *, names: Optional[dict] = No
     fill the rest: first_height a length or "yplus:Y" (with reynolds and, optionally,
     reference_length), growth_ratio, layers_max_thickness, and layers_on the walls by boundary
     name or id (default: every surface; with farfield the body's); growth then continues the
-    layers' ratio unless given. The mesh's prisms are in `prisms`."""
+    layers' ratio unless given. A surface of several regions (nested shells) needs layers_in,
+    the regions on whose side the walls grow layers (by name or id). The mesh's prisms are in
+    `prisms`."""
     s = _surface(points, triangles, surface_ids, names)
     request = _layers(layers, first_height, growth_ratio, layers_max_thickness, layers_on, reynolds,
-                      reference_length)
+                      reference_length, layers_in)
     d = _pdrmesh.mesh(s.points, s.triangles, s.surface_ids, s.names or None, _size_text(size), hmin, hmax,
                       _growth(growth, layers, growth_ratio), max_tets, int(workers), depth, kernel,
                       bool(optimize), time_limit, bool(validate), None if farfield is None else float(farfield),
@@ -313,13 +321,13 @@ class Client:
                farfield_shape: str = "box", layers: Optional[int] = None, first_height=None,
                growth_ratio: float = 1.2, layers_max_thickness: Optional[float] = None, layers_on=None,
                reynolds: Optional[float] = None, reference_length: Optional[float] = None,
-               wait: bool = False) -> dict:
+               layers_in=None, wait: bool = False) -> dict:
         """Uploads a surface (a file, a Surface, or points and triangles) with the options of
         `pdrmesh submit`: names (`--names`: boundary names by surface id; a Surface's own
         names otherwise), farfield, farfield_shape and the layers as in mesh(); the job, or
         with wait=True the finished job (watch)."""
         request = _layers(layers, first_height, growth_ratio, layers_max_thickness, layers_on, reynolds,
-                          reference_length)
+                          reference_length, layers_in)
 
         def send(path, surface_names):
             return json.loads(self._client.submit(

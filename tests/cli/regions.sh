@@ -3,7 +3,8 @@
 # both with outward normals, from an OBJ with two groups. `check` names the
 # regions; `mesh` and `run` (1 and 2 workers: the same bytes) mesh them with
 # a conforming interface; `validate`, `quality` and the polyMesh's cellZones
-# report them; the inner box turned inward is a cavity again (one region).
+# report them; prism layers grow on the body's walls on the fluid's side
+# (--layers-in); the inner box turned inward is a cavity again (one region).
 # Usage: regions.sh PDRMESH
 set -euo pipefail
 pdrmesh=$1
@@ -56,6 +57,27 @@ grep -q '^3 2 "body"' "$tmp/r1.msh" || fail "no physical volume body in the .msh
 mkdir -p "$tmp/case/constant"
 "$pdrmesh" convert "$tmp/m.vtu" "$tmp/case/constant/polyMesh"
 grep -q "^    body$" "$tmp/case/constant/polyMesh/cellZones" || fail "no cellZone body"
+
+# Prism layers on the body's walls, on the fluid's side only (--layers-in), serial and parallel.
+if "$pdrmesh" mesh -q "$tmp/two.obj" --size 0.4 --layers 3 --first-height 0.02 --layers-on body \
+    -o "$tmp/l.msh" 2>"$tmp/err"; then
+  fail "layers on two regions without --layers-in were accepted"
+fi
+grep -q "fluid (1), body (2).*--layers-in" "$tmp/err" || fail "the refusal names no regions: $(cat "$tmp/err")"
+"$pdrmesh" mesh -q "$tmp/two.obj" --size 0.4 --layers 3 --first-height 0.02 --layers-on body --layers-in fluid \
+  -o "$tmp/l.msh"
+out=$("$pdrmesh" validate "$tmp/l.msh" --surface "$tmp/two.obj")
+grep -q "^valid" <<<"$out" || fail "layered regions: $out"
+grep -q "regions 2  interface faces 12" <<<"$out" || fail "layered regions' interface: $out"
+grep -q "prisms 36 " <<<"$out" || fail "not 3 layers on the body's 12 triangles: $out"
+for w in 1 2; do
+  "$pdrmesh" run -q "$tmp/two.obj" --size 0.4 --workers $w --depth 1 --layers 3 --first-height 0.02 \
+    --layers-on body --layers-in fluid -o "$tmp/lr$w.vtu"
+done
+cmp -s "$tmp/lr1.vtu" "$tmp/lr2.vtu" || fail "layered run: 1 and 2 workers differ"
+"$pdrmesh" validate "$tmp/lr2.vtu" --surface "$tmp/two.obj" | grep -q "^valid" || fail "layered run does not validate"
+"$pdrmesh" convert "$tmp/lr2.vtu" "$tmp/case/constant/polyMesh"
+grep -q "^    fluid$" "$tmp/case/constant/polyMesh/cellZones" || fail "no cellZone fluid in the layered polyMesh"
 
 # The inner box inward: a cavity, one region, no region data.
 out=$("$pdrmesh" check "$tmp/cavity.obj")

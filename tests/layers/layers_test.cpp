@@ -326,7 +326,7 @@ TEST(Layers, RefusesWallsThatMeetTrianglesWithoutLayers) {
       << r.status().message();
 }
 
-TEST(Layers, RefusesASurfaceOfSeveralRegions) {
+TEST(Layers, RefusesASurfaceOfSeveralRegionsWithoutTheRegionsThatGrowThem) {
   // A small box inside a big one, both outward: two regions (regions.hpp).
   const SurfaceMesh two =
       joined(voxel_surface({{0, 0, 0}}, 2, 1, 4), voxel_surface({{0, 0, 0}}, 2, 2, 1, {1.5, 1.5, 1.5}));
@@ -334,6 +334,7 @@ TEST(Layers, RefusesASurfaceOfSeveralRegions) {
   ASSERT_FALSE(r.ok());
   EXPECT_EQ(r.status().code(), StatusCode::kInvalidInput);
   EXPECT_NE(r.status().message().find("2 regions"), std::string::npos) << r.status().message();
+  EXPECT_NE(r.status().message().find("--layers-in"), std::string::npos) << r.status().message();
 }
 
 TEST(Layers, RefusesBadOptions) {

@@ -17,6 +17,8 @@
 #include <string>
 #include <vector>
 
+#include "pdrmesh/layered_pipeline.hpp"
+#include "pdrmesh/mixed_cells.hpp"
 #include "pdrmesh/pipeline.hpp"
 #include "pdrmesh/sizing.hpp"
 #include "pdrmesh/surface_check.hpp"
@@ -229,6 +231,121 @@ TEST(Regions, ParallelMeshIsTheSameForOneAndTwoWorkers) {
   PdrCheckpoint c;
   o.pdr.resume = &c;
   EXPECT_FALSE(mesh_parallel(s, o).ok());
+}
+
+/// Five layers, the first 0.05 high, on the sphere (id 2) on the fluid's side.
+LayerOptions fluid_layers() {
+  LayerOptions o;
+  o.layers = 5;
+  o.first_height = 0.05;
+  o.walls = {2};
+  o.regions = {"fluid"};
+  return o;
+}
+
+/// The volume of region `region`'s tets and prisms.
+double cells_volume(const VolumeMesh& m, int region) {
+  double v = region_volume(m, region);
+  for (std::size_t c = 0; c < m.prisms.size(); ++c)
+    if (m.prism_regions[c] == region)
+      for (const Tet& t : prism_tets(m.prisms[c]))
+        v += signed_volume(m.points[t[0]], m.points[t[1]], m.points[t[2]], m.points[t[3]]);
+  return v;
+}
+
+TEST(Regions, LayersGrowOnTheSideOfTheRegionsNamedAndTheMeshValidates) {
+  const SurfaceMesh s = sphere_in_box();
+  SerialOptions so;
+  so.sizing.growth = 1.2;
+  Result<LayeredResult> r = mesh_serial_layered(s, fluid_layers(), so);
+  ASSERT_TRUE(r.ok()) << r.status().to_string();
+  const VolumeMesh& m = r->mesh;
+  const ValidationReport v = validate_mesh(m, &s);
+  ASSERT_TRUE(v.ok()) << format_validation(v);
+  EXPECT_EQ(v.regions, 2u);
+  EXPECT_EQ(v.interface_faces, 1848u);
+  ASSERT_EQ(m.prisms.size(), 5u * 1848u);
+  ASSERT_EQ(m.prism_regions.size(), m.prisms.size());
+  EXPECT_TRUE(std::all_of(m.prism_regions.begin(), m.prism_regions.end(), [](int id) { return id == 1; }));
+  EXPECT_EQ(r->full_faces, 1848u);
+  // Into the fluid: every layer point lies outside the sphere.
+  const SurfaceMesh sphere = fixtures::corpus_surface("sphere966");
+  double radius = 0;
+  for (const Vec3& x : sphere.points) radius = std::max(radius, norm(x));
+  for (const Prism& p : m.prisms)
+    for (int i = 3; i < 6; ++i) EXPECT_GT(norm(m.points[p[i]]), radius);
+  // Each region fills its shells: the body its tets, the fluid tets and prisms.
+  const double inner = enclosed_volume(sphere);
+  EXPECT_NEAR(cells_volume(m, 2), inner, 1e-9 * inner);
+  EXPECT_NEAR(cells_volume(m, 1), 64000 - inner, 1e-9 * 64000);
+  // The formats that hold regions keep the prisms' too.
+  const auto dir = std::filesystem::temp_directory_path() / ("pdrmesh_layer_regions_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  for (const std::string suffix : {".vtu", ".msh", ".mesh", ".meshb"}) {
+    const auto path = dir / ("m" + suffix);
+    ASSERT_TRUE(write_volume(m, path.string()).ok()) << suffix;
+    Result<VolumeMesh> back = read_volume(path.string());
+    ASSERT_TRUE(back.ok()) << suffix << ": " << back.status().to_string();
+    EXPECT_EQ(back->prisms, m.prisms) << suffix;
+    EXPECT_EQ(back->tet_regions, m.tet_regions) << suffix;
+    EXPECT_EQ(back->prism_regions, m.prism_regions) << suffix;
+    const ValidationReport w = validate_mesh(*back, &s);
+    EXPECT_TRUE(w.ok()) << suffix << "\n" << format_validation(w);
+  }
+  std::filesystem::remove_all(dir);
+}
+
+TEST(Regions, ParallelLayersAreTheSerialOnesAndTheFillIsTheSameForAnyWorkers) {
+  const SurfaceMesh s = sphere_in_box();
+  SerialOptions so;
+  so.sizing.growth = 1.2;
+  Result<LayeredResult> serial = mesh_serial_layered(s, fluid_layers(), so);
+  ASSERT_TRUE(serial.ok()) << serial.status().to_string();
+  ParallelOptions o;
+  o.sizing.growth = 1.2;
+  o.pdr.depth = 1;
+  o.pdr.workers = 1;
+  Result<LayeredParallelResult> one = mesh_parallel_layered(s, fluid_layers(), o);
+  ASSERT_TRUE(one.ok()) << one.status().to_string();
+  const VolumeMesh& m = one->layered.mesh;
+  const ValidationReport v = validate_mesh(m, &s);
+  ASSERT_TRUE(v.ok()) << format_validation(v);
+  EXPECT_EQ(v.regions, 2u);
+  // Byte-identical layers: the same prisms on the same points.
+  ASSERT_EQ(m.prisms, serial->mesh.prisms);
+  EXPECT_EQ(m.prism_regions, serial->mesh.prism_regions);
+  for (const Prism& p : m.prisms)
+    for (Index i : p) ASSERT_EQ(m.points[i], serial->mesh.points[i]);
+  o.pdr.workers = 2;
+  Result<LayeredParallelResult> two = mesh_parallel_layered(s, fluid_layers(), o);
+  ASSERT_TRUE(two.ok()) << two.status().to_string();
+  EXPECT_EQ(two->layered.mesh.points, m.points);
+  EXPECT_EQ(two->layered.mesh.tets, m.tets);
+  EXPECT_EQ(two->layered.mesh.tet_regions, m.tet_regions);
+}
+
+TEST(Regions, LayersRefuseToGuessTheSideOfAnInterface) {
+  const SurfaceMesh s = sphere_in_box();
+  LayerOptions o = fluid_layers();
+  o.regions = {};
+  auto r = mesh_serial_layered(s, o, SerialOptions{});
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.status().code(), StatusCode::kInvalidInput);
+  EXPECT_NE(r.status().message().find("2 regions, fluid (1), body (2)"), std::string::npos) << r.status().message();
+  EXPECT_NE(r.status().message().find("--layers-in"), std::string::npos) << r.status().message();
+  o.regions = {"air"};
+  r = mesh_serial_layered(s, o, SerialOptions{});
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("air names no region"), std::string::npos) << r.status().message();
+  o.regions = {"2", "3"};  // ids: the body's, then none
+  r = mesh_serial_layered(s, o, SerialOptions{});
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("3 names no region"), std::string::npos) << r.status().message();
+  // A surface of one region takes no region names.
+  o = fluid_layers();
+  r = mesh_serial_layered(fixtures::corpus_surface("sphere966"), o, SerialOptions{});
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("one region"), std::string::npos) << r.status().message();
 }
 
 TEST(Regions, FormatsKeepTheRegions) {

@@ -277,6 +277,29 @@ class Surfaces(unittest.TestCase):
         if field is not None:
             self.assertEqual(list(field["body"]), [2, 3])
 
+    def test_layers_in_one_of_two_regions_carry_their_regions_through_files(self):
+        points, triangles, ids, names = nested_boxes()
+        with self.assertRaisesRegex(ValueError, "layers_in"):
+            pdrmesh.mesh(points, triangles, ids, names=names, layers_in=["fluid"])
+        m = pdrmesh.mesh(points, triangles, ids, names=names, size=0.5, layers=2, first_height=0.02,
+                         layers_on=["body"], layers_in=["fluid"])
+        self.assertEqual(len(m.prisms), 2 * 12)
+        # regions: one per volume cell, the tets' then the prisms' (all in the fluid).
+        self.assertEqual(m.regions.shape, (len(m.tets) + len(m.prisms),))
+        self.assertTrue(np.all(m.regions[len(m.tets):] == 1))
+        report = pdrmesh.validate(m, (points, triangles, ids))
+        self.assertTrue(report["valid"], report["text"])
+        self.assertEqual((report["regions"], report["interface_faces"]), (2, 12))
+        self.assertEqual([len(d) for d in m.cell_data["region"]], [len(m.tets), len(m.prisms), len(m.boundary)])
+        with tempfile.TemporaryDirectory() as tmp:
+            for suffix in ("vtu", "msh", "meshb"):
+                path = os.path.join(tmp, "layers." + suffix)
+                m.write(path)
+                back = pdrmesh.read_volume(path)
+                self.assertTrue(np.array_equal(back.regions, m.regions), suffix)
+                self.assertTrue(np.array_equal(back.prisms, m.prisms), suffix)
+                self.assertTrue(pdrmesh.validate(back, (points, triangles, ids))["valid"], suffix)
+
     def test_check_reports_a_hole_with_its_place(self):
         points, triangles = icosphere(1)
         report = pdrmesh.check(points, triangles[1:])

@@ -392,6 +392,11 @@ TEST_F(Service, RefusalsHaveTheRightCodeAndMessageWhileAnotherUsersJobCompletes)
     bad.mutable_layers()->add_on("wing");
     expect(alice->submit(kSphere, bad, job), grpc::StatusCode::INVALID_ARGUMENT, "wing names no surface",
            "layers on an unknown surface");
+    bad.mutable_layers()->clear_on();
+    bad.mutable_layers()->add_in_regions("fluid");
+    expect(alice->submit(kSphere, bad, job), grpc::StatusCode::INVALID_ARGUMENT, "is one region",
+           "layers in regions of a surface of one region");
+    bad.mutable_layers()->clear_in_regions();
     bad.set_max_volume(1);
     expect(alice->submit(kSphere, bad, job), grpc::StatusCode::INVALID_ARGUMENT, "not with max_volume",
            "layers with max_volume");
@@ -496,11 +501,13 @@ TEST(JobOptions, RoundTripsThroughJsonAndRefusesOutOfRangeValuesByName) {
   o.layers->growth_ratio = 1.15;
   o.layers->max_thickness = 0.5;
   o.layers->on = {"wall", "3"};
+  o.layers->in = {"fluid"};
   back = JobOptions::from_json(o.to_json());
   ASSERT_TRUE(back.ok()) << back.status().to_string();
   EXPECT_EQ(back->to_json(), o.to_json());
   ASSERT_TRUE(back->layers.has_value());
   EXPECT_EQ(back->layers->on, o.layers->on);
+  EXPECT_EQ(back->layers->in, o.layers->in);
   EXPECT_TRUE(back->layers->yplus);
   to_proto(o, proto);
   from = from_proto(proto, JobOptions{});
@@ -512,6 +519,7 @@ TEST(JobOptions, RoundTripsThroughJsonAndRefusesOutOfRangeValuesByName) {
       {R"({"layers": {"count": 3, "first_height": 1, "growth_ratio": 20}})", "--growth-ratio"},
       {R"({"layers": {"count": 3, "first_height_yplus": 1}})", "--reynolds"},
       {R"({"layers": {"count": 3, "first_height": 1, "on": "wall"}})", "layers.on"},
+      {R"({"layers": {"count": 3, "first_height": 1, "in": [1]}})", "layers.in"},
       {R"({"layers": {"count": 3, "first_height": 1, "colour": 1}})", "colour"},
       {R"({"max_volume": 1, "layers": {"count": 3, "first_height": 1}})", "max_volume"}};
   for (const auto& [json, name] : bad_layers) {

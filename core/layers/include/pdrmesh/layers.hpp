@@ -45,6 +45,11 @@ struct LayerOptions {
   std::optional<double> max_thickness;  ///< the stack's total height is at most this
   /// The surface ids that grow layers; empty: every id.
   std::vector<int> walls;
+  /// A surface of several regions (regions.hpp): the regions, by name or id,
+  /// on whose side the walls grow layers; the others hold tets only. Needed
+  /// there (an interface has two sides, and a solid wants no layers); a
+  /// surface of one region takes none.
+  std::vector<std::string> regions;
 };
 
 /// invalid_input naming the option: layers 1..1000, first height and cap
@@ -63,6 +68,7 @@ struct LayerRequest {
   double growth_ratio = 1.2;
   std::optional<double> max_thickness;
   std::vector<std::string> on;  ///< boundary names or ids; empty: the default walls
+  std::vector<std::string> in;  ///< LayerOptions::regions
 };
 
 /// The request's values alone (invalid_input naming the option): validate's

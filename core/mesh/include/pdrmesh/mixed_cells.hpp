@@ -65,7 +65,8 @@ bool pyramid_positive(const std::vector<Vec3>& points, const Pyramid& p);
 
 /// The mixed mesh as a tet mesh: its tets, then three tets per prism (prism i
 /// gives tets tets.size() + 3i ... + 3i + 2), then two per pyramid; the same
-/// points, boundary and names; no regions.
+/// points, boundary and names; each tet the region of its cell when the mesh
+/// has regions (VolumeMesh::prism_regions), else none.
 VolumeMesh split_to_tets(const VolumeMesh& mesh);
 
 /// validate_mesh of a mixed mesh: indices and distinct vertices of every

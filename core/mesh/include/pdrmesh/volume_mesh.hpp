@@ -21,7 +21,8 @@ namespace pdrmesh {
 /// different regions, each once, with their input surface ids.
 /// `prisms` and `pyramids` are empty in a tetrahedral mesh; a mixed mesh (prism
 /// boundary layers) holds them beside the tets, numbered and checked as
-/// mixed_cells.hpp draws them.
+/// mixed_cells.hpp draws them. `prism_regions` and `pyramid_regions` are empty,
+/// or hold the region of each prism and pyramid when the tets have regions.
 struct VolumeMesh {
   std::vector<Vec3> points;
   std::vector<Tet> tets;
@@ -32,6 +33,8 @@ struct VolumeMesh {
   std::map<int, std::string> region_names;
   std::vector<Prism> prisms;
   std::vector<Pyramid> pyramids;
+  std::vector<int> prism_regions;
+  std::vector<int> pyramid_regions;
 
   bool mixed() const { return !prisms.empty() || !pyramids.empty(); }
 };

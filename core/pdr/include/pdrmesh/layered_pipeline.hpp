@@ -28,9 +28,19 @@ struct LayeredResult {
 /// caller sets it to continue the layers' growth). The mixed mesh's points are
 /// the surface's used points first, in their order, then the layer points, then
 /// the fill's inner points. A surface of several regions (regions.hpp) is
-/// refused (invalid_input): layers there are not supported yet.
+/// meshed region by region: the regions that layers.regions names with layers
+/// on their walls, the others with tets only (mesh_serial), merged by
+/// merge_regions (prism_regions the regions of the prisms); the layer figures
+/// are those of all its regions together. invalid_input when layers.regions
+/// names no region of a surface of several, or an unknown one.
 Result<LayeredResult> mesh_serial_layered(const SurfaceMesh& checked_surface, const LayerOptions& layers,
                                           const SerialOptions& options, const RefineProgress& progress = {});
+
+/// Whether layers.regions fits `surface`: it names regions of a surface of
+/// several (by name or id) and is empty for a surface of one; invalid_input
+/// naming the regions otherwise. The pipelines here check it first; a caller
+/// that refuses before meshing (a service at submission) calls it itself.
+Status check_layer_regions(const SurfaceMesh& checked_surface, const LayerOptions& layers);
 
 struct LayeredParallelResult {
   LayeredResult layered;  ///< the mixed mesh and the layer figures (its `fill` unused)

@@ -49,6 +49,12 @@ struct SerialResult {
 Result<SerialResult> mesh_serial(const SurfaceMesh& checked_surface, const SerialOptions& options,
                                  const RefineProgress& progress = {});
 
+/// Adds one region's figures to those of a run that meshes a surface region
+/// by region (its mesh aside): times and counts summed, the refinement passes
+/// in region order, the optimization's extremes combined over the first
+/// region's summary (`first`: `part` is the first region).
+void add_region(SerialResult& all, const SerialResult& part, bool first);
+
 struct ParallelOptions {
   SizingOptions sizing;
   /// Depth, workers, policy, interface round, progress. Its `optimize` hook is
@@ -64,6 +70,10 @@ struct ParallelResult {
   std::size_t boundary_points = 0;  ///< points of the point distribution function
   double seconds_sizing = 0;        ///< background mesh and point distribution function
 };
+
+/// The same for a parallel run: profiles added (times and counts summed, the
+/// rounds in region order), sizing figures summed.
+void add_region(ParallelResult& all, ParallelResult&& part);
 
 /// Meshes the volume enclosed by a checked surface with the PDR engine:
 /// background TetGen mesh -> SizingField::build -> run_pdr(kernel) -> optimize.

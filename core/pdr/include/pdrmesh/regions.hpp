@@ -50,7 +50,8 @@ Result<std::vector<SurfaceRegion>> surface_regions(const SurfaceMesh& checked_su
 /// domain's triangulation) into one mesh of `surface`: the surface's points
 /// that the parts use, in input order, then each part's other points in part
 /// order; the parts' tets in region order, tet_regions their region ids,
-/// region_names their names; the boundary the surface's triangles and ids in
+/// region_names their names (prisms and pyramids likewise, with
+/// prism_regions and pyramid_regions); the boundary the surface's triangles and ids in
 /// input order (an interface once, oriented as in the input). invalid_input
 /// when a part's boundary point is not a point of its domain.
 Result<VolumeMesh> merge_regions(const SurfaceMesh& surface, const std::vector<SurfaceRegion>& regions,
