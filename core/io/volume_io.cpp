@@ -54,6 +54,34 @@ Status OutputFile::flush() {
   return {};
 }
 
+Result<std::uint64_t> OutputFile::position() {
+  const off_t at = ::ftello(file_);
+  if (at < 0) return io_error(fmt::format("{}: cannot tell the write position: {}", path_.string(), std::strerror(errno)));
+  return static_cast<std::uint64_t>(at);
+}
+
+Status OutputFile::seek(std::uint64_t at) {
+  if (::fseeko(file_, static_cast<off_t>(at), SEEK_SET) != 0)
+    return io_error(fmt::format("{}: cannot seek: {}", path_.string(), std::strerror(errno)));
+  return {};
+}
+
+int OutputFile::write_at(const char* data, std::size_t size, std::uint64_t offset) const {
+  const int fd = ::fileno(file_);
+  while (size > 0) {
+    const ssize_t n = ::pwrite(fd, data, size, static_cast<off_t>(offset));
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      return errno;
+    }
+    if (n == 0) return EIO;
+    data += n;
+    size -= static_cast<std::size_t>(n);
+    offset += static_cast<std::uint64_t>(n);
+  }
+  return 0;
+}
+
 Status OutputFile::close() {
   PDR_TRY(flush());
   const int rc = std::fclose(file_);

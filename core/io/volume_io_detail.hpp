@@ -7,7 +7,9 @@
 #include <fmt/compile.h>
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <array>
+#include <atomic>
 #include <bit>
 #include <charconv>
 #include <cmath>
@@ -18,6 +20,8 @@
 #include <string>
 #include <string_view>
 #include <vector>
+
+#include <oneapi/tbb/parallel_for.h>
 
 #include "pdrmesh/status.hpp"
 #include "pdrmesh/volume_io.hpp"
@@ -44,9 +48,40 @@ class OutputFile {
   Status maybe_flush() { return buf_.size() >= kFlushBytes ? flush() : Status{}; }
   Status close();
 
+  /// Appends n records of `record` bytes each, encode(i, out) writing record
+  /// i at `out`: the big sections of a binary format. Chunks of records are
+  /// encoded and written (pwrite at their own offsets) in parallel, so that
+  /// the kernel's copy into the page cache is spread over the threads too;
+  /// the bytes are those of the serial loop.
+  template <class Encode>
+  Status fixed_records(std::size_t n, std::size_t record, Encode&& encode) {
+    PDR_TRY(flush());
+    PDR_ASSIGN_OR_RETURN(const std::uint64_t start, position());
+    const std::size_t chunks = (n + kChunkRecords - 1) / kChunkRecords;
+    std::atomic<int> error{0};
+    tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
+      const std::size_t lo = c * kChunkRecords, hi = std::min(n, lo + kChunkRecords);
+      std::vector<char> bytes((hi - lo) * record);
+      for (std::size_t i = lo; i < hi; ++i) encode(i, bytes.data() + (i - lo) * record);
+      if (const int e = write_at(bytes.data(), bytes.size(), start + lo * record); e != 0) {
+        int none = 0;
+        error.compare_exchange_strong(none, e);
+      }
+    });
+    if (const int e = error.load(); e != 0)
+      return io_error(fmt::format("{}: write failed: {}", path_.string(), std::strerror(e)));
+    return seek(start + static_cast<std::uint64_t>(n) * record);
+  }
+
  private:
   static constexpr std::size_t kFlushBytes = std::size_t{32} << 20;
+  static constexpr std::size_t kChunkRecords = std::size_t{1} << 16;  ///< fixed_records' chunk
   Status flush();
+  /// The file's write position (after flush()), and moving it.
+  Result<std::uint64_t> position();
+  Status seek(std::uint64_t at);
+  /// pwrite of all `size` bytes at `offset`; 0, or the errno of the failure.
+  int write_at(const char* data, std::size_t size, std::uint64_t offset) const;
   std::filesystem::path path_;
   std::FILE* file_ = nullptr;
   fmt::memory_buffer buf_;

@@ -240,32 +240,32 @@ Status write_meshb(const VolumeMesh& mesh, const std::filesystem::path& path) {
   keyword(kKwDimension, 4, false);
   put(buf, std::int32_t{3}, kLittle);
 
+  // The records in native order (libMeshb's), each of fixed size.
+  const auto store = [](char*& at, auto v) {
+    std::memcpy(at, &v, sizeof(v));
+    at += sizeof(v);
+  };
   keyword(kKwVertices, 4 + np * 28, false);
   put(buf, static_cast<std::int32_t>(np), kLittle);
-  for (const Vec3& p : mesh.points) {
-    put(buf, p[0], kLittle);
-    put(buf, p[1], kLittle);
-    put(buf, p[2], kLittle);
-    put(buf, std::int32_t{0}, kLittle);
-    PDR_TRY(out.maybe_flush());
-  }
+  PDR_TRY(out.fixed_records(np, 28, [&](std::size_t i, char* at) {
+    for (double x : mesh.points[i]) store(at, x);
+    store(at, std::int32_t{0});
+  }));
   if (nb > 0) {
     keyword(kKwTriangles, 4 + nb * 16, false);
     put(buf, static_cast<std::int32_t>(nb), kLittle);
-    for (std::size_t i = 0; i < nb; ++i) {
-      for (Index v : mesh.boundary[i]) put(buf, static_cast<std::int32_t>(v + 1), kLittle);
-      put(buf, static_cast<std::int32_t>(mesh.boundary_ids[i]), kLittle);
-      PDR_TRY(out.maybe_flush());
-    }
+    PDR_TRY(out.fixed_records(nb, 16, [&](std::size_t i, char* at) {
+      for (Index v : mesh.boundary[i]) store(at, static_cast<std::int32_t>(v + 1));
+      store(at, static_cast<std::int32_t>(mesh.boundary_ids[i]));
+    }));
   }
   if (nt > 0) {
     keyword(kKwTetrahedra, 4 + nt * 20, false);
     put(buf, static_cast<std::int32_t>(nt), kLittle);
-    for (std::size_t i = 0; i < nt; ++i) {
-      for (Index v : mesh.tets[i]) put(buf, static_cast<std::int32_t>(v + 1), kLittle);
-      put(buf, static_cast<std::int32_t>(tet_ref(mesh, i)), kLittle);
-      PDR_TRY(out.maybe_flush());
-    }
+    PDR_TRY(out.fixed_records(nt, 20, [&](std::size_t i, char* at) {
+      for (Index v : mesh.tets[i]) store(at, static_cast<std::int32_t>(v + 1));
+      store(at, static_cast<std::int32_t>(tet_ref(mesh, i)));
+    }));
   }
   // Prisms and pyramids in the ASCII writer's vertex order, ref their region.
   const auto cells = [&](std::int32_t code, const auto& list, const std::vector<int>& regions) -> Status {

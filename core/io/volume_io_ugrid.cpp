@@ -131,19 +131,22 @@ Status write_ugrid_binary(const VolumeMesh& mesh, const std::filesystem::path& p
   for (std::size_t n : {mesh.points.size(), mesh.boundary.size(), std::size_t{0}, mesh.tets.size(), std::size_t{0},
                         std::size_t{0}, std::size_t{0}})
     put(buf, static_cast<std::int32_t>(n), little);
-  for (const Vec3& p : mesh.points) {
-    for (double x : p) put(buf, x, little);
-    PDR_TRY(out.maybe_flush());
-  }
+  const auto store = [little](char*& at, auto v) {
+    if (little != kHostLittle) v = byteswap_value(v);
+    std::memcpy(at, &v, sizeof(v));
+    at += sizeof(v);
+  };
+  PDR_TRY(out.fixed_records(mesh.points.size(), 24, [&](std::size_t i, char* at) {
+    for (double x : mesh.points[i]) store(at, x);
+  }));
   for (const Tri& t : mesh.boundary) {
     for (Index v : t) put(buf, static_cast<std::int32_t>(v + 1), little);
     PDR_TRY(out.maybe_flush());
   }
   for (int id : mesh.boundary_ids) put(buf, static_cast<std::int32_t>(id), little);
-  for (const Tet& t : mesh.tets) {
-    for (Index v : t) put(buf, static_cast<std::int32_t>(v + 1), little);
-    PDR_TRY(out.maybe_flush());
-  }
+  PDR_TRY(out.fixed_records(mesh.tets.size(), 16, [&](std::size_t i, char* at) {
+    for (Index v : mesh.tets[i]) store(at, static_cast<std::int32_t>(v + 1));
+  }));
   return out.close();
 }
 
