@@ -339,7 +339,7 @@ py::dict volume_dict(const VolumeMesh& m) {
   d["boundary"] = cells_array(m.boundary);
   d["boundary_ids"] = ints_array(m.boundary_ids);
   std::vector<int> regions = m.tet_regions;  // per volume cell: tets, prisms, pyramids
-  if (!regions.empty()) {
+  if (m.has_regions()) {
     regions.insert(regions.end(), m.prism_regions.begin(), m.prism_regions.end());
     regions.insert(regions.end(), m.pyramid_regions.begin(), m.pyramid_regions.end());
   }

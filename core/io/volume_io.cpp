@@ -101,13 +101,13 @@ Status check_writable(const VolumeMesh& mesh) {
   if (!mesh.tet_regions.empty() && mesh.tet_regions.size() != mesh.tets.size())
     return invalid_input(fmt::format("mesh has {} tets but {} tet regions", mesh.tets.size(),
                                      mesh.tet_regions.size()));
-  // Prisms and pyramids have regions exactly when the tets do.
-  const std::size_t with = mesh.tet_regions.empty() ? 0 : 1;
-  if (mesh.prism_regions.size() != with * mesh.prisms.size() ||
-      mesh.pyramid_regions.size() != with * mesh.pyramids.size())
-    return invalid_input(fmt::format("mesh has {} prisms and {} pyramids but {} prism and {} pyramid regions{}",
-                                     mesh.prisms.size(), mesh.pyramids.size(), mesh.prism_regions.size(),
-                                     mesh.pyramid_regions.size(), with ? "" : " (its tets have none)"));
+  // Regions: on every cell, or on none.
+  if (mesh.has_regions() &&
+      (mesh.tet_regions.size() != mesh.tets.size() || mesh.prism_regions.size() != mesh.prisms.size() ||
+       mesh.pyramid_regions.size() != mesh.pyramids.size()))
+    return invalid_input(fmt::format("mesh has {} tets, {} prisms and {} pyramids but {}, {} and {} regions",
+                                     mesh.tets.size(), mesh.prisms.size(), mesh.pyramids.size(),
+                                     mesh.tet_regions.size(), mesh.prism_regions.size(), mesh.pyramid_regions.size()));
   for (std::size_t i = 0; i < n; ++i) {
     const Vec3& p = mesh.points[i];
     if (!is_finite(p))

@@ -96,7 +96,7 @@ Status write_mixed_vtu(const VolumeMesh& mesh, const std::filesystem::path& path
   types(nt + nq + ny, 0);
   for (int id : mesh.boundary_ids) fmt::format_to(it, FMT_COMPILE("{}\n"), id);
   fmt::format_to(it, "        </DataArray>\n");
-  if (!mesh.tet_regions.empty()) {  // as write_vtu's `region`, 0 for triangles
+  if (mesh.has_regions()) {  // as write_vtu's `region`, 0 for triangles
     fmt::format_to(it, "        <DataArray type=\"Int32\" Name=\"region\" format=\"ascii\">\n");
     for (const std::vector<int>* regions : {&mesh.tet_regions, &mesh.prism_regions, &mesh.pyramid_regions})
       for (int r : *regions) fmt::format_to(it, FMT_COMPILE("{}\n"), r);
@@ -113,7 +113,7 @@ Status write_mixed_gmsh(const VolumeMesh& mesh, const std::filesystem::path& pat
   const std::vector<std::size_t> order = by_id(mesh);
   const std::vector<int> ids = distinct(mesh.boundary_ids);
   // Volumes: one per region (ascending id), or one named "volume".
-  const bool regions = !mesh.tet_regions.empty();
+  const bool regions = mesh.has_regions();
   const std::vector<int> region_ids =
       regions ? distinct([&] {
         std::vector<int> all = mesh.tet_regions;

@@ -219,7 +219,7 @@ void write_vtu_field_data(const VolumeMesh& mesh, fmt::memory_buffer& buf) {
                        "NumberOfTuples=\"{}\" format=\"ascii\">\n{}      </DataArray>\n",
                    what, names.size(), ascii_strings(names));
   };
-  const bool region_names = !mesh.region_names.empty() && !mesh.tet_regions.empty();
+  const bool region_names = !mesh.region_names.empty() && mesh.has_regions();
   if (!mesh.boundary_names.empty() || region_names) {
     fmt::format_to(it, "    <FieldData>\n");
     if (!mesh.boundary_names.empty()) named(mesh.boundary_names, "boundary");

@@ -231,6 +231,37 @@ TEST_F(VolumeIo, RoundTripsPrismsAndPyramidsInEveryFormat) {
   }
 }
 
+TEST_F(VolumeIo, RegionsOfPrismsAndPyramidsRoundTripEvenWithoutTets) {
+  VolumeMesh m = grid_mesh(1);
+  m.tet_regions.assign(m.tets.size(), 2);
+  m.tet_regions[0] = 5;
+  m.prisms = {{0, 1, 2, 4, 5, 6}, {7, 3, 1, 6, 2, 0}};
+  m.prism_regions = {5, 7};
+  m.pyramids = {{0, 1, 3, 2, 4}};
+  m.pyramid_regions = {2};
+  VolumeMesh no_tets = m;  // regions on the prisms and pyramids alone
+  no_tets.tets.clear();
+  no_tets.tet_regions.clear();
+  for (const VolumeMesh* mesh : {&m, &no_tets}) {
+    for (const char* suffix : {".mesh", ".meshb", ".vtu", ".msh"}) {
+      SCOPED_TRACE(std::string(suffix) + (mesh == &m ? " with tets" : " without tets"));
+      const fs::path p = path(std::string("regions") + suffix);
+      ASSERT_TRUE(write_volume(*mesh, p).ok());
+      const auto r = read_volume(p);
+      ASSERT_TRUE(r.ok()) << r.status().to_string();
+      EXPECT_EQ(r->tet_regions, mesh->tet_regions);
+      EXPECT_EQ(r->prism_regions, mesh->prism_regions);
+      EXPECT_EQ(r->pyramid_regions, mesh->pyramid_regions);
+    }
+  }
+  // Regions on some kinds of cell and not on others cannot be written.
+  VolumeMesh half = m;
+  half.prism_regions.clear();
+  const Status s = write_volume(half, path("half.meshb"));
+  EXPECT_EQ(s.code(), StatusCode::kInvalidInput);
+  EXPECT_NE(s.message().find("but 6, 0 and 1 regions"), std::string::npos) << s.message();
+}
+
 TEST_F(VolumeIo, GmshRestoresElementOrderAcrossEntityBlocks) {
   // Boundary ids interleaved: Gmsh groups them by entity, element tags restore the order.
   VolumeMesh m = grid_mesh(1);

@@ -37,6 +37,8 @@ struct VolumeMesh {
   std::vector<int> pyramid_regions;
 
   bool mixed() const { return !prisms.empty() || !pyramids.empty(); }
+  /// Whether the cells carry regions (a mesh without tets may have them on its prisms).
+  bool has_regions() const { return !tet_regions.empty() || !prism_regions.empty() || !pyramid_regions.empty(); }
 };
 
 /// The name a format writes for boundary id `id`: its entry in `names`, else
