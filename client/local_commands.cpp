@@ -109,14 +109,40 @@ std::string regions_note(const SurfaceMesh& surface, const SurfaceReport& report
 struct RegionCount {
   int id;
   std::string name;
-  std::size_t tets;
+  std::size_t tets = 0, prisms = 0, pyramids = 0;
 };
 std::vector<RegionCount> region_counts(const VolumeMesh& mesh) {
-  std::map<int, std::size_t> n;
-  for (int r : mesh.tet_regions) ++n[r];
+  std::map<int, RegionCount> n;
+  for (int r : mesh.tet_regions) ++n[r].tets;
+  for (int r : mesh.prism_regions) ++n[r].prisms;
+  for (int r : mesh.pyramid_regions) ++n[r].pyramids;
   std::vector<RegionCount> out;
-  for (const auto& [id, tets] : n) out.push_back({id, region_name(mesh.region_names, id), tets});
+  for (auto& [id, count] : n) {
+    count.id = id;
+    count.name = region_name(mesh.region_names, id);
+    out.push_back(count);
+  }
   return out;
+}
+
+/// quality's line of cells per region ("regions: 1 fluid: 120 tets and 36 prisms, 2 body: 40 tets").
+std::string format_region_counts(const std::vector<RegionCount>& regions) {
+  if (regions.empty()) return {};
+  std::vector<std::string> items;
+  for (const RegionCount& r : regions) {
+    std::string cells = fmt::format("{} tets", r.tets);
+    if (r.prisms > 0) cells += fmt::format(" and {} prisms", r.prisms);
+    if (r.pyramids > 0) cells += fmt::format(" and {} pyramids", r.pyramids);
+    items.push_back(fmt::format("{} {}: {}", r.id, r.name, cells));
+  }
+  return fmt::format("regions: {}\n", fmt::join(items, ", "));
+}
+
+nlohmann::json region_counts_json(const std::vector<RegionCount>& regions) {
+  nlohmann::json a = nlohmann::json::array();
+  for (const RegionCount& r : regions)
+    a.push_back({{"id", r.id}, {"name", r.name}, {"tets", r.tets}, {"prisms", r.prisms}, {"pyramids", r.pyramids}});
+  return a;
 }
 
 /// Reads and checks a surface, with the names of a --names file (`names_path`,
@@ -496,13 +522,15 @@ int run_quality(const std::string& path, bool json, const std::string& svg) {
     // The tet measures below cover the tets alone; the prisms get the layer figures.
     const LayerReport layers = measure_layers(*mesh);
     const QualityReport q = measure_quality(*mesh, /*interior=*/true);
+    const std::vector<RegionCount> regions = region_counts(*mesh);
     if (json) {
       auto j = nlohmann::json::parse(quality_to_json(q));
       j["layers"] = nlohmann::json::parse(layers_to_json(layers));
       j["openfoam"] = {{"error", "not measured on a mesh with prisms or pyramids"}};
+      j["regions"] = region_counts_json(regions);
       fmt::print("{}\n", j.dump());
     } else {
-      fmt::print("{}{}", format_quality(q), format_layers(layers));
+      fmt::print("{}{}{}", format_quality(q), format_region_counts(regions), format_layers(layers));
       fmt::print("OpenFOAM (checkMesh) figures not measured: the mesh has prisms or pyramids\n");
     }
     if (!svg.empty()) {
@@ -519,16 +547,10 @@ int run_quality(const std::string& path, bool json, const std::string& svg) {
     auto j = nlohmann::json::parse(quality_to_json(q));
     j["openfoam"] = foam.ok() ? nlohmann::json::parse(foam_quality_to_json(*foam))
                               : nlohmann::json{{"error", foam.status().message()}};
-    j["regions"] = nlohmann::json::array();
-    for (const RegionCount& r : regions) j["regions"].push_back({{"id", r.id}, {"name", r.name}, {"tets", r.tets}});
+    j["regions"] = region_counts_json(regions);
     fmt::print("{}\n", j.dump());
   } else {
-    fmt::print("{}", format_quality(q));
-    if (!regions.empty()) {
-      std::vector<std::string> items;
-      for (const RegionCount& r : regions) items.push_back(fmt::format("{} {}: {} tets", r.id, r.name, r.tets));
-      fmt::print("regions: {}\n", fmt::join(items, ", "));
-    }
+    fmt::print("{}{}", format_quality(q), format_region_counts(regions));
     fmt::print("{}", foam.ok() ? format_foam_quality(*foam)
                                : fmt::format("OpenFOAM (checkMesh) figures not measured: {}\n", foam.status().message()));
   }

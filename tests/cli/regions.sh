@@ -76,6 +76,8 @@ for w in 1 2; do
 done
 cmp -s "$tmp/lr1.vtu" "$tmp/lr2.vtu" || fail "layered run: 1 and 2 workers differ"
 "$pdrmesh" validate "$tmp/lr2.vtu" --surface "$tmp/two.obj" | grep -q "^valid" || fail "layered run does not validate"
+out=$("$pdrmesh" quality "$tmp/lr2.vtu")
+grep -q "regions: 1 fluid: [0-9]* tets and 36 prisms, 2 body: [0-9]* tets$" <<<"$out" || fail "quality's regions: $out"
 "$pdrmesh" convert "$tmp/lr2.vtu" "$tmp/case/constant/polyMesh"
 grep -q "^    fluid$" "$tmp/case/constant/polyMesh/cellZones" || fail "no cellZone fluid in the layered polyMesh"
 
