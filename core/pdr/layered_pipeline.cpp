@@ -41,6 +41,13 @@ Result<std::vector<SurfaceRegion>> layered_regions(const SurfaceMesh& surface, c
     if (it == regions.end())
       return invalid_input(fmt::format("--layers-in: {} names no region of {}; its regions are {}", name, surface.name,
                                        fmt::join(known, ", ")));
+    // A region named must have walls to grow them from.
+    const std::vector<int>& ids = it->domain.surface_ids;
+    if (!layers.walls.empty() && std::none_of(ids.begin(), ids.end(), [&](int id) {
+          return std::find(layers.walls.begin(), layers.walls.end(), id) != layers.walls.end();
+        }))
+      return invalid_input(fmt::format("--layers-in: region {} ({}) of {} has none of the walls that grow layers "
+                                       "(--layers-on)", it->name, it->id, surface.name));
     grows[static_cast<std::size_t>(it - regions.begin())] = 1;
   }
   return regions;

@@ -337,6 +337,13 @@ TEST(Regions, LayersRefuseToGuessTheSideOfAnInterface) {
   r = mesh_serial_layered(s, o, SerialOptions{});
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.status().message().find("air names no region"), std::string::npos) << r.status().message();
+  o.regions = {"body"};  // the body's side of the sphere is its outer shell, but the walls are the box's
+  o.walls = {1};
+  r = mesh_serial_layered(s, o, SerialOptions{});
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("region body (2) of sphere_in_box has none of the walls"), std::string::npos)
+      << r.status().message();
+  o.walls = {2};
   o.regions = {"2", "3"};  // ids: the body's, then none
   r = mesh_serial_layered(s, o, SerialOptions{});
   ASSERT_FALSE(r.ok());
