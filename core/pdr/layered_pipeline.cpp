@@ -210,12 +210,7 @@ Result<LayeredParallelResult> mesh_parallel_layered(const SurfaceMesh& surface, 
   std::vector<char> grows;
   PDR_ASSIGN_OR_RETURN(const std::vector<SurfaceRegion> regions, layered_regions(surface, layer_options, grows));
   if (regions.empty()) return parallel_layered_one(surface, layer_options, options, kernel, optimize_kernel);
-  // Region by region (as mesh_parallel), which writes no checkpoint.
-  if (options.pdr.resume != nullptr)
-    return invalid_input(fmt::format("{}: a surface of {} regions cannot resume from a checkpoint", surface.name,
-                                     regions.size()));
-  ParallelOptions o = options;
-  o.pdr.checkpoint = nullptr;
+  PDR_ASSIGN_OR_RETURN(const ParallelOptions o, region_by_region(options, surface, regions.size()));
   LayeredParallelResult out;
   std::vector<VolumeMesh> parts;
   for (std::size_t k = 0; k < regions.size(); ++k) {

@@ -312,6 +312,16 @@ void add_profile(PdrProfile& all, PdrProfile&& p) {
 
 }  // namespace
 
+Result<ParallelOptions> region_by_region(const ParallelOptions& options, const SurfaceMesh& surface,
+                                         std::size_t regions) {
+  if (options.pdr.resume != nullptr)
+    return invalid_input(fmt::format("{}: a surface of {} regions cannot resume from a checkpoint", surface.name,
+                                     regions));
+  ParallelOptions o = options;
+  o.pdr.checkpoint = nullptr;
+  return o;
+}
+
 void add_region(ParallelResult& all, ParallelResult&& part) {
   add_profile(all.profile, std::move(part.profile));
   all.boundary_points += part.boundary_points;
@@ -329,13 +339,8 @@ Result<ParallelResult> mesh_parallel(const SurfaceMesh& surface, const ParallelO
     return one;
   }
   // Each region through the whole parallel method with the same workers, one
-  // after the other. A checkpoint holds one engine run's state, so a run of
-  // several regions writes none and cannot resume from one.
-  if (options.pdr.resume != nullptr)
-    return invalid_input(fmt::format("{}: a surface of {} regions cannot resume from a checkpoint", surface.name,
-                                     regions.size()));
-  ParallelOptions o = options;
-  o.pdr.checkpoint = nullptr;
+  // after the other.
+  PDR_ASSIGN_OR_RETURN(const ParallelOptions o, region_by_region(options, surface, regions.size()));
   ParallelResult out;
   std::vector<VolumeMesh> parts;
   for (const SurfaceRegion& r : regions) {

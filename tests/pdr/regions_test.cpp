@@ -322,6 +322,10 @@ TEST(Regions, ParallelLayersAreTheSerialOnesAndTheFillIsTheSameForAnyWorkers) {
   EXPECT_EQ(two->layered.mesh.points, m.points);
   EXPECT_EQ(two->layered.mesh.tets, m.tets);
   EXPECT_EQ(two->layered.mesh.tet_regions, m.tet_regions);
+  // As mesh_parallel, it cannot resume a surface of several regions from a checkpoint.
+  PdrCheckpoint c;
+  o.pdr.resume = &c;
+  EXPECT_FALSE(mesh_parallel_layered(s, fluid_layers(), o).ok());
 }
 
 TEST(Regions, LayersRefuseToGuessTheSideOfAnInterface) {

@@ -75,6 +75,12 @@ struct ParallelResult {
 /// rounds in region order), sizing figures summed.
 void add_region(ParallelResult& all, ParallelResult&& part);
 
+/// `options` for meshing a surface of `regions` regions region by region: no
+/// checkpoint, as one holds one engine run's state; invalid_input when the
+/// options resume from one.
+Result<ParallelOptions> region_by_region(const ParallelOptions& options, const SurfaceMesh& surface,
+                                         std::size_t regions);
+
 /// Meshes the volume enclosed by a checked surface with the PDR engine:
 /// background TetGen mesh -> SizingField::build -> run_pdr(kernel) -> optimize.
 /// `kernel` null: make_leaf_kernel("native"). `optimize_kernel` runs the
