@@ -32,14 +32,16 @@ struct LayeredResult {
 /// on their walls, the others with tets only (mesh_serial), merged by
 /// merge_regions (prism_regions the regions of the prisms); the layer figures
 /// are those of all its regions together. invalid_input when layers.regions
-/// names no region of a surface of several, or an unknown one.
+/// names no region of a surface of several, an unknown one, or one that holds
+/// none of layers.walls (check_layer_regions).
 Result<LayeredResult> mesh_serial_layered(const SurfaceMesh& checked_surface, const LayerOptions& layers,
                                           const SerialOptions& options, const RefineProgress& progress = {});
 
 /// Whether layers.regions fits `surface`: it names regions of a surface of
-/// several (by name or id) and is empty for a surface of one; invalid_input
-/// naming the regions otherwise. The pipelines here check it first; a caller
-/// that refuses before meshing (a service at submission) calls it itself.
+/// several (by name or id), each holding one of layers.walls, and is empty
+/// for a surface of one; invalid_input naming the regions otherwise. The
+/// pipelines here check it first; a caller that refuses before meshing (a
+/// service at submission) calls it itself.
 Status check_layer_regions(const SurfaceMesh& checked_surface, const LayerOptions& layers);
 
 struct LayeredParallelResult {
