@@ -98,13 +98,7 @@ Status check_writable(const VolumeMesh& mesh) {
   if (mesh.boundary_ids.size() != mesh.boundary.size())
     return invalid_input(fmt::format("mesh has {} boundary triangles but {} boundary ids",
                                      mesh.boundary.size(), mesh.boundary_ids.size()));
-  if (!mesh.tet_regions.empty() && mesh.tet_regions.size() != mesh.tets.size())
-    return invalid_input(fmt::format("mesh has {} tets but {} tet regions", mesh.tets.size(),
-                                     mesh.tet_regions.size()));
-  // Regions: on every cell, or on none.
-  if (mesh.has_regions() &&
-      (mesh.tet_regions.size() != mesh.tets.size() || mesh.prism_regions.size() != mesh.prisms.size() ||
-       mesh.pyramid_regions.size() != mesh.pyramids.size()))
+  if (!mesh.regions_fit())
     return invalid_input(fmt::format("mesh has {} tets, {} prisms and {} pyramids but {}, {} and {} regions",
                                      mesh.tets.size(), mesh.prisms.size(), mesh.pyramids.size(),
                                      mesh.tet_regions.size(), mesh.prism_regions.size(), mesh.pyramid_regions.size()));

@@ -106,8 +106,7 @@ VolumeMesh split_to_tets(const VolumeMesh& mesh) {
   for (const Pyramid& p : mesh.pyramids)
     for (const Tet& t : pyramid_tets(p)) out.tets.push_back(t);
   // Regions follow the cells, when every kind of cell has them.
-  if (mesh.has_regions() && mesh.tet_regions.size() == mesh.tets.size() &&
-      mesh.prism_regions.size() == mesh.prisms.size() && mesh.pyramid_regions.size() == mesh.pyramids.size()) {
+  if (mesh.has_regions() && mesh.regions_fit()) {
     out.tet_regions = mesh.tet_regions;
     for (int r : mesh.prism_regions) out.tet_regions.insert(out.tet_regions.end(), 3, r);
     for (int r : mesh.pyramid_regions) out.tet_regions.insert(out.tet_regions.end(), 2, r);
@@ -236,13 +235,10 @@ ValidationReport validate_mixed_mesh(const VolumeMesh& mesh, const SurfaceMesh* 
   };
   check_indices(mesh.prisms, "prism");
   check_indices(mesh.pyramids, "pyramid");
-  // Regions: none, or one per cell of every kind.
-  if (mesh.has_regions()) {
-    if (mesh.tet_regions.size() != mesh.tets.size() || mesh.prism_regions.size() != mesh.prisms.size() ||
-        mesh.pyramid_regions.size() != mesh.pyramids.size())
-      add(fmt::format("regions: {} tet, {} prism and {} pyramid regions for {} tets, {} prisms and {} pyramids",
-                      mesh.tet_regions.size(), mesh.prism_regions.size(), mesh.pyramid_regions.size(),
-                      mesh.tets.size(), mesh.prisms.size(), mesh.pyramids.size()));
+  if (!mesh.regions_fit()) {
+    add(fmt::format("regions: {} tet, {} prism and {} pyramid regions for {} tets, {} prisms and {} pyramids",
+                    mesh.tet_regions.size(), mesh.prism_regions.size(), mesh.pyramid_regions.size(), mesh.tets.size(),
+                    mesh.prisms.size(), mesh.pyramids.size()));
   }
   if (error_count == 0) {
     for (std::size_t c = 0; c < mesh.prisms.size(); ++c)

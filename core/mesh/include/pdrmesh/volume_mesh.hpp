@@ -22,7 +22,8 @@ namespace pdrmesh {
 /// `prisms` and `pyramids` are empty in a tetrahedral mesh; a mixed mesh (prism
 /// boundary layers) holds them beside the tets, numbered and checked as
 /// mixed_cells.hpp draws them. `prism_regions` and `pyramid_regions` are empty,
-/// or hold the region of each prism and pyramid when the tets have regions.
+/// or hold the region of each prism and pyramid when the cells have regions
+/// (regions_fit: on every cell or on none).
 struct VolumeMesh {
   std::vector<Vec3> points;
   std::vector<Tet> tets;
@@ -39,6 +40,11 @@ struct VolumeMesh {
   bool mixed() const { return !prisms.empty() || !pyramids.empty(); }
   /// Whether the cells carry regions (a mesh without tets may have them on its prisms).
   bool has_regions() const { return !tet_regions.empty() || !prism_regions.empty() || !pyramid_regions.empty(); }
+  /// Whether the regions are on every cell of every kind, or on none.
+  bool regions_fit() const {
+    return !has_regions() || (tet_regions.size() == tets.size() && prism_regions.size() == prisms.size() &&
+                              pyramid_regions.size() == pyramids.size());
+  }
 };
 
 /// The name a format writes for boundary id `id`: its entry in `names`, else
