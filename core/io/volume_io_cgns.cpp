@@ -254,57 +254,39 @@ Status write_cgns(const VolumeMesh& mesh, const std::filesystem::path& path) {
   std::set<std::string> used;
   std::vector<cgsize_t> conn;
   conn.reserve(4 * mesh.tets.size());
-  const auto tets = static_cast<cgsize_t>(mesh.tets.size());
-  if (mesh.tet_regions.size() != mesh.tets.size()) {
-    for (const Tet& t : mesh.tets)
-      for (Index v : t) conn.push_back(static_cast<cgsize_t>(v) + 1);
-    if (cg_section_write(fn, base, zone, "Tetrahedra", CGNS_ENUMV(TETRA_4), 1, tets, 0, conn.data(), &node) != CG_OK)
-      return failed("tetrahedra");
-  } else {
-    std::vector<std::size_t> by_region(mesh.tets.size());
-    for (std::size_t i = 0; i < by_region.size(); ++i) by_region[i] = i;
-    std::stable_sort(by_region.begin(), by_region.end(),
-                     [&](std::size_t a, std::size_t b) { return mesh.tet_regions[a] < mesh.tet_regions[b]; });
-    cgsize_t first = 1;
-    for (std::size_t k = 0; k < by_region.size();) {
-      const int id = mesh.tet_regions[by_region[k]];
-      conn.clear();
-      for (; k < by_region.size() && mesh.tet_regions[by_region[k]] == id; ++k)
-        for (Index v : mesh.tets[by_region[k]]) conn.push_back(static_cast<cgsize_t>(v) + 1);
-      const auto count = static_cast<cgsize_t>(conn.size() / 4);
-      const std::string name = cgns_name(region_name(mesh.region_names, id), id, used);
-      if (cg_section_write(fn, base, zone, name.c_str(), CGNS_ENUMV(TETRA_4), first, first + count - 1, 0, conn.data(),
-                           &node) != CG_OK)
-        return failed(fmt::format("region section {}", name));
-      first += count;
-    }
-  }
-
-  cgsize_t next = tets + 1;
-  // One section of a kind, or with regions one per region as for the tets.
-  const auto mixed_section = [&](const char* kind, CGNS_ENUMT(ElementType_t) type, const auto& list,
-                                 const std::vector<int>& regions) -> Status {
-    std::vector<std::size_t> by_region(list.size());
-    for (std::size_t i = 0; i < by_region.size(); ++i) by_region[i] = i;
+  // The sections of one kind of cell, numbered from `next` on: one named
+  // `whole`, or with regions one per region (ascending id, its cells in mesh
+  // order) named by `name_of`.
+  cgsize_t next = 1;
+  const auto sections = [&](CGNS_ENUMT(ElementType_t) type, const auto& list, const std::vector<int>& regions,
+                            const char* whole, const auto& name_of) -> Status {
+    std::vector<std::size_t> order(list.size());
+    for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
     const bool per_region = regions.size() == list.size() && !list.empty();
     if (per_region)
-      std::stable_sort(by_region.begin(), by_region.end(), [&](std::size_t a, std::size_t b) { return regions[a] < regions[b]; });
-    for (std::size_t k = 0; k < by_region.size();) {
-      const int id = per_region ? regions[by_region[k]] : 0;
+      std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return regions[a] < regions[b]; });
+    for (std::size_t k = 0; k < order.size();) {
+      const int id = per_region ? regions[order[k]] : 0;
       conn.clear();
       cgsize_t count = 0;
-      for (; k < by_region.size() && (!per_region || regions[by_region[k]] == id); ++k, ++count)
-        for (Index v : list[by_region[k]]) conn.push_back(static_cast<cgsize_t>(v) + 1);
-      const std::string name = per_region ? cgns_name(fmt::format("{}_{}", region_name(mesh.region_names, id), kind), id, used)
-                                          : cgns_name(kind, 0, used);
+      for (; k < order.size() && (!per_region || regions[order[k]] == id); ++k, ++count)
+        for (Index v : list[order[k]]) conn.push_back(static_cast<cgsize_t>(v) + 1);
+      const std::string name = per_region ? cgns_name(name_of(id), id, used) : *used.insert(whole).first;
       if (cg_section_write(fn, base, zone, name.c_str(), type, next, next + count - 1, 0, conn.data(), &node) != CG_OK)
-        return failed(name);
+        return failed(fmt::format("section {}", name));
       next += count;
     }
     return {};
   };
-  PDR_TRY(mixed_section("Prisms", CGNS_ENUMV(PENTA_6), mesh.prisms, mesh.prism_regions));
-  PDR_TRY(mixed_section("Pyramids", CGNS_ENUMV(PYRA_5), mesh.pyramids, mesh.pyramid_regions));
+  const auto region_of = [&](const char* kind) {
+    return [&mesh, kind](int id) {
+      const std::string region = region_name(mesh.region_names, id);
+      return *kind ? fmt::format("{}_{}", region, kind) : region;
+    };
+  };
+  PDR_TRY(sections(CGNS_ENUMV(TETRA_4), mesh.tets, mesh.tet_regions, "Tetrahedra", region_of("")));
+  PDR_TRY(sections(CGNS_ENUMV(PENTA_6), mesh.prisms, mesh.prism_regions, "Prisms", region_of("Prisms")));
+  PDR_TRY(sections(CGNS_ENUMV(PYRA_5), mesh.pyramids, mesh.pyramid_regions, "Pyramids", region_of("Pyramids")));
 
   std::vector<std::size_t> order(mesh.boundary.size());
   for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
