@@ -63,8 +63,10 @@ Result<LeafTaskOutput> NativeLeafKernel::run(const LeafTaskInput& in, const Sizi
     const Result<InsertPointsStats> seeded = insert_points(*mesh, in.seeds);
     if (!seeded.ok())
       return Status(seeded.status().code(), fmt::format("leaf {}: seeds: {}", in.leaf, seeded.status().message()));
-    if (sizes.size() == before)
-      for (Index v = before; v < mesh->num_points(); ++v) sizes.push_back(sizing.at(mesh->point(v)));
+    if (sizes.size() == before) {
+      SizingHint hint;  // the seeds went in in Morton order
+      for (Index v = before; v < mesh->num_points(); ++v) sizes.push_back(sizing.at(mesh->point(v), hint));
+    }
   } else if (refine_) {
     const Status s = refine_(*mesh, sizing, in.core, sizes);
     if (!s.ok()) return Status(s.code(), fmt::format("leaf {}: refinement: {}", in.leaf, s.message()));

@@ -36,6 +36,17 @@ struct ShorterEdges {
   bool operator()(const EdgeRing& r, int i, int k, int j) const {
     return too_long(r, i, k) || too_long(r, k, j) || too_long(r, i, j);
   }
+  /// Whether a triangulation may exist at all: one of a polygon of four or
+  /// more sides has two ears, so two diagonals (i - 1, i + 1) must be short.
+  bool possible(const EdgeRing& r) const {
+    if (r.size < 4) return true;
+    int ears = 0;
+    for (int i = 0; i < r.size && ears < 2; ++i) {
+      const Vec3 d = m.point(r.ring[(i + r.size - 1) % r.size]) - m.point(r.ring[(i + 1) % r.size]);
+      ears += dot(d, d) < edge2 ? 1 : 0;
+    }
+    return ears == 2;
+  }
 };
 
 }  // namespace
@@ -146,8 +157,12 @@ FlipOutcome remove_long_edge(TetMesh& mesh, Index t, int e, double floor) {
   if (t >= mesh.num_slots() || !mesh.alive(t)) return FlipOutcome::kNotApplicable;
   const Tet& k = mesh.tet(t);
   const Vec3 d = mesh.point(k[topo::kEdgeVertex[e][0]]) - mesh.point(k[topo::kEdgeVertex[e][1]]);
+  const ShorterEdges shorter{mesh, dot(d, d)};
+  EdgeRing r;
+  if (const Outcome why = removable_edge_ring(mesh, t, e, 0, r); why != Outcome::kDone) return why;
+  if (!shorter.possible(r)) return Outcome::kNotBetter;
   MaxDihedral criterion(mesh, floor);
-  return remove_edge(mesh, t, e, criterion, ShorterEdges{mesh, dot(d, d)});
+  return replace_ring(mesh, r, criterion, shorter);
 }
 
 }  // namespace pdrmesh

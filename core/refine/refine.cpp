@@ -76,7 +76,7 @@ class Refiner {
     RefineStats stats;
     if (h_.size() != m_.num_points()) {
       h_.resize(m_.num_points());
-      for (Index v = 0; v < m_.num_points(); ++v) h_[v] = sizing_->at(m_.point(v));
+      for (Index v = 0; v < m_.num_points(); ++v) h_[v] = sizing_->at(m_.point(v), sizing_hint_);
     }
     while (last_tet_ + 1 < m_.num_slots() && !m_.alive(last_tet_)) ++last_tet_;
     bool midpoints = false;
@@ -512,7 +512,7 @@ class Refiner {
     if (!m_.alive(start)) start = last_tet_;
     const Location l = walk(m_, start, c.p, o_.max_walk_steps, /*cross_frozen=*/false);
     if (!insertable(l)) return false;
-    const double h = sizing_->at(c.p);
+    const double h = sizing_->at(c.p, sizing_hint_);
     if (!clear_around(l.tet, c.p, o_.reject_distance * h, o_.boundary_reject_distance * h))
       return false;
     ++ps.accepted;
@@ -909,6 +909,7 @@ class Refiner {
 
   TetMesh& m_;
   const SizingField* sizing_;
+  SizingHint sizing_hint_;  ///< consecutive candidates lie near each other
   const RefineOptions& o_;
   std::vector<double> h_;  ///< h at each point, evaluated when it entered the mesh
   /// cavity_insert gives up past this many tets (the refiner's cavities are

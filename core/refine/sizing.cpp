@@ -348,19 +348,42 @@ Status SizingField::finish() {
       bvh_, bvh_item_);
   bvh_box_.resize(tets_.size());
   for (std::size_t i = 0; i < tets_.size(); ++i) bvh_box_[i] = boxes[bvh_item_[i]];
+
+  // Face neighbours, for the walks of at(x, hint): faces sorted by their
+  // vertices, equal neighbours paired (a face of three or more tets pairs none).
+  std::vector<std::pair<Tri, Index>> faces(4 * tets_.size());
+  tbb::parallel_for(std::size_t{0}, tets_.size(), [&](std::size_t t) {
+    for (int f = 0; f < 4; ++f)
+      faces[4 * t + f] = {topo::sorted_key(topo::face_of(tets_[t], f)), static_cast<Index>(4 * t + f)};
+  });
+  tbb::parallel_sort(faces.begin(), faces.end());
+  neighbours_.assign(tets_.size(), {kNoIndex, kNoIndex, kNoIndex, kNoIndex});
+  for (std::size_t i = 0; i < faces.size();) {
+    std::size_t j = i + 1;
+    while (j < faces.size() && faces[j].first == faces[i].first) ++j;
+    if (j == i + 2) {
+      const Index a = faces[i].second, b = faces[i + 1].second;
+      neighbours_[a / 4][a % 4] = b / 4;
+      neighbours_[b / 4][b % 4] = a / 4;
+    }
+    i = j;
+  }
   return Status::ok_status();
 }
 
 // ---------------------------------------------------------------- queries
 
-double SizingField::growth_limit(const Vec3& x, double best) const {
+double SizingField::growth_limit(const Vec3& x, double best, std::uint32_t* point) const {
   // Branch and bound. A node's bound h_min + (G - 1) |x - box| is computed with
   // the same operations, in the same order, as a point's value h + (G - 1) |x - p|,
   // and every operation rounds monotonically, so the bound never exceeds the
   // computed value of any point below the node: pruning at bound >= best drops
   // nothing that could lower the minimum, and the result equals a brute-force
-  // loop bit for bit.
+  // loop bit for bit, whatever value `best` starts from (so a caller's `point`,
+  // the slot that set the last query's minimum, may start it).
   const double gm1 = growth_ - 1;
+  const auto value = [&](std::uint32_t i) { return kd_h_[i] + gm1 * std::sqrt(dist2(x, kd_xyz_[i])); };
+  if (point != nullptr && *point < kd_h_.size()) best = std::min(best, value(*point));
   auto bound = [&](Index n) { return kd_h_min_[n] + gm1 * std::sqrt(box_dist2(kd_[n].box, x)); };
   Index stack[kStack];
   int top = 0;
@@ -371,7 +394,10 @@ double SizingField::growth_limit(const Vec3& x, double best) const {
     if (bound(n) >= best) continue;
     if (node.left == kNoIndex) {
       for (std::uint32_t i = node.begin; i < node.end; ++i) {
-        best = std::min(best, kd_h_[i] + gm1 * std::sqrt(dist2(x, kd_xyz_[i])));
+        if (const double v = value(i); v < best) {
+          best = v;
+          if (point != nullptr) *point = i;
+        }
       }
       continue;
     }
@@ -421,8 +447,8 @@ double SizingField::idw(const Vec3& x) const {
   return num / den;
 }
 
-double SizingField::combine(double interpolated, const Vec3& x) const {
-  return std::max(lo_, growth_limit(x, std::min(interpolated, hi_)));
+double SizingField::combine(double interpolated, const Vec3& x, std::uint32_t* point) const {
+  return std::max(lo_, growth_limit(x, std::min(interpolated, hi_), point));
 }
 
 double SizingField::interpolate_in(Index tet, const Vec3& x) const {
@@ -518,6 +544,45 @@ double SizingField::at(const Vec3& x) const {
   Vec3 y{};
   const Index n = nearest_tet(x, y);
   return combine(interpolate_in(n, y), y);
+}
+
+Index SizingField::walk_to(Index tet, const Vec3& x) const {
+  // A visibility walk: through a face whose plane has x strictly outside,
+  // tried from a face that turns with the step (no cycle is kept up), until a
+  // tet holds x strictly. kNoIndex where x is on a face, outside the mesh, or
+  // past the step limit: the caller then searches the tree.
+  constexpr int kSteps = 64;
+  for (int step = 0; step < kSteps && tet < tets_.size(); ++step) {
+    const Tet& v = tets_[tet];
+    int through = -1;
+    bool on_face = false;
+    for (int k = 0; k < 4 && through < 0; ++k) {
+      const int f = (k + step) & 3;
+      std::array<Vec3, 4> q{points_[v[0]], points_[v[1]], points_[v[2]], points_[v[3]]};
+      q[f] = x;
+      const int o = exact::orient3d(q[0], q[1], q[2], q[3]);
+      if (o < 0) through = f;
+      on_face = on_face || o == 0;
+    }
+    if (through < 0) return on_face ? kNoIndex : tet;
+    tet = neighbours_[tet][through];
+  }
+  return kNoIndex;
+}
+
+double SizingField::at(const Vec3& x, SizingHint& hint) const {
+  if (uniform_) return uniform_value_;
+  if (!is_finite(x)) return kNaN;
+  // A tet that holds x strictly is what locate() returns: no other tet holds x.
+  Index t = walk_to(hint.tet, x);
+  if (t == kNoIndex) t = locate(x);
+  if (t != kNoIndex) {
+    hint.tet = t;
+    return combine(interpolate_in(t, x), x, &hint.point);
+  }
+  Vec3 y{};
+  const Index n = nearest_tet(x, y);
+  return combine(interpolate_in(n, y), y, &hint.point);
 }
 
 double SizingField::lower_bound(const Box& box) const {

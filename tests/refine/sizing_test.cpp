@@ -385,6 +385,48 @@ TEST(SizingField, ParallelQueriesMatchSerial) {
   for (std::size_t i = 0; i < xs.size(); ++i) ASSERT_EQ(bits(serial[i]), bits(parallel[i])) << i;
 }
 
+/// at(x, hint) == at(x) bit for bit along a path of small steps with jumps,
+/// through background vertices, face centroids (walks that end on a face) and
+/// points outside the mesh, with one hint carried all the way.
+void check_hinted(const SurfaceMesh& s, const VolumeMesh& m, const SizingOptions& o, const Box& box,
+                  const char* name) {
+  const auto f = build_ok(s, m, o);
+  const auto decoded = SizingField::decode(f.encode());
+  ASSERT_TRUE(decoded.ok()) << decoded.status().message();
+  auto rng = seeded_rng(name);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const Vec3 extent = box.hi - box.lo;
+  SizingHint hint, decoded_hint;
+  Vec3 x = 0.5 * (box.lo + box.hi);
+  for (int i = 0; i < 6000; ++i) {
+    const double r = unit(rng);
+    if (r < 0.05) {
+      x = random_in(rng, box);  // a jump
+    } else if (r < 0.08) {
+      x = m.points[static_cast<std::size_t>(unit(rng) * static_cast<double>(m.points.size())) % m.points.size()];
+    } else if (r < 0.11) {
+      const Tet& t = m.tets[static_cast<std::size_t>(unit(rng) * static_cast<double>(m.tets.size())) % m.tets.size()];
+      x = (1.0 / 3.0) * (m.points[t[0]] + m.points[t[1]] + m.points[t[2]]);
+    } else if (r < 0.13) {
+      x = box.hi + Vec3{0.3 * extent[0], unit(rng) * extent[1], 0.0};  // outside
+    } else {
+      for (int a = 0; a < 3; ++a) x[a] += 0.02 * extent[a] * (unit(rng) - 0.5);
+    }
+    ASSERT_EQ(bits(f.at(x, hint)), bits(f.at(x))) << name << " query " << i;
+    ASSERT_EQ(bits(decoded->at(x, decoded_hint)), bits(f.at(x))) << name << " decoded, query " << i;
+  }
+}
+
+TEST(SizingField, HintedQueriesMatchUnhinted) {
+  SurfaceMesh s;
+  VolumeMesh m;
+  graded_kuhn(6, s, m);
+  check_hinted(s, m, growth(1.1), unit_box(0.1), "HintedQueriesMatchUnhinted/graded");
+  const SphereWithBackground* sp = sphere_with_background();
+  ASSERT_NE(sp, nullptr) << "sphere966.mesh not readable or not star-shaped";
+  check_hinted(sp->surface, sp->background, growth(1.2), sp->surface.bounds(), "HintedQueriesMatchUnhinted/sphere");
+}
+
 // ---------------------------------------------------------------- surface values
 
 TEST(SizingField, SurfaceValuesMatchTheBuiltFieldBitForBit) {

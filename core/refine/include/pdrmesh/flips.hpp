@@ -17,6 +17,7 @@
 #include <limits>
 #include <span>
 #include <string_view>
+#include <utility>
 
 #include "pdrmesh/predicates.hpp"
 #include "pdrmesh/tet_mesh.hpp"
@@ -239,15 +240,12 @@ Outcome flip23(TetMesh& mesh, Index t, int f, C& criterion) {
   return Outcome::kDone;
 }
 
-/// Edge removal judged by `criterion`: the tets around edge e of tet t (a
-/// closed ring of 3..kMaxRemovalRing, exactly `required` when it is not 0)
-/// become the triangulation of the ring whose smallest score is best
+/// Edge removal of a ring removable_edge_ring found: its tets become the
+/// triangulation of the ring polygon whose smallest score is best
 /// (best_ring_triangulation), over the triangulations for which
 /// `excluded(ring, i, k, j)` holds for no triangle.
 template <Criterion C, class Excluded = AnyTriangulation>
-Outcome remove_edge(TetMesh& mesh, Index t, int e, C& criterion, Excluded&& excluded = {}, int required = 0) {
-  EdgeRing r;
-  if (const Outcome why = removable_edge_ring(mesh, t, e, required, r); why != Outcome::kDone) return why;
+Outcome replace_ring(TetMesh& mesh, const EdgeRing& r, C& criterion, Excluded&& excluded = {}) {
   const auto old = std::span<const Index>(r.tets.data(), static_cast<std::size_t>(r.size));
   const double bar = criterion.bar(old);
   RingTriangulation best;
@@ -267,6 +265,16 @@ Outcome remove_edge(TetMesh& mesh, Index t, int e, C& criterion, Excluded&& excl
   mesh.replace_cavity(old, fresh, std::span<const Index>(parent.data(), c));
   criterion.done(mesh.last_created(), std::span<const double>(best.quality.data(), c));
   return Outcome::kDone;
+}
+
+/// Edge removal judged by `criterion`: the tets around edge e of tet t (a
+/// closed ring of 3..kMaxRemovalRing, exactly `required` when it is not 0)
+/// are replaced as replace_ring does.
+template <Criterion C, class Excluded = AnyTriangulation>
+Outcome remove_edge(TetMesh& mesh, Index t, int e, C& criterion, Excluded&& excluded = {}, int required = 0) {
+  EdgeRing r;
+  if (const Outcome why = removable_edge_ring(mesh, t, e, required, r); why != Outcome::kDone) return why;
+  return replace_ring(mesh, r, criterion, std::forward<Excluded>(excluded));
 }
 
 /// The operations with the default criterion (MaxDihedral).

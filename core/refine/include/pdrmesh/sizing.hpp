@@ -59,6 +59,7 @@
 // build() on the same input gives byte-identical encodings.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <optional>
@@ -97,6 +98,15 @@ struct TreeNode {
 
 }  // namespace sizing_detail
 
+/// One caller's memory of its last query (SizingField::at(x, hint)): the
+/// background tet that held the point and the boundary point that set its
+/// growth limit. Consecutive queries near each other then skip most of the
+/// search; the value is the one at(x) gives. Not shared between threads.
+struct SizingHint {
+  Index tet = kNoIndex;
+  std::uint32_t point = UINT32_MAX;  ///< slot in the boundary-point tree
+};
+
 /// The point distribution function h(x); see the top of this header.
 class SizingField {
  public:
@@ -121,6 +131,9 @@ class SizingField {
 
   /// h(x). Thread-safe, deterministic, allocation-free.
   double at(const Vec3& x) const;
+  /// h(x), bit for bit at(x), starting from what the last query with `hint`
+  /// found (a background tet that holds x strictly is the only one holding it).
+  double at(const Vec3& x, SizingHint& hint) const;
 
   /// A lower bound of h over the points of `box` inside the background mesh
   /// (what a leaf's refined points can ask for): the least background value of
@@ -148,8 +161,9 @@ class SizingField {
   SizingField() = default;
   Status finish();  // derived data (bounding boxes, search trees) from the stored data
 
-  double combine(double interpolated, const Vec3& x) const;
-  double growth_limit(const Vec3& x, double best) const;
+  double combine(double interpolated, const Vec3& x, std::uint32_t* point = nullptr) const;
+  double growth_limit(const Vec3& x, double best, std::uint32_t* point) const;
+  Index walk_to(Index tet, const Vec3& x) const;
   double idw(const Vec3& x) const;
   double interpolate_in(Index tet, const Vec3& x) const;
   Index locate(const Vec3& x) const;
@@ -176,6 +190,7 @@ class SizingField {
   std::vector<sizing_detail::TreeNode> bvh_;  ///< tree over background tets, root first
   std::vector<Index> bvh_item_;               ///< tree order -> tet
   std::vector<Box> bvh_box_;                  ///< tet bounding boxes, tree order
+  std::vector<std::array<Index, 4>> neighbours_;  ///< per background tet: the tet across face f (opposite vertex f)
 };
 
 }  // namespace pdrmesh
