@@ -160,8 +160,13 @@ FlipOutcome remove_long_edge(TetMesh& mesh, Index t, int e, double floor) {
   const ShorterEdges shorter{mesh, dot(d, d)};
   EdgeRing r;
   if (const Outcome why = removable_edge_ring(mesh, t, e, 0, r); why != Outcome::kDone) return why;
-  if (!shorter.possible(r)) return Outcome::kNotBetter;
   MaxDihedral criterion(mesh, floor);
+  if (!shorter.possible(r)) {
+    // The ring's qualities go into the cache as the search would have put
+    // them: the refiner takes a tet without one for a new tet.
+    criterion.bar(std::span<const Index>(r.tets.data(), static_cast<std::size_t>(r.size)));
+    return Outcome::kNotBetter;
+  }
   return replace_ring(mesh, r, criterion, shorter);
 }
 
