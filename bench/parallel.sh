@@ -3,11 +3,13 @@
 # `pdrmesh run` with 1 and 2 workers, at pdrmesh's default octree depth and one deeper.
 #   bench/parallel.sh [SIZE] [SURFACE...]   SIZE: "default" (the surface's own spacing, the default)
 #                                           or a --size value such as 1% (diagonal / 100)
-# Columns: serial tets, wall and CPU seconds, all-tet and interior (no boundary point) dihedral
-# extremes; then per depth: tets, parallel/serial tet ratio, the same extremes, wall seconds of 1
-# and 2 workers, CPU seconds of 1 worker, speedup (serial wall / 2-worker wall), work (1-worker CPU
-# / serial CPU), the optimization's seconds in `mesh` and in the 1-worker run (its rounds with
-# their selections and merges) and their ratio, and "=" when 1 and 2 workers wrote the same bytes.
+# Columns: serial tets, wall and CPU seconds, thousand tets per CPU second (the serial mesher's
+# speed on one core: its CPU time is the whole run's, validation and writing included), all-tet
+# and interior (no boundary point) dihedral extremes; then per depth: tets, parallel/serial tet
+# ratio, the same extremes, wall seconds of 1 and 2 workers, CPU seconds of 1 worker, speedup
+# (serial wall / 2-worker wall), work (1-worker CPU / serial CPU), the optimization's seconds in
+# `mesh` and in the 1-worker run (its rounds with their selections and merges) and their ratio,
+# and "=" when 1 and 2 workers wrote the same bytes.
 # Needs GNU time (scripts/install-deps.sh --bench). PROFILE_DIR=DIR keeps each 2-worker run's
 # profile (pdrmesh_bench_replay projects it to more workers).
 # Surfaces from $PDRMESH_CORPUS (default bench/corpus: bench/fetch-corpus.sh).
@@ -35,8 +37,8 @@ ratio() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.2f", a / b }'; }
 
 echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'); $(date -u +%F); load $(cut -d' ' -f1-3 /proc/loadavg)"
 echo "size: $size; serial: pdrmesh mesh; parallel: pdrmesh run --workers 1|2 [--depth D]; seconds are wall unless named CPU"
-printf '%-13s %9s %6s %6s %13s %13s | %5s %9s %6s %13s %13s %6s %6s %6s %6s %5s %6s %6s %5s %s\n' surface ser_tets ser_s \
-  ser_cpu ser_min/max ser_int depth tets ratio min/max int_min/max w1_s w1_cpu w2_s speedup work opt_s opt_w1 opt_r same
+printf '%-13s %9s %6s %6s %7s %13s %13s | %5s %9s %6s %13s %13s %6s %6s %6s %6s %5s %6s %6s %5s %s\n' surface ser_tets ser_s \
+  ser_cpu ser_kt/s ser_min/max ser_int depth tets ratio min/max int_min/max w1_s w1_cpu w2_s speedup work opt_s opt_w1 opt_r same
 for n in "${names[@]}"; do
   s=$corpus/$n.stl
   measure "$tmp/ser" "$pdrmesh" mesh "$s" -o "$tmp/ser.meshb" "${size_args[@]}" || continue
@@ -55,8 +57,8 @@ for n in "${names[@]}"; do
     same="no"; cmp -s "$tmp/w1.meshb" "$tmp/w2.meshb" && same="="
     [[ -n ${PROFILE_DIR:-} ]] && cp "$tmp/w2.json" "$PROFILE_DIR/$n.$size.d$d.json"
     read -r pt pmin pmax pimin pimax < <(angles "$tmp/w2")
-    printf '%-13s %9d %6.2f %6.2f %6.2f/%6.2f %6.2f/%6.2f | %5d %9d %6s %6.2f/%6.2f %6.2f/%6.2f %6.2f %6.2f %6.2f %6s %5s %6s %6s %5s %s\n' \
-      "$n" "$st" "$(cat "$tmp/ser.s")" "$(cat "$tmp/ser.cpu")" "$smin" "$smax" "$simin" "$simax" "$d" "$pt" \
+    printf '%-13s %9d %6.2f %6.2f %7.0f %6.2f/%6.2f %6.2f/%6.2f | %5d %9d %6s %6.2f/%6.2f %6.2f/%6.2f %6.2f %6.2f %6.2f %6s %5s %6s %6s %5s %s\n' \
+      "$n" "$st" "$(cat "$tmp/ser.s")" "$(cat "$tmp/ser.cpu")" "$(awk -v a="$st" -v b="$(cat "$tmp/ser.cpu")" 'BEGIN { print a / b / 1000 }')" "$smin" "$smax" "$simin" "$simax" "$d" "$pt" \
       "$(awk -v a="$pt" -v b="$st" 'BEGIN { printf "%.3f", a / b }')" "$pmin" "$pmax" "$pimin" "$pimax" \
       "$(cat "$tmp/w1.s")" "$(cat "$tmp/w1.cpu")" "$(cat "$tmp/w2.s")" "$(ratio "$(cat "$tmp/ser.s")" "$(cat "$tmp/w2.s")")" \
       "$(ratio "$(cat "$tmp/w1.cpu")" "$(cat "$tmp/ser.cpu")")" "$ser_opt" "$w1_opt" "$(ratio "$w1_opt" "$ser_opt")" "$same"
