@@ -82,7 +82,18 @@ SizingOptions SizeArgs::resolve(const SurfaceMesh& surface, std::string& line, b
                        body_diagonal > 0 ? "body's " : "", diagonal);
   } else if (s) {
     line = fmt::format("size: {:.6g} (--size)", *o.size);
-  } else {
+  }
+  if (s && surface_h) {
+    // Next to triangles wider than the size, h starts at their spacing (sizing.hpp).
+    if (auto h = SizingField::surface_values(surface, o); h.ok()) {
+      double hi = 0;
+      for (double v : *h)
+        if (std::isfinite(v)) hi = std::max(hi, v);
+      if (hi > *o.size)
+        line += fmt::format("; up to {:.6g} next to surface triangles wider than it (--hmax {:.6g} keeps it there too)",
+                            hi, *o.size);
+    }
+  } else if (!s) {
     line = "size: from the surface";
     if (surface_h) {
       // h at the surface points: one pass over the surface, no background mesh.

@@ -13,9 +13,11 @@
 
 namespace pdrmesh::fixtures {
 
+/// h everywhere on the unit cube (whose triangles are wider than any h the tests use).
 inline SizingField uniform_sizing(double h) {
   SizingOptions o;
   o.size = h;
+  o.hmax = h;  // h everywhere, also next to boundary triangles wider than h
   Result<SizingField> s = SizingField::build(fixtures::unit_cube_surface(), fixtures::unit_cube_mesh(), o);
   EXPECT_TRUE(s.ok()) << s.status().to_string();
   return std::move(s).value();

@@ -11,6 +11,7 @@
 #include <atomic>
 #include <bit>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <utility>
 
@@ -36,6 +37,7 @@ constexpr char kMagic[8] = {'P', 'D', 'R', 'S', 'I', 'Z', 'E', '1'};
 constexpr std::uint32_t kVersion = 1;
 constexpr std::uint32_t kModeField = 0;
 constexpr std::uint32_t kModeUniform = 1;
+constexpr std::uint32_t kModeGraded = 2;
 
 std::string point_str(const Vec3& p) { return fmt::format("({}, {}, {})", p[0], p[1], p[2]); }
 double dist2(const Vec3& a, const Vec3& b) { return dot(a - b, a - b); }
@@ -158,6 +160,19 @@ struct BoundarySpacing {
   std::vector<double> sum;
   std::vector<std::uint32_t> count;
   std::vector<Index> used;
+  /// The used points' coordinates and mean edge lengths, in `used` order.
+  std::vector<Vec3> points(const SurfaceMesh& surface) const {
+    std::vector<Vec3> out;
+    out.reserve(used.size());
+    for (Index p : used) out.push_back(surface.points[p]);
+    return out;
+  }
+  std::vector<double> means() const {
+    std::vector<double> out;
+    out.reserve(used.size());
+    for (Index p : used) out.push_back(sum[p] / count[p]);
+    return out;
+  }
 };
 
 Result<BoundarySpacing> boundary_spacing(const SurfaceMesh& surface, const std::string& name) {
@@ -231,12 +246,14 @@ Result<SizingField> SizingField::build(const SurfaceMesh& surface, const VolumeM
   f.growth_ = options.growth;
   f.lo_ = options.hmin.value_or(0.0);
   f.hi_ = options.hmax.value_or(kInf);
+  const std::string name = surface.name.empty() ? std::string("surface") : surface.name;
   if (options.size) {
     f.uniform_ = true;
     f.uniform_value_ = std::clamp(*options.size, f.lo_, f.hi_);
+    PDR_ASSIGN_OR_RETURN(const BoundarySpacing spacing, boundary_spacing(surface, name));
+    PDR_TRY(f.grade(spacing.points(surface), spacing.means()));
     return f;
   }
-  const std::string name = surface.name.empty() ? std::string("surface") : surface.name;
   PDR_ASSIGN_OR_RETURN(const BoundarySpacing spacing, boundary_spacing(surface, name));
   const std::vector<double>& sum = spacing.sum;
   const std::vector<std::uint32_t>& count = spacing.count;
@@ -295,12 +312,15 @@ Result<std::vector<double>> SizingField::surface_values(const SurfaceMesh& surfa
   f.growth_ = options.growth;
   f.lo_ = options.hmin.value_or(0.0);
   f.hi_ = options.hmax.value_or(kInf);
-  if (options.size) {
-    std::fill(out.begin(), out.end(), std::clamp(*options.size, f.lo_, f.hi_));  // h is uniform everywhere
-    return out;
-  }
   const std::string name = surface.name.empty() ? std::string("surface") : surface.name;
   PDR_ASSIGN_OR_RETURN(const BoundarySpacing spacing, boundary_spacing(surface, name));
+  if (options.size) {
+    f.uniform_ = true;
+    f.uniform_value_ = std::clamp(*options.size, f.lo_, f.hi_);
+    PDR_TRY(f.grade(spacing.points(surface), spacing.means()));
+    for (Index p : spacing.used) out[p] = f.at(surface.points[p]);
+    return out;
+  }
   // The field of the boundary points alone: no tets, so only at_point's
   // value and growth limit apply (what at() gives at a background vertex).
   f.point_count_ = spacing.used.size();
@@ -318,8 +338,20 @@ Result<std::vector<double>> SizingField::surface_values(const SurfaceMesh& surfa
   return out;
 }
 
+Status SizingField::grade(std::vector<Vec3> points, std::vector<double> spacing) {
+  // Nothing to raise: no spacing above the size, or the size already at hmax.
+  if (uniform_value_ >= hi_ || std::none_of(spacing.begin(), spacing.end(), [&](double v) { return v > uniform_value_; }))
+    return Status::ok_status();
+  graded_ = true;
+  points_ = std::move(points);
+  values_ = std::move(spacing);
+  boundary_.resize(points_.size());
+  for (Index i = 0; i < boundary_.size(); ++i) boundary_[i] = i;
+  return finish();
+}
+
 Status SizingField::finish() {
-  if (uniform_) return Status::ok_status();
+  if (uniform_ && !graded_) return Status::ok_status();
   // Boundary points, with per-node least spacing for the growth bound.
   const std::size_t nb = boundary_.size();
   build_tree(
@@ -332,9 +364,12 @@ Status SizingField::finish() {
     kd_h_[i] = values_[boundary_[kd_item_[i]]];
   }
   kd_h_min_.resize(kd_.size());
+  kd_h_max_.resize(kd_.size());
   for (std::size_t n = 0; n < kd_.size(); ++n) {
     kd_h_min_[n] = *std::min_element(kd_h_.begin() + kd_[n].begin, kd_h_.begin() + kd_[n].end);
+    kd_h_max_[n] = *std::max_element(kd_h_.begin() + kd_[n].begin, kd_h_.begin() + kd_[n].end);
   }
+  if (graded_) return Status::ok_status();  // no background tets
 
   // Background tets, split by bounding-box centre.
   std::vector<Box> boxes(tets_.size());
@@ -373,28 +408,26 @@ Status SizingField::finish() {
 
 // ---------------------------------------------------------------- queries
 
-double SizingField::growth_limit(const Vec3& x, double best, std::uint32_t* point) const {
-  // Branch and bound. A node's bound h_min + (G - 1) |x - box| is computed with
-  // the same operations, in the same order, as a point's value h + (G - 1) |x - p|,
-  // and every operation rounds monotonically, so the bound never exceeds the
-  // computed value of any point below the node: pruning at bound >= best drops
-  // nothing that could lower the minimum, and the result equals a brute-force
-  // loop bit for bit, whatever value `best` starts from (so a caller's `point`,
-  // the slot that set the last query's minimum, may start it).
-  const double gm1 = growth_ - 1;
-  const auto value = [&](std::uint32_t i) { return kd_h_[i] + gm1 * std::sqrt(dist2(x, kd_xyz_[i])); };
-  if (point != nullptr && *point < kd_h_.size()) best = std::min(best, value(*point));
-  auto bound = [&](Index n) { return kd_h_min_[n] + gm1 * std::sqrt(box_dist2(kd_[n].box, x)); };
+namespace {
+
+/// Branch and bound over the boundary-point tree: the best value(i) of all
+/// points by the strict order `better` (less: the least; greater: the
+/// largest), from `best`, visiting a node only when its bound is better than
+/// the best so far, the nearer child first (ties: the left one). `point`, when
+/// given, gets the slot that set a new best.
+template <class Value, class Bound, class Better>
+double best_point(const std::vector<sizing_detail::TreeNode>& kd, double best, Value&& value, Bound&& bound,
+                  Better&& better, std::uint32_t* point) {
   Index stack[kStack];
   int top = 0;
   stack[top++] = 0;
   while (top > 0) {
     const Index n = stack[--top];
-    const sizing_detail::TreeNode& node = kd_[n];
-    if (bound(n) >= best) continue;
+    const sizing_detail::TreeNode& node = kd[n];
+    if (!better(bound(n), best)) continue;
     if (node.left == kNoIndex) {
       for (std::uint32_t i = node.begin; i < node.end; ++i) {
-        if (const double v = value(i); v < best) {
+        if (const double v = value(i); better(v, best)) {
           best = v;
           if (point != nullptr) *point = i;
         }
@@ -402,11 +435,41 @@ double SizingField::growth_limit(const Vec3& x, double best, std::uint32_t* poin
       continue;
     }
     const double bl = bound(node.left), br = bound(node.right);
-    const Index near = bl <= br ? node.left : node.right, far = bl <= br ? node.right : node.left;
-    if (std::max(bl, br) < best) stack[top++] = far;
-    if (std::min(bl, br) < best) stack[top++] = near;
+    const bool right_first = better(br, bl);
+    const Index near = right_first ? node.right : node.left, far = right_first ? node.left : node.right;
+    if (better(right_first ? bl : br, best)) stack[top++] = far;
+    if (better(right_first ? br : bl, best)) stack[top++] = near;
   }
   return best;
+}
+
+}  // namespace
+
+double SizingField::growth_limit(const Vec3& x, double best, std::uint32_t* point) const {
+  // A node's bound h_min + (G - 1) |x - box| is computed with the same
+  // operations, in the same order, as a point's value h + (G - 1) |x - p|, and
+  // every operation rounds monotonically, so the bound never exceeds the
+  // computed value of any point below the node: pruning at bound >= best drops
+  // nothing that could lower the minimum, and the result equals a brute-force
+  // loop bit for bit, whatever value `best` starts from (so a caller's `point`,
+  // the slot that set the last query's minimum, may start it).
+  const double gm1 = growth_ - 1;
+  const auto value = [&](std::uint32_t i) { return kd_h_[i] + gm1 * std::sqrt(dist2(x, kd_xyz_[i])); };
+  if (point != nullptr && *point < kd_h_.size()) best = std::min(best, value(*point));
+  const auto bound = [&](Index n) { return kd_h_min_[n] + gm1 * std::sqrt(box_dist2(kd_[n].box, x)); };
+  return best_point(kd_, best, value, bound, std::less<>(), point);
+}
+
+double SizingField::graded(const Vec3& x, std::uint32_t* point) const {
+  // The growth limit's search, maximising s(p) - |x - p|: a node's bound
+  // h_max - |x - box| is computed as a point's value is, so it is never below
+  // the computed value of a point under it, and the result is a brute-force
+  // loop's maximum bit for bit.
+  const auto value = [&](std::uint32_t i) { return kd_h_[i] - std::sqrt(dist2(x, kd_xyz_[i])); };
+  double best = uniform_value_;
+  if (point != nullptr && *point < kd_h_.size()) best = std::max(best, value(*point));
+  const auto bound = [&](Index n) { return kd_h_max_[n] - std::sqrt(box_dist2(kd_[n].box, x)); };
+  return std::min(best_point(kd_, best, value, bound, std::greater<>(), point), hi_);  // uniform_value_ is clamped
 }
 
 double SizingField::idw(const Vec3& x) const {
@@ -537,8 +600,9 @@ Index SizingField::nearest_tet(const Vec3& x, Vec3& closest) const {
 }
 
 double SizingField::at(const Vec3& x) const {
-  if (uniform_) return uniform_value_;
+  if (uniform_ && !graded_) return uniform_value_;
   if (!is_finite(x)) return kNaN;
+  if (graded_) return graded(x, nullptr);
   const Index t = locate(x);
   if (t != kNoIndex) return combine(interpolate_in(t, x), x);
   Vec3 y{};
@@ -571,8 +635,9 @@ Index SizingField::walk_to(Index tet, const Vec3& x) const {
 }
 
 double SizingField::at(const Vec3& x, SizingHint& hint) const {
-  if (uniform_) return uniform_value_;
+  if (uniform_ && !graded_) return uniform_value_;
   if (!is_finite(x)) return kNaN;
+  if (graded_) return graded(x, &hint.point);
   // A tet that holds x strictly is what locate() returns: no other tet holds x.
   Index t = walk_to(hint.tet, x);
   if (t == kNoIndex) t = locate(x);
@@ -641,7 +706,7 @@ double SizingField::lower_bound(const Box& box) const {
 }
 
 double SizingField::at_point(Index i) const {
-  if (i >= point_count_) return kNaN;
+  if (i >= point_count_ || graded_) return kNaN;
   if (uniform_) return uniform_value_;
   return combine(values_[i], points_[i]);
 }
@@ -653,9 +718,16 @@ std::string SizingField::encode() const {
   w.bytes(kMagic, sizeof kMagic);
   w.u32(kVersion);
   if (uniform_) {
-    w.u32(kModeUniform);
+    w.u32(graded_ ? kModeGraded : kModeUniform);
     w.f64(uniform_value_);
     w.u64(point_count_);
+    if (!graded_) return w.take();
+    w.f64(hi_);
+    w.u64(points_.size());
+    for (std::size_t i = 0; i < points_.size(); ++i) {
+      for (double v : points_[i]) w.f64(v);
+      w.f64(values_[i]);
+    }
     return w.take();
   }
   w.u32(kModeField);
@@ -682,20 +754,41 @@ Result<SizingField> SizingField::decode(std::string_view bytes) {
   }
   std::uint32_t version = 0, mode = 0;
   if (!r.u32(version) || version != kVersion) return decode_error(fmt::format("unsupported version {}", version));
-  if (!r.u32(mode) || (mode != kModeField && mode != kModeUniform)) {
+  if (!r.u32(mode) || (mode != kModeField && mode != kModeUniform && mode != kModeGraded)) {
     return decode_error(fmt::format("unknown mode {}", mode));
   }
   SizingField f;
-  if (mode == kModeUniform) {
+  if (mode == kModeUniform || mode == kModeGraded) {
     std::uint64_t n = 0;
     if (!r.f64(f.uniform_value_) || !r.u64(n)) return decode_error("truncated uniform field");
     if (!(std::isfinite(f.uniform_value_) && f.uniform_value_ > 0)) {
       return decode_error(fmt::format("uniform value {} is not a finite length > 0", f.uniform_value_));
     }
     if (n > std::numeric_limits<Index>::max()) return decode_error(fmt::format("{} points is too many", n));
-    if (r.left() != 0) return decode_error(fmt::format("{} trailing bytes", r.left()));
     f.uniform_ = true;
     f.point_count_ = static_cast<std::size_t>(n);
+    if (mode == kModeGraded) {
+      f.graded_ = true;
+      if (!r.f64(f.hi_) || !(f.hi_ >= f.uniform_value_)) {
+        return decode_error(fmt::format("graded field: hmax {} is below the size {}", f.hi_, f.uniform_value_));
+      }
+      std::size_t nb = 0;
+      if (!r.count(32, nb) || nb == 0) return decode_error("graded field: no boundary points, or more than the buffer");
+      for (std::size_t i = 0; i < nb; ++i) {
+        Vec3 p{};
+        double v = 0;
+        for (double& c : p) (void)r.f64(c);  // sizes checked by count()
+        (void)r.f64(v);
+        if (!is_finite(p) || !(std::isfinite(v) && v > 0)) {
+          return decode_error(fmt::format("graded field: boundary point {} at {} with spacing {}", i, point_str(p), v));
+        }
+        f.boundary_.push_back(static_cast<Index>(i));
+        f.points_.push_back(p);
+        f.values_.push_back(v);
+      }
+    }
+    if (r.left() != 0) return decode_error(fmt::format("{} trailing bytes", r.left()));
+    if (f.graded_) PDR_TRY(f.finish());
     return f;
   }
   if (!r.f64(f.growth_) || !r.f64(f.lo_) || !r.f64(f.hi_)) return decode_error("truncated header");

@@ -26,6 +26,7 @@ namespace {
 SizingField uniform_field(const SurfaceMesh& surface, const VolumeMesh& background, double h) {
   SizingOptions o;
   o.size = h;
+  o.hmax = h;  // h everywhere, also next to boundary triangles wider than h
   auto r = SizingField::build(surface, background, o);
   EXPECT_TRUE(r.ok()) << r.status().to_string();
   return std::move(r).value();

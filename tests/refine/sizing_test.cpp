@@ -193,19 +193,70 @@ TEST(SizingField, InteriorPointGetsInverseDistanceMean) {
 }
 
 TEST(SizingField, UniformSizeIsConstantAndClamped) {
+  // The cube's boundary spacing is 1 to 1.2: a size at or above it, or one
+  // that hmax holds below it, is one value everywhere.
   const auto s = fixtures::unit_cube_surface();
   const auto m = fixtures::unit_cube_mesh();
   auto rng = seeded_rng("UniformSizeIsConstantAndClamped");
-  for (auto [size, hmin, hmax, want] : {std::tuple{0.3, 0.0, 0.0, 0.3}, std::tuple{0.3, 0.5, 0.0, 0.5},
-                                        std::tuple{2.0, 0.0, 1.0, 1.0}, std::tuple{0.7, 0.1, 0.9, 0.7}}) {
+  for (auto [size, hmin, hmax, want] : {std::tuple{2.0, 0.0, 0.0, 2.0}, std::tuple{0.3, 1.5, 0.0, 1.5},
+                                        std::tuple{2.0, 0.0, 1.0, 1.0}, std::tuple{0.3, 0.1, 0.25, 0.25}}) {
     SizingOptions o;
     o.size = size;
     if (hmin > 0) o.hmin = hmin;
     if (hmax > 0) o.hmax = hmax;
     const auto f = build_ok(s, m, o);
-    EXPECT_TRUE(f.uniform());
+    EXPECT_TRUE(f.uniform()) << size << " " << hmin << " " << hmax;
     for (int q = 0; q < 100; ++q) EXPECT_EQ(f.at(random_in(rng, unit_box(0.5))), want);
     EXPECT_EQ(f.at_point(7), want);
+  }
+}
+
+/// max(size, max_p s(p) - |x - p|), clamped to hmax, by brute force.
+double brute_graded(const SurfaceMesh& s, const std::vector<double>& spacing, double size, double hmax,
+                    const Vec3& x) {
+  double best = size;
+  for (Index p = 0; p < s.points.size(); ++p)
+    if (spacing[p] > 0) best = std::max(best, spacing[p] - std::sqrt(dot(x - s.points[p], x - s.points[p])));
+  return std::min(best, hmax);
+}
+
+TEST(SizingField, SizeIsRaisedNextToACoarserBoundary) {
+  // sphere966's triangles are about four times --size 0.1 wide: h is their
+  // spacing at the boundary, falls by one per unit of distance, and is the
+  // size deep inside; the same bits as a brute-force loop, after a round trip
+  // through encode(), and 1-Lipschitz.
+  const SphereWithBackground* sp = sphere_with_background();
+  ASSERT_NE(sp, nullptr) << "sphere966.mesh not readable or not star-shaped";
+  const auto spacing = mean_incident_edge(sp->surface);
+  const double hi = *std::max_element(spacing.begin(), spacing.end());
+  for (const double hmax : {kHuge, 0.5 * hi}) {
+    SizingOptions o;
+    o.size = 0.1 * hi;
+    if (hmax < kHuge) o.hmax = hmax;
+    const auto f = build_ok(sp->surface, sp->background, o);
+    EXPECT_FALSE(f.uniform());
+    const auto d = SizingField::decode(f.encode());
+    ASSERT_TRUE(d.ok()) << d.status().message();
+    EXPECT_EQ(bits(f.at({0, 0, 0})), bits(*o.size)) << "the centre is far from every boundary point";
+    for (Index p = 0; p < sp->surface.points.size(); ++p) {
+      if (spacing[p] == 0) continue;
+      EXPECT_GE(f.at(sp->surface.points[p]), std::min(spacing[p], hmax)) << "point " << p;
+    }
+    auto rng = seeded_rng("SizeIsRaisedNextToACoarserBoundary");
+    const Box b = sp->surface.bounds();
+    SizingHint hint;
+    int raised = 0;
+    for (int q = 0; q < 2000; ++q) {
+      const Vec3 x = random_in(rng, b), y = x + Vec3{0.01 * hi, -0.02 * hi, 0.005 * hi};
+      const double h = f.at(x);
+      ASSERT_EQ(bits(h), bits(brute_graded(sp->surface, spacing, *o.size, hmax, x))) << q;
+      ASSERT_EQ(bits(d->at(x)), bits(h)) << q;
+      ASSERT_EQ(bits(f.at(x, hint)), bits(h)) << q;
+      EXPECT_LE(std::fabs(f.at(y) - h), norm(y - x) * (1 + 1e-12)) << q;
+      raised += h > *o.size;
+    }
+    EXPECT_GT(raised, 100) << "the raise should reach into the volume";
+    EXPECT_TRUE(std::isnan(f.at_point(0))) << "a graded field keeps no background points";
   }
 }
 

@@ -31,8 +31,16 @@
 //     points gives, bit for bit) by branch and bound over a bounding-box tree.
 //  5. h(x) = clamp(min(I(x), g(x)), hmin, hmax).
 //
-//  With options.size, h(x) = clamp(size, hmin, hmax) everywhere; the surface and
-//  the background are then not used beyond counting the background points.
+//  With options.size, h(x) = clamp(max(size, r(x)), hmin, hmax), where
+//  r(x) = max over boundary points p of s(p) - |x - p| (found exactly by the
+//  same branch and bound, maximising): the requested size, raised next to
+//  boundary points whose spacing is coarser, since the boundary is never
+//  changed and the tets on a triangle four h wide cannot be h high. The raise
+//  falls by one unit of length per unit of distance, the rate at which the
+//  local feature size of Delaunay refinement may change (it is 1-Lipschitz),
+//  so a tet on a boundary triangle meets tets of the requested size about
+//  where its apex lies. Where no boundary spacing exceeds the size, h is
+//  clamp(size, hmin, hmax) everywhere and the background is only counted.
 //
 //  Outside the background mesh (the advancing front may propose such points):
 //  y = the closest point of the nearest background tet (smallest distance, then
@@ -144,7 +152,8 @@ class SizingField {
   double lower_bound(const Box& box) const;
 
   /// h at background point i: clamp(min(value_i, g(p_i))), equal bit for bit to
-  /// at(points[i]) for every point used by a tet. NaN when i is out of range.
+  /// at(points[i]) for every point used by a tet. NaN when i is out of range,
+  /// and for a graded size (which keeps the boundary points, not the background).
   double at_point(Index background_point) const;
 
   /// Serialisation for shipping to workers (exact doubles, little-endian).
@@ -153,16 +162,21 @@ class SizingField {
   /// finite positive values, exactly positive tets) and rebuilds the search trees.
   static Result<SizingField> decode(std::string_view bytes);
 
-  bool uniform() const { return uniform_; }
+  /// h is one value everywhere (options.size, and no boundary spacing above it).
+  bool uniform() const { return uniform_ && !graded_; }
   std::size_t background_points() const { return point_count_; }
   std::size_t boundary_points() const { return boundary_.size(); }
 
  private:
   SizingField() = default;
   Status finish();  // derived data (bounding boxes, search trees) from the stored data
+  /// With options.size: keeps the boundary points and their spacings (and
+  /// grades h from them) when a spacing exceeds the size.
+  Status grade(std::vector<Vec3> points, std::vector<double> spacing);
 
   double combine(double interpolated, const Vec3& x, std::uint32_t* point = nullptr) const;
   double growth_limit(const Vec3& x, double best, std::uint32_t* point) const;
+  double graded(const Vec3& x, std::uint32_t* point) const;
   Index walk_to(Index tet, const Vec3& x) const;
   double idw(const Vec3& x) const;
   double interpolate_in(Index tet, const Vec3& x) const;
@@ -171,6 +185,7 @@ class SizingField {
 
   // Stored (encoded) data.
   bool uniform_ = false;
+  bool graded_ = false;  ///< with uniform_: the size raised next to coarser boundary points (points_ holds them)
   double uniform_value_ = 0;
   std::size_t point_count_ = 0;
   double growth_ = 1.2;
@@ -184,6 +199,7 @@ class SizingField {
   // Derived on build and on decode.
   std::vector<sizing_detail::TreeNode> kd_;  ///< tree over boundary points, root first
   std::vector<double> kd_h_min_;             ///< per node: least boundary spacing below it
+  std::vector<double> kd_h_max_;             ///< per node: largest boundary spacing below it
   std::vector<Index> kd_item_;               ///< tree order -> index into boundary_
   std::vector<Vec3> kd_xyz_;                 ///< boundary point coordinates, tree order
   std::vector<double> kd_h_;                 ///< boundary spacing, tree order
