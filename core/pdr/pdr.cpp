@@ -47,6 +47,7 @@ constexpr int kMinFinalDepth = 3;
 }  // namespace
 
 double surface_spacing(const SurfaceMesh& surface, const SizingField& sizing) {
+  if (const std::optional<double> size = sizing.requested_size()) return *size;  // the volume's h, not the rise
   double sum_h = 0;
   for (const Vec3& p : surface.points) sum_h += sizing.at(p);
   return sum_h / static_cast<double>(surface.points.size());

@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <limits>
 #include <chrono>
 #include <cmath>
 #include <optional>
@@ -24,11 +25,18 @@ namespace pdrmesh {
 namespace {
 using Clock = std::chrono::steady_clock;
 
-/// run_pdr's plan from the surface alone (SizingField::surface_values gives h
-/// at the surface points, summed in point order as surface_spacing does), or
-/// none when those values are not all finite or the plan fails.
+/// run_pdr's plan from the surface alone (the clamped --size, or
+/// SizingField::surface_values' h at the surface points summed in point order,
+/// as surface_spacing does), or none when those values are not all finite or
+/// the plan fails.
 std::optional<PdrPlan> plan_from_surface(const SurfaceMesh& surface, const ParallelOptions& options,
                                          const LeafKernel& kernel) {
+  if (const SizingOptions& o = options.sizing; o.size && validate(o).ok()) {  // as SizingField::requested_size
+    const double size = std::clamp(*o.size, o.hmin.value_or(0.0), o.hmax.value_or(std::numeric_limits<double>::infinity()));
+    Result<PdrPlan> plan = plan_pdr(surface, size, options.pdr, kernel);
+    if (!plan.ok()) return std::nullopt;
+    return std::move(*plan);
+  }
   Result<std::vector<double>> h = SizingField::surface_values(surface, options.sizing);
   if (!h.ok()) return std::nullopt;
   double sum_h = 0;

@@ -297,7 +297,9 @@ struct InitialMesh {
   std::vector<Vec3> leaf_seeds;
 };
 
-/// The mean of sizing.at over the surface points, in point order.
+/// The h a plan sizes leaves by: with --size, the size (the volume's h, not
+/// its rise next to wide triangles); otherwise the mean of sizing.at over the
+/// surface points, in point order.
 double surface_spacing(const SurfaceMesh& surface, const SizingField& sizing);
 
 /// The plan run_pdr makes for this surface_h: depth (options.depth, or the

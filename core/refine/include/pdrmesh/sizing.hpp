@@ -164,6 +164,9 @@ class SizingField {
 
   /// h is one value everywhere (options.size, and no boundary spacing above it).
   bool uniform() const { return uniform_ && !graded_; }
+  /// options.size clamped to [hmin, hmax] (h away from the boundary), or none
+  /// for the field from the surface's spacing.
+  std::optional<double> requested_size() const { return uniform_ ? std::optional(uniform_value_) : std::nullopt; }
   std::size_t background_points() const { return point_count_; }
   std::size_t boundary_points() const { return boundary_.size(); }
 
