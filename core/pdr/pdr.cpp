@@ -104,6 +104,13 @@ Result<InitialMesh> initial_mesh(const SurfaceMesh& surface, const PdrPlan& plan
     return out;
   }
   PDR_ASSIGN_OR_RETURN(std::vector<Vec3> seeds, seed_points(surface, *plan.tetgen.max_volume));
+  if (plan.sizing.size) {
+    PDR_ASSIGN_OR_RETURN(const SizingField h, SizingField::from_surface(surface, plan.sizing));
+    if (!h.uniform()) {
+      const double size = *h.requested_size();
+      std::erase_if(seeds, [&](const Vec3& x) { return h.at(x) > size; });
+    }
+  }
   if (plan.leaf_seeds) {
     std::vector<Vec3> coarse;
     for (std::size_t i = 0; i < seeds.size(); ++i)

@@ -35,6 +35,7 @@ std::optional<PdrPlan> plan_from_surface(const SurfaceMesh& surface, const Paral
     const double size = std::clamp(*o.size, o.hmin.value_or(0.0), o.hmax.value_or(std::numeric_limits<double>::infinity()));
     Result<PdrPlan> plan = plan_pdr(surface, size, options.pdr, kernel);
     if (!plan.ok()) return std::nullopt;
+    plan->sizing = o;
     return std::move(*plan);
   }
   Result<std::vector<double>> h = SizingField::surface_values(surface, options.sizing);
@@ -281,6 +282,7 @@ Result<ParallelResult> mesh_parallel_one(const SurfaceMesh& surface, const Paral
   }
   if (!plan && pdr.resume == nullptr) {  // the field's own plan
     PDR_ASSIGN_OR_RETURN(plan, plan_pdr(surface, surface_spacing(surface, sizing), pdr, *kernel));
+    plan->sizing = options.sizing;
     t = Clock::now();
     PDR_ASSIGN_OR_RETURN(initial, initial_mesh(surface, *plan, &background));
     initial_s = seconds_since(t);

@@ -246,14 +246,12 @@ Result<SizingField> SizingField::build(const SurfaceMesh& surface, const VolumeM
   f.growth_ = options.growth;
   f.lo_ = options.hmin.value_or(0.0);
   f.hi_ = options.hmax.value_or(kInf);
-  const std::string name = surface.name.empty() ? std::string("surface") : surface.name;
   if (options.size) {
-    f.uniform_ = true;
-    f.uniform_value_ = std::clamp(*options.size, f.lo_, f.hi_);
-    PDR_ASSIGN_OR_RETURN(const BoundarySpacing spacing, boundary_spacing(surface, name));
-    PDR_TRY(f.grade(spacing.points(surface), spacing.means()));
-    return f;
+    PDR_ASSIGN_OR_RETURN(SizingField sized, from_surface(surface, options));
+    sized.point_count_ = f.point_count_;
+    return sized;
   }
+  const std::string name = surface.name.empty() ? std::string("surface") : surface.name;
   PDR_ASSIGN_OR_RETURN(const BoundarySpacing spacing, boundary_spacing(surface, name));
   const std::vector<double>& sum = spacing.sum;
   const std::vector<std::uint32_t>& count = spacing.count;
@@ -305,6 +303,20 @@ Result<SizingField> SizingField::build(const SurfaceMesh& surface, const VolumeM
   return f;
 }
 
+Result<SizingField> SizingField::from_surface(const SurfaceMesh& surface, const SizingOptions& options) {
+  PDR_TRY(validate(options));
+  if (!options.size) return invalid_input("a sizing field from the surface alone needs a size");
+  SizingField f;
+  f.lo_ = options.hmin.value_or(0.0);
+  f.hi_ = options.hmax.value_or(kInf);
+  f.uniform_ = true;
+  f.uniform_value_ = std::clamp(*options.size, f.lo_, f.hi_);
+  const std::string name = surface.name.empty() ? std::string("surface") : surface.name;
+  PDR_ASSIGN_OR_RETURN(const BoundarySpacing spacing, boundary_spacing(surface, name));
+  PDR_TRY(f.grade(spacing.points(surface), spacing.means()));
+  return f;
+}
+
 Result<std::vector<double>> SizingField::surface_values(const SurfaceMesh& surface, const SizingOptions& options) {
   PDR_TRY(validate(options));
   std::vector<double> out(surface.points.size(), kNaN);
@@ -315,10 +327,8 @@ Result<std::vector<double>> SizingField::surface_values(const SurfaceMesh& surfa
   const std::string name = surface.name.empty() ? std::string("surface") : surface.name;
   PDR_ASSIGN_OR_RETURN(const BoundarySpacing spacing, boundary_spacing(surface, name));
   if (options.size) {
-    f.uniform_ = true;
-    f.uniform_value_ = std::clamp(*options.size, f.lo_, f.hi_);
-    PDR_TRY(f.grade(spacing.points(surface), spacing.means()));
-    for (Index p : spacing.used) out[p] = f.at(surface.points[p]);
+    PDR_ASSIGN_OR_RETURN(const SizingField sized, from_surface(surface, options));
+    for (Index p : spacing.used) out[p] = sized.at(surface.points[p]);
     return out;
   }
   // The field of the boundary points alone: no tets, so only at_point's

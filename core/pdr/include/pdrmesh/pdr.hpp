@@ -289,6 +289,10 @@ struct PdrPlan {
   /// the refinement: each to the task of the leaf that holds it
   /// (LeafTaskInput::seeds), in parallel with the other leaves.
   bool leaf_seeds = false;
+  /// With a size (SizingOptions::size): the initial mesh leaves out the seeds
+  /// where h rises above it next to wider surface triangles (the lattice is
+  /// spaced for the size, and points the refiner would not put there stay).
+  SizingOptions sizing;
 };
 
 /// The initial mesh, and with PdrPlan::leaf_seeds the seeds left for the leaf tasks.

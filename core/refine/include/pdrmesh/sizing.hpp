@@ -129,6 +129,11 @@ class SizingField {
   static Result<SizingField> build(const SurfaceMesh& surface, const VolumeMesh& background,
                                    const SizingOptions& options);
 
+  /// The field of options.size from the surface alone (no background: with a
+  /// size none is needed), the same h as build() gives; invalid_input without
+  /// a size, and build's surface errors.
+  static Result<SizingField> from_surface(const SurfaceMesh& surface, const SizingOptions& options);
+
   /// h at every surface point from the surface alone, without a background
   /// mesh: for a point used by a triangle, bit for bit what build(surface, B,
   /// options).at(point) gives for any background B that build accepts (at a
