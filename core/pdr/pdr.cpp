@@ -54,7 +54,7 @@ double surface_spacing(const SurfaceMesh& surface, const SizingField& sizing) {
 }
 
 Result<PdrPlan> plan_pdr(const SurfaceMesh& surface, double surface_h, const PdrOptions& options,
-                         const LeafKernel& kernel) {
+                         const LeafKernel& kernel, double estimated_tets) {
   if (options.depth > kMaxDepth) {
     return invalid_input(fmt::format("octree depth {} is outside [0, {}] (or -1)", options.depth, kMaxDepth));
   }
@@ -72,7 +72,7 @@ Result<PdrPlan> plan_pdr(const SurfaceMesh& surface, double surface_h, const Pdr
   const bool buffered = options.buffered && !options.fixups.value_or(kernel.needs_manifold_hull());
   if (plan.depth < 0) {
     const double volume = enclosed_volume(surface);
-    const double estimate = volume / regular_tet_volume(surface_h);
+    const double estimate = estimated_tets >= 0 ? estimated_tets : volume / regular_tet_volume(surface_h);
     const double capped = std::isfinite(estimate) ? std::clamp(estimate, 0.0, 1e15) : 0.0;
     const std::size_t per_leaf =
         options.final_tets_per_leaf > 0 ? options.final_tets_per_leaf : buffered ? 5000 : 20000;

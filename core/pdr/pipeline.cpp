@@ -5,13 +5,14 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <limits>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <optional>
 #include <thread>
 #include <utility>
 
+#include "pdrmesh/estimate.hpp"
 #include "pdrmesh/leaf_kernels.hpp"
 #include "pdrmesh/pdr.hpp"
 #include "pdrmesh/quality.hpp"
@@ -29,13 +30,22 @@ using Clock = std::chrono::steady_clock;
 /// SizingField::surface_values' h at the surface points summed in point order,
 /// as surface_spacing does), or none when those values are not all finite or
 /// the plan fails.
+/// With --size: the plan for the size, its depth from the estimated tet count
+/// (the size rises next to wider triangles), its seeds only where h is the size.
+Result<PdrPlan> plan_for_size(const SurfaceMesh& surface, const SizingOptions& o, const PdrOptions& pdr,
+                              const LeafKernel& kernel) {
+  PDR_ASSIGN_OR_RETURN(const MeshEstimate estimate, estimate_mesh(surface, o));
+  const double size = std::clamp(*o.size, o.hmin.value_or(0.0), o.hmax.value_or(std::numeric_limits<double>::infinity()));
+  PDR_ASSIGN_OR_RETURN(PdrPlan plan, plan_pdr(surface, size, pdr, kernel, estimate.tets));
+  plan.sizing = o;
+  return plan;
+}
+
 std::optional<PdrPlan> plan_from_surface(const SurfaceMesh& surface, const ParallelOptions& options,
                                          const LeafKernel& kernel) {
-  if (const SizingOptions& o = options.sizing; o.size && validate(o).ok()) {  // as SizingField::requested_size
-    const double size = std::clamp(*o.size, o.hmin.value_or(0.0), o.hmax.value_or(std::numeric_limits<double>::infinity()));
-    Result<PdrPlan> plan = plan_pdr(surface, size, options.pdr, kernel);
+  if (options.sizing.size) {  // the size is what SizingField::requested_size gives
+    Result<PdrPlan> plan = plan_for_size(surface, options.sizing, options.pdr, kernel);
     if (!plan.ok()) return std::nullopt;
-    plan->sizing = o;
     return std::move(*plan);
   }
   Result<std::vector<double>> h = SizingField::surface_values(surface, options.sizing);
@@ -281,8 +291,11 @@ Result<ParallelResult> mesh_parallel_one(const SurfaceMesh& surface, const Paral
     };
   }
   if (!plan && pdr.resume == nullptr) {  // the field's own plan
-    PDR_ASSIGN_OR_RETURN(plan, plan_pdr(surface, surface_spacing(surface, sizing), pdr, *kernel));
-    plan->sizing = options.sizing;
+    if (options.sizing.size) {
+      PDR_ASSIGN_OR_RETURN(plan, plan_for_size(surface, options.sizing, pdr, *kernel));
+    } else {
+      PDR_ASSIGN_OR_RETURN(plan, plan_pdr(surface, surface_spacing(surface, sizing), pdr, *kernel));
+    }
     t = Clock::now();
     PDR_ASSIGN_OR_RETURN(initial, initial_mesh(surface, *plan, &background));
     initial_s = seconds_since(t);

@@ -214,10 +214,7 @@ Result<MeshEstimate> estimate_mesh(const SurfaceMesh& surface, const SizingOptio
   if (pts.empty()) return e;
   e.volume = std::max(0.0, enclosed_volume(surface, 0.5 * (box.lo + box.hi)));
 
-  double mean_density = 0;
-  if (options.size) {
-    mean_density = density(std::clamp(*options.size, lo, hi));
-  } else {
+  const auto grid = [&] {
     Grid g;
     g.lo = box.lo;
     const double longest = std::max({box.hi[0] - box.lo[0], box.hi[1] - box.lo[1], box.hi[2] - box.lo[2]});
@@ -225,6 +222,30 @@ Result<MeshEstimate> estimate_mesh(const SurfaceMesh& surface, const SizingOptio
     for (int k = 0; k < 3; ++k) {
       g.n[k] = std::clamp(static_cast<int>(std::ceil((box.hi[k] - box.lo[k]) / g.cell)), 1, kEstimateGridCells);
     }
+    return g;
+  };
+  double mean_density = 0;
+  if (options.size) {
+    PDR_ASSIGN_OR_RETURN(const SizingField field, SizingField::from_surface(surface, options));
+    mean_density = density(std::clamp(*options.size, lo, hi));
+    if (!field.uniform()) {
+      // The size rises next to wider triangles: h at the centres of the cells inside.
+      const Grid g = grid();
+      const std::vector<std::uint8_t> inside = inside_cells(surface, g);
+      SizingHint hint;
+      double sum = 0;
+      std::size_t count = 0;
+      for (int k = 0; k < g.n[2]; ++k)
+        for (int j = 0; j < g.n[1]; ++j)
+          for (int i = 0; i < g.n[0]; ++i)
+            if (inside[g.index(i, j, k)]) {
+              sum += density(field.at(g.centre(i, j, k), hint));
+              ++count;
+            }
+      if (count > 0) mean_density = sum / static_cast<double>(count);
+    }
+  } else {
+    const Grid g = grid();
     const std::vector<std::uint8_t> inside = inside_cells(surface, g);
     const double rate = options.growth - 1;
     const auto squared_distance = [&](Index p, const Vec3& x) {

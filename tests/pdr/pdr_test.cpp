@@ -797,6 +797,26 @@ TEST(Pdr, ASurfaceTooSmallForLeafTasksGetsTheSerialMesh) {
   EXPECT_GT(leaves->profile.leaf_count, 1u);
 }
 
+TEST(Pdr, ASizeThatRisesOverMostOfThePartGetsTheSerialMesh) {
+  // The unit cube in 12 triangles at --size 0.025: one h everywhere would be
+  // about 500,000 tets, but h rises from the triangles' spacing over the whole
+  // cube, and the plan's estimate says so: depth 0, the serial mesh.
+  const SurfaceMesh cube = fixtures::unit_cube_surface();
+  ParallelOptions o;
+  o.sizing.size = 0.025;
+  o.pdr.workers = 2;
+  Result<ParallelResult> run = mesh_parallel(cube, o);
+  ASSERT_TRUE(run.ok()) << run.status().to_string();
+  expect_valid(run->mesh, cube, true);
+  EXPECT_EQ(run->profile.depth, 0);
+  SerialOptions serial_options;
+  serial_options.sizing = o.sizing;
+  Result<SerialResult> serial = mesh_serial(cube, serial_options);
+  ASSERT_TRUE(serial.ok()) << serial.status().to_string();
+  EXPECT_EQ(run->mesh.points, serial->mesh.points);
+  EXPECT_EQ(run->mesh.tets, serial->mesh.tets);
+}
+
 TEST(Pdr, DeepGridsKeepTheSeedsTheirRoundsInsert) {
   // sphere966 at 4% of its diagonal: at depth 4 the seed lattice is wider
   // than a leaf one level up, so the seed rounds' leaves must be coarser

@@ -74,11 +74,11 @@ double real_tets(const SurfaceMesh& surface, const SizingOptions& sizing) {
 TEST(Estimate, VolumeIsExactAndUniformSizeScalesAsTheCube) {
   const SurfaceMesh cube = subdivided_cube(3.0, 4);
   SizingOptions o;
-  o.size = 0.5;
+  o.size = o.hmax = 0.5;  // hmax: one h everywhere, also next to the 0.75-wide triangles
   auto a = estimate_mesh(cube, o);
   ASSERT_TRUE(a.ok()) << a.status().to_string();
   EXPECT_NEAR(a->volume, 27.0, 1e-12);
-  o.size = 0.25;
+  o.size = o.hmax = 0.25;
   auto b = estimate_mesh(cube, o);
   ASSERT_TRUE(b.ok());
   EXPECT_NEAR(b->tets / a->tets, 8.0, 1e-9);  // h halved: eight times the tets
@@ -128,6 +128,20 @@ TEST(Estimate, ABodyInAFarFieldWithinFactorOfARealMesh) {
   expect_estimate_within_factor(outer, SizingOptions{});
 }
 
+TEST(Estimate, ASizeRisingNextToWideTrianglesWithinFactorOfARealMesh) {
+  // A cube of side 2 in triangles 1 wide at --size 0.1: h rises from 1 at the
+  // corners, so the mesh has far fewer tets than one h everywhere would.
+  const SurfaceMesh cube = subdivided_cube(2.0, 2);
+  SizingOptions o;
+  o.size = 0.1;
+  expect_estimate_within_factor(cube, o);
+  auto graded = estimate_mesh(cube, o);
+  o.hmax = o.size;  // one h everywhere
+  auto uniform = estimate_mesh(cube, o);
+  ASSERT_TRUE(graded.ok() && uniform.ok());
+  EXPECT_LT(graded->tets, 0.5 * uniform->tets);
+}
+
 TEST(Estimate, HmaxCapsTheGradedSizeAndHminLiftsIt) {
   const SurfaceMesh cube = subdivided_cube(2.0, 10);
   SizingOptions o;
@@ -145,7 +159,8 @@ TEST(Estimate, HmaxCapsTheGradedSizeAndHminLiftsIt) {
 }
 
 TEST(Estimate, TinySizeIsRefusedWithTheSmallestSensibleSize) {
-  const SurfaceMesh cube = subdivided_cube(2.0, 2);
+  // Triangles 0.1 wide: the size rises next to them, and is 1e-9 in the rest.
+  const SurfaceMesh cube = subdivided_cube(2.0, 20);
   SizingOptions o;
   o.size = 1e-9;
   auto e = estimate_mesh(cube, o);
@@ -161,12 +176,12 @@ TEST(Estimate, TinySizeIsRefusedWithTheSmallestSensibleSize) {
   // The suggested size fits the limit; one a little smaller does not.
   const double h = smallest_size_for(e->volume, limit);
   EXPECT_NE(s.message().find(fmt::format("use --size {:.2g} or larger", h)), std::string::npos) << s.message();
-  o.size = h;
+  o.size = o.hmax = h;  // the suggestion is for one h everywhere: a rise only lowers the count
   auto fits = estimate_mesh(cube, o);
   ASSERT_TRUE(fits.ok());
   EXPECT_LE(fits->tets, limit);
   EXPECT_TRUE(check_tet_limit(*fits, o, limit, "--max-tets").ok());
-  o.size = 0.9 * h;
+  o.size = o.hmax = 0.9 * h;
   auto over = estimate_mesh(cube, o);
   ASSERT_TRUE(over.ok());
   EXPECT_GT(over->tets, limit);

@@ -307,11 +307,12 @@ struct InitialMesh {
 double surface_spacing(const SurfaceMesh& surface, const SizingField& sizing);
 
 /// The plan run_pdr makes for this surface_h: depth (options.depth, or the
-/// default from the estimated tet count) and the initial mesh's volume bound.
-/// invalid_input on a bad depth or divisor or an empty surface. `kernel`
-/// decides an unset PdrOptions::initial_seeds_only.
+/// default from the estimated tet count: `estimated_tets`, or when that is
+/// negative the surface's volume over a regular tet of edge surface_h) and the
+/// initial mesh's volume bound. invalid_input on a bad depth or divisor or an
+/// empty surface. `kernel` decides an unset PdrOptions::initial_seeds_only.
 Result<PdrPlan> plan_pdr(const SurfaceMesh& checked_surface, double surface_h, const PdrOptions& options,
-                         const LeafKernel& kernel);
+                         const LeafKernel& kernel, double estimated_tets = -1);
 
 /// The plan's initial mesh. With seeds only (TetgenOptions::seeds_only and a
 /// max_volume): TetGen's boundary-conforming mesh of the surface (`background`
