@@ -2,7 +2,7 @@
 # A large job: `pdrmesh run` on one surface at a fine size, with its wall time, peak memory
 # (max RSS), bytes per tet, the profile's phases and pdrmesh_bench_replay's projection of the
 # run to more workers.
-#   bench/large.sh [SIZE] [SURFACE] [WORKERS]   defaults: 0.125% (about 100 million tets on
+#   bench/large.sh [SIZE] [SURFACE] [WORKERS]   defaults: 0.12% (about 107 million tets on
 #                                               armadillo), armadillo, 2
 # Needs GNU time, the corpus (bench/fetch-corpus.sh) and disk for the mesh (about 3 GB at
 # 100 million tets, written to a temporary folder and removed). KEEP=DIR keeps the profile.
@@ -13,7 +13,7 @@ root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 corpus=${PDRMESH_CORPUS:-$root/bench/corpus}
 pdrmesh=${PDRMESH:-$root/build/client/pdrmesh}
 replay=${REPLAY:-$root/build/bench/pdrmesh_bench_replay}
-size=${1:-0.125%}
+size=${1:-0.12%}
 name=${2:-armadillo}
 workers=${3:-2}
 surface=$corpus/$name.stl
