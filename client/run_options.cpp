@@ -15,8 +15,9 @@ namespace pdrmesh::cli {
 
 void SizeArgs::add_to(CLI::App* cmd) {
   cmd->add_option("--size", size,
-                  "uniform target edge length, or a percentage of the surface's bounding-box diagonal such as 1% "
-                  "(with --farfield: of the body's; default: the surface's own spacing)")
+                  "target edge length, or a percentage of the surface's bounding-box diagonal such as 1% "
+                  "(with --farfield: of the body's; default: the surface's own spacing); next to surface "
+                  "triangles wider than it the length starts at theirs (--hmax caps it)")
       ->check(size_check())
       ->type_name("LENGTH|PCT%");
   add_number(cmd, "--hmin", hmin, "smallest target edge length", kLength);
