@@ -26,10 +26,6 @@ namespace pdrmesh {
 namespace {
 using Clock = std::chrono::steady_clock;
 
-/// run_pdr's plan from the surface alone (the clamped --size, or
-/// SizingField::surface_values' h at the surface points summed in point order,
-/// as surface_spacing does), or none when those values are not all finite or
-/// the plan fails.
 /// With --size: the plan for the size, its depth from the estimated tet count
 /// (the size rises next to wider triangles), its seeds only where h is the size.
 Result<PdrPlan> plan_for_size(const SurfaceMesh& surface, const SizingOptions& o, const PdrOptions& pdr,
@@ -41,9 +37,13 @@ Result<PdrPlan> plan_for_size(const SurfaceMesh& surface, const SizingOptions& o
   return plan;
 }
 
+/// run_pdr's plan from the surface alone (plan_for_size, or
+/// SizingField::surface_values' h at the surface points summed in point order,
+/// as surface_spacing does), or none when those values are not all finite or
+/// the plan fails.
 std::optional<PdrPlan> plan_from_surface(const SurfaceMesh& surface, const ParallelOptions& options,
                                          const LeafKernel& kernel) {
-  if (options.sizing.size) {  // the size is what SizingField::requested_size gives
+  if (options.sizing.size) {
     Result<PdrPlan> plan = plan_for_size(surface, options.sizing, options.pdr, kernel);
     if (!plan.ok()) return std::nullopt;
     return std::move(*plan);
