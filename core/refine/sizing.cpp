@@ -628,13 +628,15 @@ Index SizingField::walk_to(Index tet, const Vec3& x) const {
   constexpr int kSteps = 64;
   for (int step = 0; step < kSteps && tet < tets_.size(); ++step) {
     const Tet& v = tets_[tet];
+    std::array<Vec3, 4> q{points_[v[0]], points_[v[1]], points_[v[2]], points_[v[3]]};
     int through = -1;
     bool on_face = false;
     for (int k = 0; k < 4 && through < 0; ++k) {
       const int f = (k + step) & 3;
-      std::array<Vec3, 4> q{points_[v[0]], points_[v[1]], points_[v[2]], points_[v[3]]};
+      const Vec3 corner = q[f];
       q[f] = x;
       const int o = exact::orient3d(q[0], q[1], q[2], q[3]);
+      q[f] = corner;
       if (o < 0) through = f;
       on_face = on_face || o == 0;
     }
