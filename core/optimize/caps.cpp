@@ -177,7 +177,7 @@ bool Optimizer::cap_angles_rise(const Vec3& x, std::span<const Index> cavity, in
 /// Whether x lies at least kCapMinSpacing times h(x) from every point of
 /// link_ that is not on the surface (surface_; new points are not).
 bool Optimizer::cap_spaced(const Vec3& x) const {
-  const double reach = kCapMinSpacing * sizing_->at(x);
+  const double reach = kCapMinSpacing * size_at(x);
   for (const Tri& f : link_)
     for (Index v : f)
       if ((v >= surface_.size() || surface_[v] == 0) && norm(m_.point(v) - x) < reach) return false;
@@ -230,7 +230,7 @@ Outcome Optimizer::insert_cap(Index t, const CapRule& rule) {
     const double ln = norm(inward);
     if (!(ln > 0.0)) return Outcome::kNotApplicable;
     inward = (1.0 / ln) * inward;
-    const double h = sizing_->at(mid);
+    const double h = size_at(mid);
     for (double height : kCapHeights) starts.push_back(mid + (height * h) * inward);
   }
   return insert_star(seed, starts, kept, rule) ? Outcome::kDone : Outcome::kNotBetter;
@@ -269,7 +269,7 @@ bool Optimizer::insert_over_fans(Index t, int kf, const CapRule& rule) {
     const double ln = norm(inward);
     if (!covered || !(ln > 0.0)) continue;
     const Vec3& x = m_.point(s);
-    const double h = sizing_->at(x);
+    const double h = size_at(x);
     starts.clear();
     for (double height : kCapHeights) starts.push_back(x + (height * h / ln) * inward);
     if (insert_star(star, starts, 1, rule)) return true;

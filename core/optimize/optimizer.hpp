@@ -552,8 +552,13 @@ class Optimizer {
   std::size_t size_splits(const SizeBounds& bounds);
   bool size_point(Index v, Index start, const SizeBounds& bounds);
 
+  /// h(x) from the sizing field, each query started where the last one ended
+  /// (the same value as sizing_->at(x)).
+  double size_at(const Vec3& x) const { return sizing_->at(x, size_hint_); }
+
   TetMesh& m_;
   const SizingField* sizing_;
+  mutable SizingHint size_hint_;  ///< size_at's memory of its last query
   const OptimizeOptions& o_;
   OptimizeStats& st_;
   const double acute_, obtuse_;  ///< measure()'s scales

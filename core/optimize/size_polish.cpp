@@ -18,7 +18,7 @@ std::size_t Optimizer::polish_sizes(bool room) {
   const auto touched = [this](Index v) { return v >= first_new_point_ || (v < moved_.size() && moved_[v] != 0); };
   std::vector<double> h(m_.num_points(), -1.0);
   const auto h_at = [&](Index v) {
-    if (h[v] < 0.0) h[v] = sizing_->at(m_.point(v));
+    if (h[v] < 0.0) h[v] = size_at(m_.point(v));
     return h[v];
   };
   std::size_t moved = 0;
@@ -161,7 +161,7 @@ std::size_t Optimizer::size_flips(const SizeBounds& bounds) {
       const double l2 = dot(x - y, x - y);
       if (l2 >= removed2) return true;
       if (!off_surface(r.ring[i]) || !off_surface(r.ring[j])) return false;
-      const double h = sizing_->at(0.5 * (x + y));
+      const double h = size_at(0.5 * (x + y));
       return l2 < kShortEdge * kShortEdge * h * h || l2 > kLongEdge * kLongEdge * h * h;
     };
     const auto excluded = [&](const EdgeRing& r, int i, int m, int j) {
@@ -192,7 +192,7 @@ std::size_t Optimizer::size_splits(const SizeBounds& bounds) {
       const auto out_of_band = [&](Index v) {
         if (!off_surface(v)) return 0;
         const Vec3& y = m_.point(v);
-        const double l = norm(x - y), hm = sizing_->at(0.5 * (x + y));
+        const double l = norm(x - y), hm = size_at(0.5 * (x + y));
         return l < kShortEdge * hm || l > kLongEdge * hm ? 1 : 0;
       };
       int out = out_of_band(r.a) + out_of_band(r.b);
@@ -244,7 +244,7 @@ bool Optimizer::size_point(Index v, Index start, const SizeBounds& bounds) {
   size_edges_.clear();
   for (Index u : link_points_)
     if (u >= surface_.size() || surface_[u] == 0)
-      size_edges_.push_back({u, sizing_->at(0.5 * (old + m_.point(u)))});
+      size_edges_.push_back({u, size_at(0.5 * (old + m_.point(u)))});
   std::pair<std::size_t, double> best = size_excess(old);
   if (best.first == 0) return false;
   polish_bounds_.clear();

@@ -97,7 +97,7 @@ Outcome Optimizer::insert_into(Index t, RepairCriterion* guard) {
   if (!(q > q_centroid)) x = centroid;
   q = std::max(q, q_centroid);
   if (!(q > q_old)) return Outcome::kNotBetter;
-  const double h = sizing_->at(x);
+  const double h = size_at(x);
   for (Index u : link_points_)
     if (norm(m_.point(u) - x) < kInsertMinDistance * h) return Outcome::kTooClose;
   if (guard != nullptr) {  // the repair: the new tets hold the old ones' floors

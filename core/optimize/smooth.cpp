@@ -213,7 +213,7 @@ void Optimizer::bound_edge_sizes(const Vec3& old) {
   for (Index u : link_points_) {
     if (u < surface_.size() && surface_[u] != 0) continue;
     const Vec3& p = m_.point(u);
-    const double least = std::min(norm(old - p), kShortEdge * sizing_->at(0.5 * (old + p)));
+    const double least = std::min(norm(old - p), kShortEdge * size_at(0.5 * (old + p)));
     edge_bounds_.push_back({u, least * least});
   }
 }
