@@ -4,7 +4,7 @@
 // leaf from several threads at once; a dispatch hands it a kernel that runs the
 // leaf in this process (LocalLeafDispatch) or on a remote worker daemon
 // (RemoteLeafDispatch, worker_pool.hpp); the optimization rounds' tasks go the
-// same way (kernel "optimize"). Both give the same bytes for the same
+// same way (kernels "optimize" and "optimize-final"). Both give the same bytes for the same
 // leaf: a worker runs make_leaf_kernel(job.kernel) on the task it receives,
 // and the engine's merge order does not depend on where or when a leaf ran.
 #pragma once
@@ -23,7 +23,7 @@ namespace pdrmesh::server {
 struct LeafJob {
   std::string job_id;
   std::string user;    ///< for fair sharing of workers between users
-  std::string kernel;  ///< make_leaf_kernel name: "native", "tetgen" or "optimize"
+  std::string kernel;  ///< make_leaf_kernel name: "native", "tetgen", "optimize" or "optimize-final"
   /// False once the job must stop (cancelled, coordinator shutting down): a
   /// kernel waiting for a worker gives up with a kCancelled status.
   std::function<bool()> keep_going;

@@ -64,11 +64,14 @@ Result<VolumeMesh> PdrEngine::mesh(const JobRecord& job, const JobDomain& domain
     PDR_ASSIGN_OR_RETURN(const std::unique_ptr<LeafKernel> kernel, dispatch_->kernel_for(leaf_job));
     // The optimization's leaf tasks go where the refinement's go (a job's
     // options only switch the optimization on or off: default OptimizeOptions,
-    // whose leaf tasks make_leaf_kernel("optimize") runs: leaf_optimize_options()).
-    std::unique_ptr<LeafKernel> optimizer;
+    // whose leaf tasks make_leaf_kernel("optimize") runs: leaf_optimize_options(),
+    // and its one final task "optimize-final": final_optimize_options()).
+    std::unique_ptr<LeafKernel> optimizer, final_optimizer;
     if (options.optimize) {
       leaf_job.kernel = "optimize";
       PDR_ASSIGN_OR_RETURN(optimizer, dispatch_->kernel_for(leaf_job));
+      leaf_job.kernel = "optimize-final";
+      PDR_ASSIGN_OR_RETURN(final_optimizer, dispatch_->kernel_for(leaf_job));
     }
     ParallelOptions po = parallel_options(options);
     po.pdr.workers = dispatch_->concurrency();
@@ -134,11 +137,12 @@ Result<VolumeMesh> PdrEngine::mesh(const JobRecord& job, const JobDomain& domain
     Result<VolumeMesh> result = VolumeMesh{};
     if (domain.layers) {
       if (!progress.report("layers", 0.16)) return cancelled("stopped");
-      auto layered = mesh_parallel_layered(surface, *domain.layers, po, kernel.get(), optimizer.get());
+      auto layered = mesh_parallel_layered(surface, *domain.layers, po, kernel.get(), optimizer.get(),
+                                           final_optimizer.get());
       if (layered.ok()) result = std::move(layered->layered.mesh);
       else result = layered.status();
     } else {
-      auto r = mesh_parallel(surface, po, kernel.get(), optimizer.get());
+      auto r = mesh_parallel(surface, po, kernel.get(), optimizer.get(), final_optimizer.get());
       if (r.ok()) result = std::move(r->mesh);
       else result = r.status();
     }

@@ -157,10 +157,11 @@ Result<LayeredResult> serial_layered_one(const SurfaceMesh& surface, const Layer
 /// mesh_parallel_layered of a surface of one region.
 Result<LayeredParallelResult> parallel_layered_one(const SurfaceMesh& surface, const LayerOptions& layer_options,
                                                    const ParallelOptions& options, const LeafKernel* kernel,
-                                                   const LeafKernel* optimize_kernel) {
+                                                   const LeafKernel* optimize_kernel,
+                                                   const LeafKernel* final_optimize_kernel) {
   LayeredParallelResult out;
   PDR_ASSIGN_OR_RETURN(LayerMesh layers, grow_checked(surface, layer_options, out.layered));
-  PDR_ASSIGN_OR_RETURN(out.fill, mesh_parallel(layers.fill, options, kernel, optimize_kernel));
+  PDR_ASSIGN_OR_RETURN(out.fill, mesh_parallel(layers.fill, options, kernel, optimize_kernel, final_optimize_kernel));
   PDR_TRY(merge_layers_and_fill(surface, layers, out.fill.mesh, out.layered.mesh));
   out.fill.mesh = VolumeMesh{};
   return out;
@@ -206,22 +207,23 @@ Result<LayeredResult> mesh_serial_layered(const SurfaceMesh& surface, const Laye
 
 Result<LayeredParallelResult> mesh_parallel_layered(const SurfaceMesh& surface, const LayerOptions& layer_options,
                                                     const ParallelOptions& options, const LeafKernel* kernel,
-                                                    const LeafKernel* optimize_kernel) {
+                                                    const LeafKernel* optimize_kernel,
+                                                    const LeafKernel* final_optimize_kernel) {
   std::vector<char> grows;
   PDR_ASSIGN_OR_RETURN(const std::vector<SurfaceRegion> regions, layered_regions(surface, layer_options, grows));
-  if (regions.empty()) return parallel_layered_one(surface, layer_options, options, kernel, optimize_kernel);
+  if (regions.empty()) return parallel_layered_one(surface, layer_options, options, kernel, optimize_kernel, final_optimize_kernel);
   PDR_ASSIGN_OR_RETURN(const ParallelOptions o, region_by_region(options, surface, regions.size()));
   LayeredParallelResult out;
   std::vector<VolumeMesh> parts;
   for (std::size_t k = 0; k < regions.size(); ++k) {
     if (grows[k]) {
       PDR_ASSIGN_OR_RETURN(LayeredParallelResult part,
-                           parallel_layered_one(regions[k].domain, layer_options, o, kernel, optimize_kernel));
+                           parallel_layered_one(regions[k].domain, layer_options, o, kernel, optimize_kernel, final_optimize_kernel));
       add_layer_figures(out.layered, part.layered);
       parts.push_back(std::move(part.layered.mesh));
       add_region(out.fill, std::move(part.fill));
     } else {
-      PDR_ASSIGN_OR_RETURN(ParallelResult part, mesh_parallel(regions[k].domain, o, kernel, optimize_kernel));
+      PDR_ASSIGN_OR_RETURN(ParallelResult part, mesh_parallel(regions[k].domain, o, kernel, optimize_kernel, final_optimize_kernel));
       parts.push_back(std::move(part.mesh));
       add_region(out.fill, std::move(part));
     }

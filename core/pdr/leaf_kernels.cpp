@@ -23,6 +23,12 @@ OptimizeOptions leaf_optimize_options(OptimizeOptions options) {
   return options;
 }
 
+OptimizeOptions final_optimize_options(OptimizeOptions options) {
+  options.schedule = OptimizeOptions::Schedule::kWholeMesh;
+  options.keep_point_indices = true;
+  return options;
+}
+
 Result<std::unique_ptr<LeafKernel>> make_leaf_kernel(std::string_view name) {
   if (name == "native") {
     return std::unique_ptr<LeafKernel>(std::make_unique<NativeLeafKernel>(
@@ -41,7 +47,14 @@ Result<std::unique_ptr<LeafKernel>> make_leaf_kernel(std::string_view name) {
         },
         "optimize"));
   }
-  return invalid_input(fmt::format("unknown leaf kernel '{}' (native, tetgen or optimize)", name));
+  if (name == "optimize-final") {
+    return std::unique_ptr<LeafKernel>(std::make_unique<NativeLeafKernel>(
+        [](TetMesh& leaf, const SizingField& h, const std::optional<Box>&) {
+          return optimize(leaf, &h, final_optimize_options()).status();
+        },
+        "optimize-final"));
+  }
+  return invalid_input(fmt::format("unknown leaf kernel '{}' (native, tetgen, optimize or optimize-final)", name));
 }
 
 NativeLeafKernel::NativeLeafKernel(RefineHook refine, std::string name)

@@ -247,14 +247,14 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
   /// An optimization round: only the bad tets and their optimize_halo layers
   /// go to tasks, the others stay where they are (selected_round), and only
   /// the tasks' tets get the round's leaves (no later step reads the leaf of a tet).
-  const auto selected_step = [&](std::string_view phase, const Box& box, int round_depth) -> Status {
+  const auto selected_step = [&](std::string_view phase, const Box& box, int round_depth, const LeafKernel& k) -> Status {
     return step(phase, [&]() -> Status {
       const auto td = Clock::now();
       std::vector<char>& seeds = bad_now();
       BufferedRound b = selected_round(cur, box, round_depth, select_around(cur, seeds, options.optimize_halo));
       prof.decomposition += seconds_since(td);
       RoundResult r;
-      PDR_TRY(run_round(phase, cur, std::move(b.d), boundary, sizing, *options.optimize_kernel, options, false, r,
+      PDR_TRY(run_round(phase, cur, std::move(b.d), boundary, sizing, k, options, false, r,
                         {.outside = &b.outside, .bad = &seeds}));
       account(std::move(r));
       return {};
@@ -424,10 +424,16 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
     if (!report("optimization", cur.tets.size())) return cancelled("stopped before the optimization");
     const auto t0 = Clock::now();
     const bool select = options.optimize_kernel != nullptr && static_cast<bool>(options.optimize_selects);
-    if (options.optimize_kernel != nullptr) {
+    // The final pass's grid (buffered rounds), or 0: one task over the whole
+    // selection, which then runs without optimization rounds before it.
+    const int final_depth = depth - kFinalCoarsening >= kMinFinalDepth ? depth - kFinalCoarsening : 0;
+    const bool one_final_task = select && (!buffered || final_depth == 0);
+    const LeafKernel* final_kernel =
+        options.final_optimize_kernel != nullptr ? options.final_optimize_kernel : options.optimize_kernel;
+    if (options.optimize_kernel != nullptr && !one_final_task) {
       if (select) {
-        PDR_TRY(selected_step("optimization", box1, depth));
-        if (depth > 0) PDR_TRY(selected_step("shifted optimization", box2, depth));
+        PDR_TRY(selected_step("optimization", box1, depth, *options.optimize_kernel));
+        if (depth > 0) PDR_TRY(selected_step("shifted optimization", box2, depth, *options.optimize_kernel));
       } else {
         PDR_TRY(round("optimization", box1, *options.optimize_kernel, false, depth, {}));
         if (depth > 0) PDR_TRY(round("shifted optimization", box2, *options.optimize_kernel, false, depth, {}));
@@ -445,7 +451,6 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
       // selection and its buffer as a sub-mesh (its hull unchanged), put back
       // into the mesh at the end: their scans cost what the selection does.
       const auto tg = Clock::now();
-      const int final_depth = depth - kFinalCoarsening >= kMinFinalDepth ? depth - kFinalCoarsening : 0;
       const auto sweep = [&]() -> Status {
         const Grid grid{box1, final_depth};
         auto td = Clock::now();
@@ -473,7 +478,7 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
           if (b.d.size() == 0) continue;
           RoundResult r;
           PDR_TRY(run_round("final optimization", sub.mesh, std::move(b.d), sub_boundary, sizing,
-                            *options.optimize_kernel, options, false, r,
+                            final_depth > 0 ? *options.optimize_kernel : *final_kernel, options, false, r,
                             {.outside = &b.outside,
                              .cores = &b.cores,
                              .grid = &grid,
@@ -496,7 +501,7 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
       // Its tets are then in the one leaf of a depth-0 grid (from here on the
       // leaf of a tet is bookkeeping no step reads).
       const auto tg = Clock::now();
-      PDR_TRY(selected_step("final optimization", box1, 0));
+      PDR_TRY(selected_step("final optimization", box1, 0, *final_kernel));
       prof.global_optimization = seconds_since(tg);
     } else if (options.optimize && !select) {
       // The leaf of each tet is bookkeeping, not a material region: the

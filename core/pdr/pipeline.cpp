@@ -203,7 +203,8 @@ Result<ParallelResult> serial_as_parallel(const SurfaceMesh& surface, const Para
 
 /// mesh_parallel of a surface that is one region.
 Result<ParallelResult> mesh_parallel_one(const SurfaceMesh& surface, const ParallelOptions& options,
-                                         const LeafKernel* kernel, const LeafKernel* optimize_kernel) {
+                                         const LeafKernel* kernel, const LeafKernel* optimize_kernel,
+                                         const LeafKernel* final_optimize_kernel) {
   PDR_TRY(validate(options.sizing));
   if (options.optimize) PDR_TRY(validate(*options.optimize));
   std::unique_ptr<LeafKernel> native;
@@ -275,15 +276,23 @@ Result<ParallelResult> mesh_parallel_one(const SurfaceMesh& surface, const Paral
   PdrOptions pdr = options.pdr;
   pdr.optimize = nullptr;
   pdr.optimize_kernel = nullptr;
-  std::optional<NativeLeafKernel> optimizer;
+  std::optional<NativeLeafKernel> optimizer, final_optimizer;
   if (options.optimize) {
     const OptimizeOptions opt = leaf_optimize_options(*options.optimize);
     if (optimize_kernel == nullptr) {
       optimizer.emplace([opt](TetMesh& leaf, const SizingField& h, const std::optional<Box>&) { return pdrmesh::optimize(leaf, &h, opt).status(); },
                         "optimize");
       optimize_kernel = &*optimizer;
+      const OptimizeOptions last = final_optimize_options(*options.optimize);
+      final_optimizer.emplace(
+          [last](TetMesh& leaf, const SizingField& h, const std::optional<Box>&) {
+            return pdrmesh::optimize(leaf, &h, last).status();
+          },
+          "optimize-final");
+      final_optimize_kernel = &*final_optimizer;
     }
     pdr.optimize_kernel = optimize_kernel;
+    pdr.final_optimize_kernel = final_optimize_kernel;
     pdr.optimize = [&sizing, &options](VolumeMesh& m) { return optimize_volume(m, sizing, *options.optimize); };
     pdr.optimize_selects = [bounds = DihedralBounds(opt.target_min_dihedral, opt.target_max_dihedral)](
                                const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
@@ -352,12 +361,13 @@ void add_region(ParallelResult& all, ParallelResult&& part) {
 }
 
 Result<ParallelResult> mesh_parallel(const SurfaceMesh& surface, const ParallelOptions& options,
-                                     const LeafKernel* kernel, const LeafKernel* optimize_kernel) {
+                                     const LeafKernel* kernel, const LeafKernel* optimize_kernel,
+                                     const LeafKernel* final_optimize_kernel) {
   PDR_ASSIGN_OR_RETURN(const std::vector<SurfaceRegion> regions, surface_regions(surface));
   if (regions.empty()) {
     // The engine's tet_regions are the leaves that made the tets: bookkeeping,
     // not material regions, so they do not leave the pipeline.
-    PDR_ASSIGN_OR_RETURN(ParallelResult one, mesh_parallel_one(surface, options, kernel, optimize_kernel));
+    PDR_ASSIGN_OR_RETURN(ParallelResult one, mesh_parallel_one(surface, options, kernel, optimize_kernel, final_optimize_kernel));
     one.mesh.tet_regions.clear();
     return one;
   }
@@ -367,7 +377,7 @@ Result<ParallelResult> mesh_parallel(const SurfaceMesh& surface, const ParallelO
   ParallelResult out;
   std::vector<VolumeMesh> parts;
   for (const SurfaceRegion& r : regions) {
-    PDR_ASSIGN_OR_RETURN(ParallelResult part, mesh_parallel_one(r.domain, o, kernel, optimize_kernel));
+    PDR_ASSIGN_OR_RETURN(ParallelResult part, mesh_parallel_one(r.domain, o, kernel, optimize_kernel, final_optimize_kernel));
     parts.push_back(std::move(part.mesh));
     add_region(out, std::move(part));
   }

@@ -870,31 +870,41 @@ TEST(Pdr, MeshParallelIsByteIdenticalWithTheInitialMeshBesideTheSizing) {
   }
 }
 
-TEST(Pdr, TheOptimizeKernelIsMeshParallelsOwnOptimization) {
+TEST(Pdr, TheOptimizeKernelsAreMeshParallelsOwnOptimization) {
   // A coordinator sends the optimization's leaf tasks to its workers as
-  // make_leaf_kernel("optimize"): that kernel must give the bytes of the
-  // optimizer mesh_parallel runs in its own process.
+  // make_leaf_kernel("optimize") (the rounds, from depth 5) and
+  // ("optimize-final") (the one final task, below it): those kernels must
+  // give the bytes of the optimizers mesh_parallel runs in its own process.
   const Sphere* sp = sphere();
   ASSERT_NE(sp, nullptr) << "sphere966.mesh not readable";
   const std::unique_ptr<LeafKernel> optimizer = make_leaf_kernel("optimize").value();
+  const std::unique_ptr<LeafKernel> last = make_leaf_kernel("optimize-final").value();
   EXPECT_EQ(optimizer->name(), "optimize");
-  ParallelOptions o;
-  o.pdr = depth2(2);
-  Result<ParallelResult> own = mesh_parallel(sp->surface, o);
-  ASSERT_TRUE(own.ok()) << own.status().to_string();
-  Result<ParallelResult> given = mesh_parallel(sp->surface, o, nullptr, optimizer.get());
-  ASSERT_TRUE(given.ok()) << given.status().to_string();
-  expect_valid(given->mesh, sp->surface, true);
-  EXPECT_EQ(meshb_bytes(given->mesh, "pdr_opt_given"), meshb_bytes(own->mesh, "pdr_opt_own"));
-  // The optimization did change the mesh, so the comparison says something.
-  o.optimize.reset();
-  Result<ParallelResult> none = mesh_parallel(sp->surface, o);
-  ASSERT_TRUE(none.ok()) << none.status().to_string();
-  EXPECT_NE(meshb_bytes(none->mesh, "pdr_opt_none"), meshb_bytes(own->mesh, "pdr_opt_own"));
+  EXPECT_EQ(last->name(), "optimize-final");
+  for (const int depth : {2, 5}) {
+    ParallelOptions o;
+    o.pdr = depth2(2);
+    o.pdr.depth = depth;
+    Result<ParallelResult> own = mesh_parallel(sp->surface, o);
+    ASSERT_TRUE(own.ok()) << own.status().to_string();
+    const std::vector<RoundRecord>& done = own->profile.rounds;
+    const bool rounds = std::any_of(done.begin(), done.end(),
+                                    [](const RoundRecord& r) { return r.name == "optimization"; });
+    EXPECT_EQ(rounds, depth == 5) << "optimization rounds only where the final pass is not one task";
+    Result<ParallelResult> given = mesh_parallel(sp->surface, o, nullptr, optimizer.get(), last.get());
+    ASSERT_TRUE(given.ok()) << given.status().to_string();
+    expect_valid(given->mesh, sp->surface, true);
+    EXPECT_EQ(meshb_bytes(given->mesh, "pdr_opt_given"), meshb_bytes(own->mesh, "pdr_opt_own")) << depth;
+    // The optimization did change the mesh, so the comparison says something.
+    o.optimize.reset();
+    Result<ParallelResult> none = mesh_parallel(sp->surface, o);
+    ASSERT_TRUE(none.ok()) << none.status().to_string();
+    EXPECT_NE(meshb_bytes(none->mesh, "pdr_opt_none"), meshb_bytes(own->mesh, "pdr_opt_own")) << depth;
+  }
 }
 
-// Next to hinge's needle triangles the optimization's tasks remove points
-// too (leaf_optimize_options: every point keeps its index, a removed one is
+// Next to hinge's needle triangles the optimization's task removes points
+// too (final_optimize_options: every point keeps its index, a removed one is
 // left in no tet and run_pdr drops it), and the mesh validates; a hook whose
 // optimize() renumbered the points instead is refused, and its leaf stays as
 // it came.
@@ -906,12 +916,12 @@ TEST(Pdr, OptimizationLeafTasksRemovePointsAndKeepTheIndices) {
   std::atomic<std::size_t> removed{0};
   const NativeLeafKernel counting(
       [&](TetMesh& leaf, const SizingField& h, const std::optional<Box>&) {
-        Result<OptimizeStats> st = optimize(leaf, &h, leaf_optimize_options());
+        Result<OptimizeStats> st = optimize(leaf, &h, final_optimize_options());
         if (st.ok()) removed += st->points_removed;
         return st.status();
       },
-      "optimize");
-  Result<ParallelResult> kept = mesh_parallel(hinge, o, nullptr, &counting);
+      "optimize-final");
+  Result<ParallelResult> kept = mesh_parallel(hinge, o, nullptr, &counting, &counting);
   ASSERT_TRUE(kept.ok()) << kept.status().to_string();
   EXPECT_GT(removed.load(), 0u);
   EXPECT_EQ(kept->profile.failed_leaves, 0u) << kept->profile.first_failure;
@@ -924,7 +934,7 @@ TEST(Pdr, OptimizationLeafTasksRemovePointsAndKeepTheIndices) {
 
   const NativeLeafKernel renumbering([](TetMesh& leaf, const SizingField& h, const std::optional<Box>&) { return optimize(leaf, &h).status(); },
                                      "optimize");
-  Result<ParallelResult> refused = mesh_parallel(hinge, o, nullptr, &renumbering);
+  Result<ParallelResult> refused = mesh_parallel(hinge, o, nullptr, &renumbering, &renumbering);
   ASSERT_TRUE(refused.ok()) << refused.status().to_string();
   EXPECT_GE(refused->profile.failed_leaves, 1u);
   EXPECT_NE(refused->profile.first_failure.find("dropped input points"), std::string::npos)
@@ -939,6 +949,7 @@ TEST(Pdr, ResumingFromEachRoundsCheckpointGivesTheSameBytes) {
   ASSERT_NE(sp, nullptr) << "sphere966.mesh not readable";
   ParallelOptions o;
   o.pdr = depth2(2);
+  o.pdr.depth = 5;  // deep enough for optimization rounds before the final pass
   std::vector<std::string> saved;
   std::vector<std::string> names;
   o.pdr.checkpoint = [&](const PdrCheckpoint& c) {
@@ -964,7 +975,11 @@ TEST(Pdr, ResumingFromEachRoundsCheckpointGivesTheSameBytes) {
     Result<ParallelResult> resumed = mesh_parallel(sp->surface, o);
     ASSERT_TRUE(resumed.ok()) << names[k] << ": " << resumed.status().to_string();
     EXPECT_TRUE(c->mesh.tets.empty()) << "the run took the checkpoint's mesh";
-    EXPECT_EQ(resumed->profile.rounds.size(), saved.size() - k - 1) << names[k];
+    std::vector<std::string> steps;  // the resumed run's rounds, one name per step
+    for (const RoundRecord& r : resumed->profile.rounds)
+      if (steps.empty() || steps.back() != r.name) steps.push_back(r.name);
+    EXPECT_EQ(steps, std::vector<std::string>(names.begin() + static_cast<std::ptrdiff_t>(k) + 1, names.end()))
+        << names[k];
     EXPECT_EQ(meshb_bytes(resumed->mesh, "pdr_resume_" + std::to_string(k)), want) << "resumed after " << names[k];
   }
 }

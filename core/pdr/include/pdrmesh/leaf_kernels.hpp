@@ -83,11 +83,18 @@ class TetgenLeafKernel final : public LeafKernel {
 /// surface_room and late_caps (OptimizeOptions says why).
 OptimizeOptions leaf_optimize_options(OptimizeOptions options = {});
 
+/// The options of the one final optimization task over every bad tet and its
+/// halo (PdrOptions::final_optimize_kernel): `options` with
+/// keep_point_indices, and the whole mesh's schedule, since that task holds
+/// the mesh's angle extremes.
+OptimizeOptions final_optimize_options(OptimizeOptions options = {});
+
 /// The kernel a job names: "native" (NativeLeafKernel running refine() with
 /// default RefineOptions) or "tetgen" (TetgenLeafKernel with default options),
 /// or the kernel of the optimization rounds, "optimize" (NativeLeafKernel
 /// running optimize() with leaf_optimize_options(): what mesh_parallel runs
-/// there by default); invalid_input naming the choices otherwise. The same name
+/// there by default), or of the one final optimization task, "optimize-final"
+/// (final_optimize_options()); invalid_input naming the choices otherwise. The same name
 /// gives the same kernel in every process, which is what makes remote leaf
 /// results identical.
 Result<std::unique_ptr<LeafKernel>> make_leaf_kernel(std::string_view name);

@@ -1,8 +1,9 @@
 // SPDX-License-Identifier: AGPL-3.0-or-later
 // The PDR engine in one process (the paper's Algorithm 1): a dense initial
 // TetGen mesh, an octree grid over it, leaf tasks scheduled by run_leaves,
-// each result validated and spliced into the global mesh, then optimization
-// rounds and a final optimization task over what they left.
+// each result validated and spliced into the global mesh, then the
+// optimization: one task over every bad tet and its halo, or on large meshes
+// optimization rounds and a final pass in buffered rounds over what they left.
 //
 // Refinement (a kernel that refines the volume it is given): buffered rounds.
 // The leaves go in eight rounds by the parities of their grid coordinates, so
@@ -160,10 +161,16 @@ struct PdrOptions {
   /// Fix-up sweeps (swap then extraction over all leaves) at most, per round.
   std::size_t max_fixup_sweeps = 100;
   double tetgen_time_limit_s = 600;  ///< for the initial mesh
-  /// Optimization as leaf tasks (rounds 3 and 4 above, over the grid and the
-  /// shifted grid; not owned; null: none). mesh_parallel passes a
-  /// NativeLeafKernel running optimize() with the leaf hull frozen.
+  /// Optimization as leaf tasks (the optimization rounds, over the grid and
+  /// the shifted grid, and the final pass; not owned; null: none).
+  /// mesh_parallel passes a NativeLeafKernel running optimize() with the leaf
+  /// hull frozen.
   const LeafKernel* optimize_kernel = nullptr;
+  /// The final pass where it is one task (see optimize_selects; not owned;
+  /// null: optimize_kernel). That task holds every bad tet, so the mesh's
+  /// angle extremes are its own, and it may run the whole mesh's schedule
+  /// (final_optimize_options, leaf_kernels.hpp).
+  const LeafKernel* final_optimize_kernel = nullptr;
   /// The final optimization over the whole merged mesh (optimize.hpp), after
   /// the optimization rounds; empty: none. It sees the mesh as one region.
   /// Not used when optimize_selects is set (see there).
@@ -173,13 +180,15 @@ struct PdrOptions {
   /// only its tets within optimize_halo vertex layers of such a tet (the others
   /// stay as they are; the selection's outer faces are frozen like any leaf
   /// hull, and a leaf with no selected tet runs no task), and the final pass
-  /// runs optimize_kernel instead of `optimize`: as one task over the whole
-  /// selection, or, with buffered rounds at depth 5 or more (large meshes,
-  /// where that task would be the run's long pole), in colour rounds over a
-  /// grid three levels coarser than the refinement's, two sweeps (a task's
-  /// buffer changes tets of leaves whose round has passed; the second sweep
-  /// seeds only the bad tets no task has had in its core since). The work
-  /// then follows the bad tets, not the mesh size.
+  /// runs optimize_kernel instead of `optimize`: with buffered rounds at depth
+  /// 5 or more (large meshes, where one task would be the run's long pole) in
+  /// colour rounds over a grid two levels coarser than the refinement's, two
+  /// sweeps (a task's buffer changes tets of leaves whose round has passed;
+  /// the second sweep seeds only the bad tets no task has had in its core
+  /// since); below that as one task over the whole selection
+  /// (final_optimize_kernel), with no optimization rounds before it: that
+  /// task works on every bad tet again, and what the rounds did there would
+  /// be paid twice. The work then follows the bad tets, not the mesh size.
   std::function<bool(const Vec3&, const Vec3&, const Vec3&, const Vec3&)> optimize_selects;
   /// Vertex layers around the selected tets: with 1, every point of a bad tet
   /// has its whole star in the task (it may move); 2 also lets the points of

@@ -85,15 +85,18 @@ Result<ParallelOptions> region_by_region(const ParallelOptions& options, const S
 /// background TetGen mesh -> SizingField::build -> run_pdr(kernel) -> optimize.
 /// `kernel` null: make_leaf_kernel("native"). `optimize_kernel` runs the
 /// optimization's leaf tasks (PdrOptions::optimize_kernel; only with
-/// options.optimize); null: a NativeLeafKernel running optimize() with
-/// leaf_optimize_options(*options.optimize) in this process. One given must
-/// compute the same, as make_leaf_kernel("optimize") does for the default
-/// OptimizeOptions, whether
-/// it runs the task here or on a remote worker (the coordinator's dispatch).
+/// options.optimize) and `final_optimize_kernel` its one final task
+/// (PdrOptions::final_optimize_kernel); both null: NativeLeafKernels running
+/// optimize() with leaf_optimize_options(*options.optimize) and
+/// final_optimize_options(*options.optimize) in this process. Those given
+/// must compute the same, as make_leaf_kernel("optimize") and
+/// ("optimize-final") do for the default OptimizeOptions, whether they run
+/// the task here or on a remote worker (the coordinator's dispatch).
 /// Several regions: each through the method in turn, merged as by mesh_serial
 /// (no checkpoint is written, and options.pdr.resume is refused).
 Result<ParallelResult> mesh_parallel(const SurfaceMesh& checked_surface, const ParallelOptions& options,
-                                     const LeafKernel* kernel = nullptr, const LeafKernel* optimize_kernel = nullptr);
+                                     const LeafKernel* kernel = nullptr, const LeafKernel* optimize_kernel = nullptr,
+                                     const LeafKernel* final_optimize_kernel = nullptr);
 
 /// The final optimization of a merged mesh (boundary frozen, sizing-aware).
 Status optimize_volume(VolumeMesh& mesh, const SizingField& sizing, const OptimizeOptions& options = {});
