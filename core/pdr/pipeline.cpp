@@ -283,6 +283,8 @@ Result<ParallelResult> mesh_parallel_one(const SurfaceMesh& surface, const Paral
       optimizer.emplace([opt](TetMesh& leaf, const SizingField& h, const std::optional<Box>&) { return pdrmesh::optimize(leaf, &h, opt).status(); },
                         "optimize");
       optimize_kernel = &*optimizer;
+    }
+    if (final_optimize_kernel == nullptr) {
       const OptimizeOptions last = final_optimize_options(*options.optimize);
       final_optimizer.emplace(
           [last](TetMesh& leaf, const SizingField& h, const std::optional<Box>&) {

@@ -895,6 +895,10 @@ TEST(Pdr, TheOptimizeKernelsAreMeshParallelsOwnOptimization) {
     ASSERT_TRUE(given.ok()) << given.status().to_string();
     expect_valid(given->mesh, sp->surface, true);
     EXPECT_EQ(meshb_bytes(given->mesh, "pdr_opt_given"), meshb_bytes(own->mesh, "pdr_opt_own")) << depth;
+    // Given the rounds' kernel alone, the final task runs here, as its own.
+    Result<ParallelResult> rounds_only = mesh_parallel(sp->surface, o, nullptr, optimizer.get());
+    ASSERT_TRUE(rounds_only.ok()) << rounds_only.status().to_string();
+    EXPECT_EQ(meshb_bytes(rounds_only->mesh, "pdr_opt_rounds"), meshb_bytes(own->mesh, "pdr_opt_own")) << depth;
     // The optimization did change the mesh, so the comparison says something.
     o.optimize.reset();
     Result<ParallelResult> none = mesh_parallel(sp->surface, o);

@@ -83,15 +83,15 @@ const Reference& reference() {
     r->surface = read_surface(kSphere).value();
     r->options.pdr.depth = 2;
     r->options.pdr.workers = 2;
-    RecordingKernel kernel("native"), optimizer("optimize");
-    Result<ParallelResult> res = mesh_parallel(r->surface, r->options, &kernel, &optimizer);
+    RecordingKernel kernel("native"), optimizer("optimize"), last("optimize-final");
+    Result<ParallelResult> res = mesh_parallel(r->surface, r->options, &kernel, &optimizer, &last);
     if (!res.ok()) {
       ADD_FAILURE() << res.status().to_string();
       return r;
     }
     r->mesh = std::move(res->mesh);
-    if (optimizer.calls_ == 0) ADD_FAILURE() << "the reference job ran no optimization task";
-    r->leaf_tasks = kernel.calls_ + optimizer.calls_;
+    if (optimizer.calls_ + last.calls_ == 0) ADD_FAILURE() << "the reference job ran no optimization task";
+    r->leaf_tasks = kernel.calls_ + optimizer.calls_ + last.calls_;
     r->input = kernel.sample_input_;
     r->sizing = kernel.sample_sizing_;
     auto native = make_leaf_kernel("native").value();
@@ -328,15 +328,17 @@ class Workers : public ::testing::Test {
   /// mesh_parallel of the reference surface through the dispatch.
   static Result<ParallelResult> mesh_remote(RemoteLeafDispatch& dispatch, std::atomic<bool>* keep_going = nullptr) {
     const Reference& ref = reference();
-    // Both kinds of leaf task go to the workers, as the coordinator sends them.
+    // Every kind of leaf task goes to the workers, as the coordinator sends them.
     LeafJob job{"job1", "alice", "native", [keep_going] { return keep_going == nullptr || keep_going->load(); }};
     PDR_ASSIGN_OR_RETURN(std::unique_ptr<LeafKernel> kernel, dispatch.kernel_for(job));
     job.kernel = "optimize";
     PDR_ASSIGN_OR_RETURN(std::unique_ptr<LeafKernel> optimizer, dispatch.kernel_for(job));
+    job.kernel = "optimize-final";
+    PDR_ASSIGN_OR_RETURN(std::unique_ptr<LeafKernel> last, dispatch.kernel_for(job));
     ParallelOptions o = ref.options;
     o.pdr.workers = dispatch.concurrency();
     tbb::global_control threads(tbb::global_control::max_allowed_parallelism, 64);
-    return mesh_parallel(ref.surface, o, kernel.get(), optimizer.get());
+    return mesh_parallel(ref.surface, o, kernel.get(), optimizer.get(), last.get());
   }
 
   test::TempDir dir_;

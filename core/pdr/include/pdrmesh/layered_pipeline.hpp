@@ -49,9 +49,10 @@ struct LayeredParallelResult {
   ParallelResult fill;    ///< the tet fill's figures and profile (its mesh moved into layered.mesh)
 };
 
-/// mesh_serial_layered with the tet fill through mesh_parallel (`kernel` and
-/// `optimize_kernel` and `final_optimize_kernel` as there): the same layers, made serially, so the prisms
-/// and the points under them are the serial path's, byte for byte.
+/// mesh_serial_layered with the tet fill through mesh_parallel (`kernel`,
+/// `optimize_kernel` and `final_optimize_kernel` as there): the same layers,
+/// made serially, so the prisms and the points under them are the serial
+/// path's, byte for byte.
 Result<LayeredParallelResult> mesh_parallel_layered(const SurfaceMesh& checked_surface, const LayerOptions& layers,
                                                     const ParallelOptions& options, const LeafKernel* kernel = nullptr,
                                                     const LeafKernel* optimize_kernel = nullptr,

@@ -86,9 +86,9 @@ Result<ParallelOptions> region_by_region(const ParallelOptions& options, const S
 /// `kernel` null: make_leaf_kernel("native"). `optimize_kernel` runs the
 /// optimization's leaf tasks (PdrOptions::optimize_kernel; only with
 /// options.optimize) and `final_optimize_kernel` its one final task
-/// (PdrOptions::final_optimize_kernel); both null: NativeLeafKernels running
-/// optimize() with leaf_optimize_options(*options.optimize) and
-/// final_optimize_options(*options.optimize) in this process. Those given
+/// (PdrOptions::final_optimize_kernel); each null: a NativeLeafKernel running
+/// optimize() with leaf_optimize_options(*options.optimize), or
+/// final_optimize_options(*options.optimize), in this process. Those given
 /// must compute the same, as make_leaf_kernel("optimize") and
 /// ("optimize-final") do for the default OptimizeOptions, whether they run
 /// the task here or on a remote worker (the coordinator's dispatch).
