@@ -29,13 +29,16 @@ namespace pdrmesh {
 
 FaceIdTable::FaceIdTable(std::span<const Tri> faces, std::span<const int> ids) {
   sorted_.reserve(faces.size());
-  for (std::size_t i = 0; i < faces.size(); ++i)
+  for (std::size_t i = 0; i < faces.size(); ++i) {
     sorted_.emplace_back(topo::sorted_key(faces[i]), i < ids.size() ? ids[i] : 0);
+    last_point_ = std::max(last_point_, sorted_.back().first[2]);
+  }
   std::sort(sorted_.begin(), sorted_.end());
 }
 
 int FaceIdTable::lookup(const Tri& face) const {
   const Tri key = topo::sorted_key(face);
+  if (sorted_.empty() || key[2] > last_point_) return 0;  // a point no listed face has: an interior face
   const auto it = std::lower_bound(sorted_.begin(), sorted_.end(), std::pair<Tri, int>{key, std::numeric_limits<int>::min()});
   return it != sorted_.end() && it->first == key ? it->second : 0;
 }
@@ -44,12 +47,21 @@ LeafTaskInput build_leaf_input(std::uint32_t leaf, std::span<const Vec3> points,
                                const FaceIdTable& boundary, std::span<const double> sizes) {
   LeafTaskInput in;
   in.leaf = leaf;
+  // Every corner as (global point, corner slot), sorted: one pass then
+  // numbers the points in ascending global order and fills in the tets.
+  std::vector<std::uint64_t> corners(4 * tets.size());
+  for (std::size_t t = 0; t < tets.size(); ++t)
+    for (int c = 0; c < 4; ++c) corners[4 * t + c] = (std::uint64_t{tets[t][c]} << 32) | (4 * t + c);
+  std::sort(corners.begin(), corners.end());
   std::vector<Index> used;
-  used.reserve(4 * tets.size());
-  for (const Tet& t : tets) used.insert(used.end(), t.begin(), t.end());
-  std::sort(used.begin(), used.end());
-  used.erase(std::unique(used.begin(), used.end()), used.end());
-  auto local = [&](Index g) { return static_cast<Index>(std::lower_bound(used.begin(), used.end(), g) - used.begin()); };
+  in.tets.resize(tets.size());
+  for (const std::uint64_t k : corners) {
+    const auto g = static_cast<Index>(k >> 32);
+    if (used.empty() || used.back() != g) used.push_back(g);
+    const auto slot = static_cast<std::size_t>(k & 0xffffffffu);
+    in.tets[slot / 4][slot % 4] = static_cast<Index>(used.size() - 1);
+  }
+  corners = {};
   in.point_ids.assign(used.begin(), used.end());
   in.points.reserve(used.size());
   for (Index g : used) in.points.push_back(points[g]);
@@ -57,8 +69,6 @@ LeafTaskInput build_leaf_input(std::uint32_t leaf, std::span<const Vec3> points,
     in.sizes.reserve(used.size());
     for (Index g : used) in.sizes.push_back(sizes[g]);
   }
-  in.tets.reserve(tets.size());
-  for (const Tet& t : tets) in.tets.push_back({local(t[0]), local(t[1]), local(t[2]), local(t[3])});
   // The hull: the faces of one tet, in the order of their sorted points.
   const auto faces = detail::faces_by_smallest_point(in.tets, used.size());
   for (std::size_t a = 0; a < used.size(); ++a) {

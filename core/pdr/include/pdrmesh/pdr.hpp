@@ -355,6 +355,7 @@ class FaceIdTable {
 
  private:
   std::vector<std::pair<Tri, int>> sorted_;
+  Index last_point_ = 0;  ///< the largest point of a listed face (the surface's come first)
 };
 
 /// The task input of one leaf: its points (ascending global index, which is
