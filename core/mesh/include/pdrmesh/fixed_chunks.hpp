@@ -137,19 +137,35 @@ Buckets<T> bucket_items(std::size_t n, std::size_t keys, std::size_t grain, Each
   return b;
 }
 
+/// Sorts [first, last) by `less`: by insertion when short (a bucket of faces
+/// holds a few dozen), else std::sort. The same order either way (a total order).
+template <class It, class Less>
+void sort_short(It first, It last, Less less) {
+  if (last - first > 48) {
+    std::sort(first, last, less);
+    return;
+  }
+  for (It i = first; i != last; ++i) {
+    auto v = std::move(*i);
+    It j = i;
+    for (; j != first && less(v, *(j - 1)); --j) *j = std::move(*(j - 1));
+    *j = std::move(v);
+  }
+}
+
 /// Sorts each bucket of `b` by `less`, buckets in parallel.
 template <class T, class Less>
 void sort_buckets(Buckets<T>& b, Less less) {
   if (b.items.size() <= 65536) {  // a small set (a leaf task's): in this thread
     for (std::size_t k = 0; k + 1 < b.first.size(); ++k)
-      std::sort(b.items.begin() + static_cast<std::ptrdiff_t>(b.first[k]),
-                b.items.begin() + static_cast<std::ptrdiff_t>(b.first[k + 1]), less);
+      sort_short(b.items.begin() + static_cast<std::ptrdiff_t>(b.first[k]),
+                 b.items.begin() + static_cast<std::ptrdiff_t>(b.first[k + 1]), less);
     return;
   }
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, b.first.size() - 1), [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t k = r.begin(); k != r.end(); ++k) {
-      std::sort(b.items.begin() + static_cast<std::ptrdiff_t>(b.first[k]),
-                b.items.begin() + static_cast<std::ptrdiff_t>(b.first[k + 1]), less);
+      sort_short(b.items.begin() + static_cast<std::ptrdiff_t>(b.first[k]),
+                 b.items.begin() + static_cast<std::ptrdiff_t>(b.first[k + 1]), less);
     }
   });
 }
