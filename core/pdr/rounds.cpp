@@ -48,7 +48,8 @@ LeafTaskInput build_leaf_input(std::uint32_t leaf, std::span<const Vec3> points,
   LeafTaskInput in;
   in.leaf = leaf;
   // Every corner as (global point, corner slot), sorted: one pass then
-  // numbers the points in ascending global order and fills in the tets.
+  // numbers the points in ascending global order and fills in the tets. (The
+  // slot takes 32 bits: a task of 2^30 tets would hold 16 GiB of tets alone.)
   std::vector<std::uint64_t> corners(4 * tets.size());
   for (std::size_t t = 0; t < tets.size(); ++t)
     for (int c = 0; c < 4; ++c) corners[4 * t + c] = (std::uint64_t{tets[t][c]} << 32) | (4 * t + c);
