@@ -29,6 +29,14 @@ OptimizeOptions final_optimize_options(OptimizeOptions options) {
   return options;
 }
 
+std::unique_ptr<LeafKernel> optimizing_kernel(const OptimizeOptions& options, std::string name) {
+  return std::make_unique<NativeLeafKernel>(
+      [options](TetMesh& leaf, const SizingField& h, const std::optional<Box>&) {
+        return optimize(leaf, &h, options).status();
+      },
+      std::move(name));
+}
+
 Result<std::unique_ptr<LeafKernel>> make_leaf_kernel(std::string_view name) {
   if (name == "native") {
     return std::unique_ptr<LeafKernel>(std::make_unique<NativeLeafKernel>(
@@ -40,20 +48,8 @@ Result<std::unique_ptr<LeafKernel>> make_leaf_kernel(std::string_view name) {
         })));
   }
   if (name == "tetgen") return std::unique_ptr<LeafKernel>(std::make_unique<TetgenLeafKernel>());
-  if (name == "optimize") {
-    return std::unique_ptr<LeafKernel>(std::make_unique<NativeLeafKernel>(
-        [](TetMesh& leaf, const SizingField& h, const std::optional<Box>&) {
-          return optimize(leaf, &h, leaf_optimize_options()).status();
-        },
-        "optimize"));
-  }
-  if (name == "optimize-final") {
-    return std::unique_ptr<LeafKernel>(std::make_unique<NativeLeafKernel>(
-        [](TetMesh& leaf, const SizingField& h, const std::optional<Box>&) {
-          return optimize(leaf, &h, final_optimize_options()).status();
-        },
-        "optimize-final"));
-  }
+  if (name == "optimize") return optimizing_kernel(leaf_optimize_options(), "optimize");
+  if (name == "optimize-final") return optimizing_kernel(final_optimize_options(), "optimize-final");
   return invalid_input(fmt::format("unknown leaf kernel '{}' (native, tetgen, optimize or optimize-final)", name));
 }
 

@@ -276,22 +276,16 @@ Result<ParallelResult> mesh_parallel_one(const SurfaceMesh& surface, const Paral
   PdrOptions pdr = options.pdr;
   pdr.optimize = nullptr;
   pdr.optimize_kernel = nullptr;
-  std::optional<NativeLeafKernel> optimizer, final_optimizer;
+  std::unique_ptr<LeafKernel> optimizer, final_optimizer;
   if (options.optimize) {
     const OptimizeOptions opt = leaf_optimize_options(*options.optimize);
     if (optimize_kernel == nullptr) {
-      optimizer.emplace([opt](TetMesh& leaf, const SizingField& h, const std::optional<Box>&) { return pdrmesh::optimize(leaf, &h, opt).status(); },
-                        "optimize");
-      optimize_kernel = &*optimizer;
+      optimizer = optimizing_kernel(opt, "optimize");
+      optimize_kernel = optimizer.get();
     }
     if (final_optimize_kernel == nullptr) {
-      const OptimizeOptions last = final_optimize_options(*options.optimize);
-      final_optimizer.emplace(
-          [last](TetMesh& leaf, const SizingField& h, const std::optional<Box>&) {
-            return pdrmesh::optimize(leaf, &h, last).status();
-          },
-          "optimize-final");
-      final_optimize_kernel = &*final_optimizer;
+      final_optimizer = optimizing_kernel(final_optimize_options(*options.optimize), "optimize-final");
+      final_optimize_kernel = final_optimizer.get();
     }
     pdr.optimize_kernel = optimize_kernel;
     pdr.final_optimize_kernel = final_optimize_kernel;

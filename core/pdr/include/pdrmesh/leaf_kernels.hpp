@@ -89,6 +89,10 @@ OptimizeOptions leaf_optimize_options(OptimizeOptions options = {});
 /// the mesh's angle extremes.
 OptimizeOptions final_optimize_options(OptimizeOptions options = {});
 
+/// A NativeLeafKernel named `name` that runs optimize() with `options` on its
+/// leaf (the kernels "optimize" and "optimize-final" with their options).
+std::unique_ptr<LeafKernel> optimizing_kernel(const OptimizeOptions& options, std::string name);
+
 /// The kernel a job names: "native" (NativeLeafKernel running refine() with
 /// default RefineOptions) or "tetgen" (TetgenLeafKernel with default options),
 /// or the kernel of the optimization rounds, "optimize" (NativeLeafKernel
