@@ -152,18 +152,24 @@ BufferedRound tasks_of_owners(const std::vector<LeafId>& owner, const Box& box, 
     dense[l] = static_cast<Index>(r.d.leaves.size());
     r.d.leaves.push_back(static_cast<LeafId>(l));
   }
-  // Each leaf's tets, ascending, and those of no leaf.
+  // Each leaf's tets, ascending, and those of no leaf (key nl).
   const std::size_t nl = r.d.leaves.size();
-  constexpr std::size_t kGrain = 65536;
-  r.outside = detail::filter_indices(owner.size(), kGrain, [&](std::size_t t) { return owner[t] >= kBlocked; });
-  auto buckets = detail::bucket_items<Index>(owner.size(), nl, kGrain, [&](std::size_t t, auto&& emit) {
-    if (owner[t] < kBlocked) emit(dense[owner[t]], static_cast<Index>(t));
+  const auto groups = detail::group_indices(owner.size(), nl + 1, [&](std::size_t t) {
+    return owner[t] < kBlocked ? static_cast<std::size_t>(dense[owner[t]]) : nl;
   });
-  detail::sort_buckets(buckets, std::less<Index>());
+  const auto group = [&](std::size_t k) {
+    return std::pair{groups.items.begin() + static_cast<std::ptrdiff_t>(groups.first[k]),
+                     groups.items.begin() + static_cast<std::ptrdiff_t>(groups.first[k + 1])};
+  };
   r.d.leaf_tets.resize(nl);
-  tbb::parallel_for(std::size_t{0}, nl, [&](std::size_t k) {
-    r.d.leaf_tets[k].assign(buckets.items.begin() + static_cast<std::ptrdiff_t>(buckets.first[k]),
-                            buckets.items.begin() + static_cast<std::ptrdiff_t>(buckets.first[k + 1]));
+  tbb::parallel_for(std::size_t{0}, nl + 1, [&](std::size_t k) {
+    const auto [b, e] = group(k);
+    if (k < nl) {
+      r.d.leaf_tets[k].assign(b, e);
+    } else {
+      r.outside.resize(static_cast<std::size_t>(e - b));
+      detail::parallel_copy(b, e, r.outside.begin());
+    }
   });
   r.d.n1.assign(r.d.size(), {});
   r.d.n2.assign(r.d.size(), {});

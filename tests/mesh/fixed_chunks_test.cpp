@@ -42,5 +42,24 @@ TEST(FixedChunks, SortedBucketsAreTheSerialGrouping) {
   }
 }
 
+// The stable counting sort groups every index under its key, ascending, with
+// few keys (many chunks) and with more keys than a chunk-per-key count allows
+// (fewer, larger chunks), and leaves the groups of unused keys empty.
+TEST(FixedChunks, GroupIndicesIsTheSerialStableGrouping) {
+  for (const auto& [n, keys] : {std::pair<std::size_t, std::size_t>{300000, 5}, {300000, 40000}, {1000, 3}, {0, 4}}) {
+    const auto key = [&](std::size_t i) { return (i * 40503u) % (keys > 2 ? keys - 2 : 1); };  // the last two unused
+    const detail::Buckets<Index> b = detail::group_indices(n, keys, key);
+    std::vector<std::vector<Index>> serial(keys);
+    for (std::size_t i = 0; i < n; ++i) serial[key(i)].push_back(static_cast<Index>(i));
+    ASSERT_EQ(b.first.size(), keys + 1);
+    ASSERT_EQ(b.items.size(), n);
+    for (std::size_t k = 0; k < keys; ++k) {
+      const std::vector<Index> got(b.items.begin() + static_cast<std::ptrdiff_t>(b.first[k]),
+                                   b.items.begin() + static_cast<std::ptrdiff_t>(b.first[k + 1]));
+      ASSERT_EQ(got, serial[k]) << "n " << n << " keys " << keys << " key " << k;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace pdrmesh

@@ -137,6 +137,42 @@ Buckets<T> bucket_items(std::size_t n, std::size_t keys, std::size_t grain, Each
   return b;
 }
 
+/// The i in [0, n) grouped by key_of(i) in [0, keys), each group ascending:
+/// a stable counting sort over fixed chunks (per chunk counts, prefix sums in
+/// key-then-chunk order, a scatter), so the result needs no sort of its groups
+/// and is the same for any thread count. Fewer, larger chunks where the keys
+/// are many, so that the counts stay a small fraction of the items.
+template <class KeyOf>
+Buckets<Index> group_indices(std::size_t n, std::size_t keys, KeyOf&& key_of) {
+  constexpr std::size_t kGrain = 65536;
+  const std::size_t most_chunks = std::max<std::size_t>(1, n / 16 / std::max<std::size_t>(keys, 1));
+  const std::size_t grain = std::max(kGrain, chunk_count(n, most_chunks));
+  const std::size_t chunks = chunk_count(n, grain);
+  std::vector<std::size_t> at(chunks * keys, 0);  // at[chunk * keys + key]: each chunk's counts together
+  for_each_chunk(n, grain, [&](std::size_t c, std::size_t lo, std::size_t hi) {
+    std::size_t* const count = at.data() + c * keys;
+    for (std::size_t i = lo; i < hi; ++i) ++count[static_cast<std::size_t>(key_of(i))];
+  });
+  Buckets<Index> b;
+  b.first.assign(keys + 1, 0);
+  std::size_t sum = 0;
+  for (std::size_t k = 0; k < keys; ++k) {
+    b.first[k] = sum;
+    for (std::size_t c = 0; c < chunks; ++c) {
+      const std::size_t count = at[c * keys + k];
+      at[c * keys + k] = sum;
+      sum += count;
+    }
+  }
+  b.first[keys] = sum;
+  b.items.resize(sum);
+  for_each_chunk(n, grain, [&](std::size_t c, std::size_t lo, std::size_t hi) {
+    std::size_t* const next = at.data() + c * keys;
+    for (std::size_t i = lo; i < hi; ++i) b.items[next[static_cast<std::size_t>(key_of(i))]++] = static_cast<Index>(i);
+  });
+  return b;
+}
+
 /// Sorts [first, last) by `less`: by insertion when short (a bucket of faces
 /// holds a few dozen), else std::sort. The same order either way (a total order).
 template <class It, class Less>
