@@ -6,7 +6,9 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <numbers>
@@ -24,12 +26,14 @@ namespace {
 
 constexpr double kDegrees = 180.0 / std::numbers::pi;
 
+/// The dihedral angle, in degrees, whose outward face normals have this cosine.
+double angle_of_cosine(double cosine) { return 180.0 - std::acos(cosine) * kDegrees; }
+
 double angle_between_normals(const Vec3& n1, const Vec3& n2) {
   // Interior dihedral angle = pi - angle between the two outward face normals.
   const double l = norm(n1) * norm(n2);
   if (l == 0.0) return 0.0;
-  const double c = std::clamp(dot(n1, n2) / l, -1.0, 1.0);
-  return 180.0 - std::acos(c) * kDegrees;
+  return angle_of_cosine(std::clamp(dot(n1, n2) / l, -1.0, 1.0));
 }
 
 /// The outward normals (for a positive tet; unnormalised) of the faces
@@ -45,6 +49,43 @@ FaceNormals face_normals(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3
 }
 /// The two faces (by opposite vertex) at each of the six edges.
 constexpr int kEdgeFaces[6][2] = {{2, 3}, {1, 3}, {1, 2}, {0, 3}, {0, 2}, {0, 1}};
+
+/// The 10-degree histogram bin of an angle (the last bin takes 170 to 180).
+std::size_t bin_of_angle(double angle) { return std::min<std::size_t>(17, static_cast<std::size_t>(std::max(0.0, angle) / 10.0)); }
+
+/// The bins by cosine, without an arc cosine per angle: thresholds[k - 1] is
+/// the smallest double cosine whose angle falls in bin k or above, found by
+/// bisection over the doubles in [-1, 1] with the very expressions above, so
+/// bin(c) = bin_of_angle(angle_of_cosine(c)) for every c (both rise with c).
+class CosineBins {
+ public:
+  CosineBins() {
+    // Doubles in [-1, 1] as integers in the same order.
+    const auto order = [](double d) {
+      const auto b = std::bit_cast<std::int64_t>(d);
+      return b >= 0 ? b : std::numeric_limits<std::int64_t>::min() - b;
+    };
+    const auto value = [](std::int64_t o) {
+      return std::bit_cast<double>(o >= 0 ? o : std::numeric_limits<std::int64_t>::min() - o);
+    };
+    for (std::size_t k = 1; k <= 17; ++k) {
+      std::int64_t below = order(-1.0), at = order(1.0);  // bin(-1) = 0 < k <= 17 = bin(1)
+      while (at - below > 1) {
+        const std::int64_t mid = below + (at - below) / 2;
+        (bin_of_angle(angle_of_cosine(value(mid))) >= k ? at : below) = mid;
+      }
+      thresholds_[k - 1] = value(at);
+    }
+  }
+  std::size_t operator()(double cosine) const {
+    std::size_t bin = 0;  // a count without branches: the bins are as likely as the angles
+    for (const double t : thresholds_) bin += cosine >= t ? 1 : 0;
+    return bin;
+  }
+
+ private:
+  std::array<double, 17> thresholds_{};
+};
 
 }  // namespace
 
@@ -66,25 +107,45 @@ std::array<double, 6> dihedral_angles(const Vec3& a, const Vec3& b, const Vec3& 
           angle_between_normals(na, nb)};   // cd
 }
 
-AngleRange dihedral_range(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
-  // The same values as the extremes of dihedral_angles, with two acos instead
-  // of six: the angle 180 - acos(cos) rises with the cosine of the normals.
-  const auto [n, len] = face_normals(a, b, c, d);
+namespace {
+
+/// The extreme cosines of a tet's six pairs of outward face normals, and
+/// how many pairs have a degenerate face (an angle of 0 there).
+struct CosineRange {
   double lo = 2.0, hi = -2.0;
-  bool flat = false;  // a degenerate face: angle 0 (angle_between_normals)
+  int flat = 0;
+  /// The extreme dihedral angles: the angle rises with the cosine, so these
+  /// are the extremes of dihedral_angles, with two arc cosines instead of six.
+  AngleRange angles() const {
+    if (hi < -1.0) return {0.0, 0.0};  // every face degenerate
+    return {flat > 0 ? 0.0 : angle_of_cosine(lo), angle_of_cosine(hi)};
+  }
+};
+
+/// The six cosines, as angle_between_normals computes them: on_cosine(c) for
+/// each (skipped at a degenerate face), and their range.
+template <class OnCosine>
+CosineRange edge_cosines(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d, OnCosine&& on_cosine) {
+  const auto [n, len] = face_normals(a, b, c, d);
+  CosineRange r;
   for (const auto& [i, j] : kEdgeFaces) {
     const double l = len[i] * len[j];
     if (l == 0.0) {
-      flat = true;
+      ++r.flat;
       continue;
     }
     const double cosine = std::clamp(dot(n[i], n[j]) / l, -1.0, 1.0);
-    lo = std::min(lo, cosine);
-    hi = std::max(hi, cosine);
+    r.lo = std::min(r.lo, cosine);
+    r.hi = std::max(r.hi, cosine);
+    on_cosine(cosine);
   }
-  const auto angle = [](double cosine) { return 180.0 - std::acos(cosine) * kDegrees; };
-  if (hi < -1.0) return {0.0, 0.0};  // every face degenerate
-  return {flat ? 0.0 : angle(lo), angle(hi)};
+  return r;
+}
+
+}  // namespace
+
+AngleRange dihedral_range(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
+  return edge_cosines(a, b, c, d, [](double) {}).angles();
 }
 
 DihedralBounds::DihedralBounds(double min, double max)
@@ -194,17 +255,21 @@ QualityReport measure_quality(const VolumeMesh& mesh, bool interior) {
   q.interior_measured = interior;
   const std::vector<char> on_hull = interior ? hull_points(mesh) : std::vector<char>();
   std::vector<BlockFigures> figures(blocks);
+  static const CosineBins bins;
   tbb::parallel_for(std::size_t{0}, blocks, [&](std::size_t b) {
     BlockFigures& f = figures[b];
     const auto [first, last] = block_range(b);
     for (std::size_t t = first; t < last; ++t) {
       const Tet& k = mesh.tets[t];
       const Vec3 &a = p[k[0]], &bb = p[k[1]], &c = p[k[2]], &d = p[k[3]];
-      double lo = 180.0, hi = 0.0;
-      for (double x : dihedral_angles(a, bb, c, d)) {
-        lo = std::min(lo, x);
-        hi = std::max(hi, x);
-        ++f.histogram[std::min<std::size_t>(17, static_cast<std::size_t>(std::max(0.0, x) / 10.0))];
+      // The six angles binned by their cosines (a degenerate face's angle, 0,
+      // in the first bin), and the extremes from the extreme cosines.
+      const CosineRange range = edge_cosines(a, bb, c, d, [&](double cosine) { ++f.histogram[bins(cosine)]; });
+      f.histogram[0] += static_cast<std::size_t>(range.flat);
+      double lo = range.flat > 0 ? 0.0 : 180.0, hi = 0.0;  // the minimum and maximum of the six
+      if (range.hi >= -1.0) {
+        lo = std::min(lo, angle_of_cosine(range.lo));
+        hi = std::max(hi, angle_of_cosine(range.hi));
       }
       f.lo = std::min(f.lo, lo);
       f.hi = std::max(f.hi, hi);

@@ -121,6 +121,41 @@ TEST(MeasureQuality, CountsEveryAngleInTheHistogram) {
   EXPECT_NEAR(q.mean_shape_and_size, 1.0, 1e-12);
 }
 
+TEST(MeasureQuality, BinsAndExtremesAreThoseOfTheSixAngles) {
+  // measure_quality bins each angle by its cosine and takes the extremes from
+  // the extreme cosines: the same counts and doubles as binning every angle
+  // of dihedral_angles, on random, flat and degenerate tets, and on corner
+  // tets whose right angles lie on a bin edge.
+  std::vector<std::array<Vec3, 4>> tets = test_tets(4242, 3000);
+  for (int s = 1; s <= 50; ++s) {
+    const double h = 0.1 * s;
+    tets.push_back({Vec3{0, 0, 0}, Vec3{h, 0, 0}, Vec3{0, h, 0}, Vec3{0, 0, h}});
+    tets.push_back({Vec3{0, 0, 0}, Vec3{h, 0, 0}, Vec3{h, h, 0}, Vec3{h, h, h}});
+  }
+  VolumeMesh m;
+  std::array<std::size_t, 18> histogram{};
+  double lo = 180.0, hi = 0.0;
+  std::size_t below = 0;
+  for (const auto& p : tets) {
+    const auto base = static_cast<Index>(m.points.size());
+    m.points.insert(m.points.end(), p.begin(), p.end());
+    m.tets.push_back({base, base + 1, base + 2, base + 3});
+    const auto a = dihedral_angles(p[0], p[1], p[2], p[3]);
+    for (double x : a) ++histogram[std::min<std::size_t>(17, static_cast<std::size_t>(std::max(0.0, x) / 10.0))];
+    const double tet_lo = std::min(180.0, *std::min_element(a.begin(), a.end()));
+    lo = std::min(lo, tet_lo);
+    hi = std::max(hi, *std::max_element(a.begin(), a.end()));
+    below += tet_lo < 10.0;
+  }
+  const QualityReport q = measure_quality(m);
+  for (std::size_t i = 0; i < histogram.size(); ++i) EXPECT_EQ(q.histogram[i], histogram[i]) << "bin " << i;
+  EXPECT_EQ(q.min_dihedral, lo);
+  EXPECT_EQ(q.max_dihedral, hi);
+  EXPECT_EQ(q.share_below_10, static_cast<double>(below) / static_cast<double>(tets.size()));
+  EXPECT_GT(histogram[0], 0u);  // flat tets and slivers are there
+  EXPECT_GT(histogram[9], 0u);
+}
+
 TEST(MeasureQuality, InteriorTetsAreThoseWithNoHullVertex) {
   // 3 x 3 x 3 unit cubes, each cut into the 6 tets of fixtures::cube(): only
   // the middle cube's 8 corners are off the hull, so its 6 tets are the
