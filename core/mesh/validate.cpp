@@ -38,17 +38,6 @@ Tri canonical(Tri t) {
   return t;
 }
 
-/// Sorted vertex set of a triangle and whether `t` is an even permutation of it.
-struct FaceKey {
-  Tri sorted;
-  bool even;
-};
-FaceKey face_key(const Tri& t) {
-  const Tri c = canonical(t);  // c[0] is the smallest
-  if (c[1] < c[2]) return {c, true};
-  return {{c[0], c[2], c[1]}, false};
-}
-
 std::string point_str(const Vec3& p) { return fmt::format("({}, {}, {})", p[0], p[1], p[2]); }
 
 /// Counts every error and keeps the first few of each check.
@@ -224,7 +213,7 @@ ValidationReport validate_mesh(const VolumeMesh& mesh, const SurfaceMesh* surfac
         if (j - i == 1) {
           chunk_boundary[chunk].push_back(oriented(F[i]));
         } else if (j - i == 2) {
-          if (face_key(oriented(F[i])).even == face_key(oriented(F[i + 1])).even) {
+          if (F[i].even == F[i + 1].even) {
             log.add("tets {} and {} overlap across face ({}, {}, {}) at {}", F[i].tet, F[i + 1].tet, a, b, c,
                     point_str(P[a]));
           } else if (has_regions && mesh.tet_regions[F[i].tet] != mesh.tet_regions[F[i + 1].tet]) {

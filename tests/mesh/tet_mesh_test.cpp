@@ -53,6 +53,22 @@ TEST(Topology, EdgesAndTheirFacesAgree) {
   }
 }
 
+TEST(Topology, SortedKeyParityIsThePermutationsParity) {
+  // Each of the six orders of three indices: the sorted key, and even exactly
+  // for the three rotations of the ascending order.
+  std::array<int, 3> p{0, 1, 2};
+  int even = 0;
+  do {
+    const Tri k{static_cast<Index>(10 + 7 * p[0]), static_cast<Index>(10 + 7 * p[1]), static_cast<Index>(10 + 7 * p[2])};
+    const auto [sorted, is_even] = topo::sorted_key_parity(k);
+    EXPECT_EQ(sorted, (Tri{10, 17, 24}));
+    EXPECT_EQ(sorted, topo::sorted_key(k));
+    EXPECT_EQ(is_even, topo::is_even_permutation({p[0], p[1], p[2], 3})) << p[0] << p[1] << p[2];
+    even += is_even ? 1 : 0;
+  } while (std::next_permutation(p.begin(), p.end()));
+  EXPECT_EQ(even, 3);
+}
+
 TEST(TetMesh, BuildsSymmetricAdjacencyOfCube) {
   const TetMesh m = build(fixtures::cube());
   ASSERT_TRUE(m.check().ok()) << m.check().to_string();

@@ -60,6 +60,20 @@ TEST(Validate, FindsOverlappingTets) {
   EXPECT_TRUE(has_error(r, "conformity")) << format_validation(r);
 }
 
+TEST(Validate, FindsTwoTetsOnTheSameSideOfAFace) {
+  // Two positive tets on face (0, 1, 2) with their apexes on the same side:
+  // the face is shared by two tets, as in a conforming mesh, but with the
+  // same orientation, so the tets overlap.
+  VolumeMesh mesh;
+  mesh.points = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0.2, 0.2, 2}};
+  mesh.tets = {{0, 1, 2, 3}, {1, 2, 0, 4}};
+  for (const Tet& t : mesh.tets)
+    ASSERT_GT(exact::orient3d(mesh.points[t[0]], mesh.points[t[1]], mesh.points[t[2]], mesh.points[t[3]]), 0);
+  const auto r = validate_mesh(mesh);
+  EXPECT_TRUE(has_error(r, "conformity")) << format_validation(r);
+  EXPECT_NE(format_validation(r).find("overlap across face (0, 1, 2)"), std::string::npos) << format_validation(r);
+}
+
 TEST(Validate, FindsDuplicateAndUnusedPoints) {
   auto mesh = fixtures::unit_cube_mesh();
   mesh.points.push_back(mesh.points[3]);  // a second point at corner 3, unused

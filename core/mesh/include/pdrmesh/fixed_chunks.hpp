@@ -210,7 +210,8 @@ void sort_buckets(Buckets<T>& b, Less less) {
 struct FaceRef {
   Index b, c;  // b <= c
   Index tet;
-  std::uint32_t slot;  // topo::face_of(tets[tet], slot)
+  std::uint16_t slot;  // topo::face_of(tets[tet], slot)
+  bool even;           // that face is an even permutation of (a, b, c): two tets with the face agree on it iff they overlap
   friend bool operator<(const FaceRef& x, const FaceRef& y) {
     return std::tie(x.b, x.c, x.tet, x.slot) < std::tie(y.b, y.c, y.tet, y.slot);
   }
@@ -225,9 +226,9 @@ struct FaceRef {
 inline Buckets<FaceRef> faces_by_smallest_point(std::span<const Tet> tets, std::size_t lo, std::size_t hi) {
   auto b = bucket_items<FaceRef>(tets.size(), hi - lo, 16384, [&](std::size_t t, auto&& emit) {
     for (int f = 0; f < 4; ++f) {
-      const Tri s = topo::sorted_key(topo::face_of(tets[t], f));
+      const auto [s, even] = topo::sorted_key_parity(topo::face_of(tets[t], f));
       if (s[0] >= lo && s[0] < hi)
-        emit(static_cast<Index>(s[0] - lo), FaceRef{s[1], s[2], static_cast<Index>(t), static_cast<std::uint32_t>(f)});
+        emit(static_cast<Index>(s[0] - lo), FaceRef{s[1], s[2], static_cast<Index>(t), static_cast<std::uint16_t>(f), even});
     }
   });
   sort_buckets(b, std::less<FaceRef>());

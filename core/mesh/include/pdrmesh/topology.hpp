@@ -85,6 +85,15 @@ constexpr Tri sorted_key(Tri k) {
   return k;
 }
 
+/// sorted_key(k), and whether k is an even permutation of it (three distinct indices).
+constexpr std::pair<Tri, bool> sorted_key_parity(Tri k) {
+  bool even = true;
+  if (k[0] > k[1]) std::swap(k[0], k[1]), even = !even;
+  if (k[1] > k[2]) std::swap(k[1], k[2]), even = !even;
+  if (k[0] > k[1]) std::swap(k[0], k[1]), even = !even;
+  return {k, even};
+}
+
 // The tables agree with one another and with the orientation convention.
 namespace detail {
 constexpr bool tables_consistent() {
