@@ -103,6 +103,7 @@ struct TaskResult {
 /// does not depend on it.
 std::vector<Index> cost_ranks(const VolumeMesh& cur, const Decomposition& d, const SizingField& sizing,
                               const std::vector<std::vector<Tet>>& sent, std::span<const double> sizes) {
+  if (d.size() <= 1) return std::vector<Index>(d.size(), 0);  // nothing to order
   std::vector<double> cost(d.size(), 0.0);
   tbb::parallel_for(std::size_t{0}, d.size(), [&](std::size_t l) {
     const auto& tets = d.leaf_tets[l];
