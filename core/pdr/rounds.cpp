@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <functional>
@@ -43,6 +44,25 @@ int FaceIdTable::lookup(const Tri& face) const {
   return it != sorted_.end() && it->first == key ? it->second : 0;
 }
 
+namespace {
+
+/// Sorts keys whose low words ascend in their order (and are distinct) by
+/// their high words, which are at most `largest`: a stable LSD radix sort of
+/// the high word, a byte a pass, so the result is std::sort's. A task's
+/// corners are a few tens of thousands: a few linear passes beat the sort.
+void sort_by_high_word(std::vector<std::uint64_t>& keys, Index largest) {
+  std::vector<std::uint64_t> other(keys.size());
+  for (int shift = 32; shift < 64 && (std::uint64_t{largest} >> (shift - 32)) != 0; shift += 8) {
+    std::array<std::size_t, 257> at{};
+    for (const std::uint64_t k : keys) ++at[((k >> shift) & 0xff) + 1];
+    for (std::size_t b = 1; b < at.size(); ++b) at[b] += at[b - 1];
+    for (const std::uint64_t k : keys) other[at[(k >> shift) & 0xff]++] = k;
+    keys.swap(other);
+  }
+}
+
+}  // namespace
+
 LeafTaskInput build_leaf_input(std::uint32_t leaf, std::span<const Vec3> points, std::span<const Tet> tets,
                                const FaceIdTable& boundary, std::span<const double> sizes) {
   LeafTaskInput in;
@@ -51,9 +71,13 @@ LeafTaskInput build_leaf_input(std::uint32_t leaf, std::span<const Vec3> points,
   // numbers the points in ascending global order and fills in the tets. (The
   // slot takes 32 bits: a task of 2^30 tets would hold 16 GiB of tets alone.)
   std::vector<std::uint64_t> corners(4 * tets.size());
+  Index largest = 0;
   for (std::size_t t = 0; t < tets.size(); ++t)
-    for (int c = 0; c < 4; ++c) corners[4 * t + c] = (std::uint64_t{tets[t][c]} << 32) | (4 * t + c);
-  std::sort(corners.begin(), corners.end());
+    for (int c = 0; c < 4; ++c) {
+      corners[4 * t + c] = (std::uint64_t{tets[t][c]} << 32) | (4 * t + c);
+      largest = std::max(largest, tets[t][c]);
+    }
+  sort_by_high_word(corners, largest);
   std::vector<Index> used;
   in.tets.resize(tets.size());
   for (const std::uint64_t k : corners) {

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdint>
 #include <cmath>
 #include <cstring>
 
@@ -59,6 +60,27 @@ double volume_of(const VolumeMesh& m) {
   double s = 0;
   for (const Tet& t : m.tets) s += signed_volume(m.points[t[0]], m.points[t[1]], m.points[t[2]], m.points[t[3]]);
   return s;
+}
+
+// A leaf input numbers its points in ascending global order, whatever the
+// order of the tets' corners: global ids spread over three bytes and
+// scrambled, then every tet read back through point_ids.
+TEST(LeafInput, NumbersPointsInAscendingGlobalOrder) {
+  const VolumeMesh g = fixtures::kuhn_grid(4);
+  constexpr Index kPrime = 100003;  // ids i -> i * 7919 mod kPrime: a permutation
+  std::vector<Vec3> points(kPrime);
+  std::vector<Tet> tets = g.tets;
+  for (Tet& t : tets)
+    for (Index& v : t) v = static_cast<Index>((std::uint64_t{v} * 7919) % kPrime);
+  for (Index v = 0; v < g.points.size(); ++v) points[(std::uint64_t{v} * 7919) % kPrime] = g.points[v];
+  const LeafTaskInput in = build_leaf_input(0, points, tets, FaceIdTable());
+  ASSERT_EQ(in.point_ids.size(), g.points.size());
+  EXPECT_TRUE(std::is_sorted(in.point_ids.begin(), in.point_ids.end()));
+  EXPECT_GT(in.point_ids.back(), Index{65536});  // three radix bytes
+  ASSERT_EQ(in.tets.size(), tets.size());
+  for (std::size_t t = 0; t < tets.size(); ++t)
+    for (int c = 0; c < 4; ++c) ASSERT_EQ(in.point_ids[in.tets[t][c]], tets[t][c]) << "tet " << t << " corner " << c;
+  for (std::size_t i = 0; i < in.points.size(); ++i) EXPECT_EQ(in.points[i], points[in.point_ids[i]]);
 }
 
 TEST(LeafTask, InputRoundTripsExactly) {
