@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <fstream>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -195,8 +196,21 @@ std::string with_thousands(double v) {
 }  // namespace
 
 Result<MeshEstimate> estimate_mesh(const SurfaceMesh& surface, const SizingOptions& options) {
-  // h at the boundary points (validates the options and the triangles).
-  PDR_ASSIGN_OR_RETURN(const std::vector<double> h_surface, SizingField::surface_values(surface, options));
+  // h at the boundary points (validates the options and the triangles): with
+  // a size, the values of its field from the surface, which is built once
+  // here for both (surface_values would build the same field for them).
+  std::optional<SizingField> sized;
+  std::vector<double> h_surface;
+  if (options.size) {
+    PDR_ASSIGN_OR_RETURN(SizingField f, SizingField::from_surface(surface, options));
+    sized.emplace(std::move(f));
+    h_surface.assign(surface.points.size(), std::numeric_limits<double>::quiet_NaN());
+    for (const Tri& t : surface.triangles)
+      for (const Index p : t)
+        if (std::isnan(h_surface[p])) h_surface[p] = sized->at(surface.points[p]);
+  } else {
+    PDR_ASSIGN_OR_RETURN(h_surface, SizingField::surface_values(surface, options));
+  }
   const double lo = options.hmin.value_or(0.0);
   const double hi = options.hmax.value_or(std::numeric_limits<double>::infinity());
   std::vector<Vec3> pts;
@@ -226,7 +240,7 @@ Result<MeshEstimate> estimate_mesh(const SurfaceMesh& surface, const SizingOptio
   };
   double mean_density = 0;
   if (options.size) {
-    PDR_ASSIGN_OR_RETURN(const SizingField field, SizingField::from_surface(surface, options));
+    const SizingField& field = *sized;
     mean_density = density(std::clamp(*options.size, lo, hi));
     if (!field.uniform()) {
       // The size rises next to wider triangles: h at the centres of the cells inside.

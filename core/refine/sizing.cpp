@@ -306,14 +306,19 @@ Result<SizingField> SizingField::build(const SurfaceMesh& surface, const VolumeM
 Result<SizingField> SizingField::from_surface(const SurfaceMesh& surface, const SizingOptions& options) {
   PDR_TRY(validate(options));
   if (!options.size) return invalid_input("a sizing field from the surface alone needs a size");
+  const std::string name = surface.name.empty() ? std::string("surface") : surface.name;
+  PDR_ASSIGN_OR_RETURN(const BoundarySpacing spacing, boundary_spacing(surface, name));
+  return sized_field(options, spacing.points(surface), spacing.means());
+}
+
+Result<SizingField> SizingField::sized_field(const SizingOptions& options, std::vector<Vec3> points,
+                                             std::vector<double> spacing) {
   SizingField f;
   f.lo_ = options.hmin.value_or(0.0);
   f.hi_ = options.hmax.value_or(kInf);
   f.uniform_ = true;
   f.uniform_value_ = std::clamp(*options.size, f.lo_, f.hi_);
-  const std::string name = surface.name.empty() ? std::string("surface") : surface.name;
-  PDR_ASSIGN_OR_RETURN(const BoundarySpacing spacing, boundary_spacing(surface, name));
-  PDR_TRY(f.grade(spacing.points(surface), spacing.means()));
+  PDR_TRY(f.grade(std::move(points), std::move(spacing)));
   return f;
 }
 
@@ -327,7 +332,7 @@ Result<std::vector<double>> SizingField::surface_values(const SurfaceMesh& surfa
   const std::string name = surface.name.empty() ? std::string("surface") : surface.name;
   PDR_ASSIGN_OR_RETURN(const BoundarySpacing spacing, boundary_spacing(surface, name));
   if (options.size) {
-    PDR_ASSIGN_OR_RETURN(const SizingField sized, from_surface(surface, options));
+    PDR_ASSIGN_OR_RETURN(const SizingField sized, sized_field(options, spacing.points(surface), spacing.means()));
     for (Index p : spacing.used) out[p] = sized.at(surface.points[p]);
     return out;
   }

@@ -181,6 +181,9 @@ class SizingField {
   /// With options.size: keeps the boundary points and their spacings (and
   /// grades h from them) when a spacing exceeds the size.
   Status grade(std::vector<Vec3> points, std::vector<double> spacing);
+  /// from_surface's field from the boundary points and their spacings.
+  static Result<SizingField> sized_field(const SizingOptions& options, std::vector<Vec3> points,
+                                         std::vector<double> spacing);
 
   double combine(double interpolated, const Vec3& x, std::uint32_t* point = nullptr) const;
   double growth_limit(const Vec3& x, double best, std::uint32_t* point) const;
