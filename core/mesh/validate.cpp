@@ -195,9 +195,12 @@ ValidationReport validate_mesh(const VolumeMesh& mesh, const SurfaceMesh* surfac
   std::size_t unique_faces = 0;
   const std::size_t slices = options.face_slices > 0 ? options.face_slices : nt >= kSlicedTets ? 4 : 1;
   const std::size_t per_slice = detail::chunk_count(detail::chunk_count(np, kItemGrain), slices) * kItemGrain;
+  // Every slice's faces counted in one pass.
+  const std::vector<std::size_t> face_counts = per_slice < np ? detail::face_counts(T, np) : std::vector<std::size_t>();
   for (std::size_t lo = 0; lo < np; lo += per_slice) {
     const std::size_t hi = std::min(np, lo + per_slice);
-    const detail::Buckets<detail::FaceRef> faces = detail::faces_by_smallest_point(T, lo, hi);
+    const detail::Buckets<detail::FaceRef> faces =
+        detail::faces_by_smallest_point(T, lo, hi, face_counts.empty() ? nullptr : &face_counts);
     const auto oriented = [&](const detail::FaceRef& r) { return topo::face_of(T[r.tet], static_cast<int>(r.slot)); };
     const std::size_t chunks = detail::chunk_count(hi - lo, kItemGrain);
     std::vector<std::vector<Tri>> chunk_boundary(chunks), chunk_between(chunks);

@@ -4,7 +4,10 @@
 
 #include <gtest/gtest.h>
 
+#include <utility>
 #include <vector>
+
+#include "octree_fixtures.hpp"
 
 namespace pdrmesh {
 namespace {
@@ -57,6 +60,27 @@ TEST(FixedChunks, GroupIndicesIsTheSerialStableGrouping) {
       const std::vector<Index> got(b.items.begin() + static_cast<std::ptrdiff_t>(b.first[k]),
                                    b.items.begin() + static_cast<std::ptrdiff_t>(b.first[k + 1]));
       ASSERT_EQ(got, serial[k]) << "n " << n << " keys " << keys << " key " << k;
+    }
+  }
+}
+
+// A slice of the faces bucketed with the counts of one pass over all points
+// is the slice bucketed on its own.
+TEST(FixedChunks, SlicedFacesWithSharedCountsAreTheSlicesOwn) {
+  const VolumeMesh m = fixtures::kuhn_grid(6);
+  const std::vector<std::size_t> counts = detail::face_counts(m.tets, m.points.size());
+  std::size_t total = 0;
+  for (const std::size_t c : counts) total += c;
+  EXPECT_EQ(total, 4 * m.tets.size());
+  for (const auto& [lo, hi] : {std::pair<std::size_t, std::size_t>{0, 100}, {100, 250}, {250, m.points.size()}}) {
+    const auto own = detail::faces_by_smallest_point(m.tets, lo, hi);
+    const auto shared = detail::faces_by_smallest_point(m.tets, lo, hi, &counts);
+    EXPECT_EQ(shared.first, own.first);
+    ASSERT_EQ(shared.items.size(), own.items.size());
+    for (std::size_t i = 0; i < own.items.size(); ++i) {
+      EXPECT_EQ(shared.items[i].tet, own.items[i].tet);
+      EXPECT_EQ(shared.items[i].slot, own.items[i].slot);
+      EXPECT_EQ(shared.items[i].even, own.items[i].even);
     }
   }
 }

@@ -107,23 +107,31 @@ struct Buckets {
 /// bucket sizes are exact; the order of the items *inside* a bucket depends on
 /// the threads, so a caller sorts each bucket by a total order (sort_buckets),
 /// after which the result is what a serial counting sort plus that sort gives.
+/// With `counts` (the number of items of each key, known from an earlier
+/// pass), the counting pass is skipped.
 template <class T, class Each>
-Buckets<T> bucket_items(std::size_t n, std::size_t keys, std::size_t grain, Each&& each) {
+Buckets<T> bucket_items(std::size_t n, std::size_t keys, std::size_t grain, Each&& each,
+                        const std::size_t* counts = nullptr) {
   Buckets<T> b;
   b.first.assign(keys + 1, 0);
-  if (n <= grain) {  // one chunk: in this thread, without atomics
+  if (counts != nullptr) {
+    std::copy(counts, counts + keys, b.first.begin() + 1);
+  } else if (n <= grain) {  // one chunk: in this thread, without atomics
     for (std::size_t i = 0; i < n; ++i) each(i, [&](Index key, const T&) { ++b.first[key + 1]; });
+  } else {
+    for_each_chunk(n, grain, [&](std::size_t, std::size_t lo, std::size_t hi) {
+      for (std::size_t i = lo; i < hi; ++i) {
+        each(i, [&](Index key, const T&) { std::atomic_ref<std::size_t>(b.first[key + 1]).fetch_add(1, std::memory_order_relaxed); });
+      }
+    });
+  }
+  if (n <= grain) {
     std::partial_sum(b.first.begin(), b.first.end(), b.first.begin());
     b.items.resize(b.first[keys]);
     std::vector<std::size_t> next(b.first.begin(), b.first.end() - 1);
     for (std::size_t i = 0; i < n; ++i) each(i, [&](Index key, const T& item) { b.items[next[key]++] = item; });
     return b;
   }
-  for_each_chunk(n, grain, [&](std::size_t, std::size_t lo, std::size_t hi) {
-    for (std::size_t i = lo; i < hi; ++i) {
-      each(i, [&](Index key, const T&) { std::atomic_ref<std::size_t>(b.first[key + 1]).fetch_add(1, std::memory_order_relaxed); });
-    }
-  });
   std::partial_sum(b.first.begin(), b.first.end(), b.first.begin());
   b.items.resize(b.first[keys]);
   std::vector<std::size_t> next(b.first.begin(), b.first.end() - 1);
@@ -223,16 +231,37 @@ struct FaceRef {
 /// sorts, 16 bytes a face. Equal faces are adjacent. With [lo, hi): only the
 /// faces whose smallest point lies there, point a in bucket a - lo, so that a
 /// caller walking the points in slices holds one slice's faces at a time.
-inline Buckets<FaceRef> faces_by_smallest_point(std::span<const Tet> tets, std::size_t lo, std::size_t hi) {
-  auto b = bucket_items<FaceRef>(tets.size(), hi - lo, 16384, [&](std::size_t t, auto&& emit) {
-    for (int f = 0; f < 4; ++f) {
-      const auto [s, even] = topo::sorted_key_parity(topo::face_of(tets[t], f));
-      if (s[0] >= lo && s[0] < hi)
-        emit(static_cast<Index>(s[0] - lo), FaceRef{s[1], s[2], static_cast<Index>(t), static_cast<std::uint16_t>(f), even});
-    }
-  });
+/// With `counts` (face_counts' result for all points), the slice's faces are
+/// not counted again.
+inline Buckets<FaceRef> faces_by_smallest_point(std::span<const Tet> tets, std::size_t lo, std::size_t hi,
+                                                const std::vector<std::size_t>* counts = nullptr) {
+  auto b = bucket_items<FaceRef>(
+      tets.size(), hi - lo, 16384,
+      [&](std::size_t t, auto&& emit) {
+        for (int f = 0; f < 4; ++f) {
+          const auto [s, even] = topo::sorted_key_parity(topo::face_of(tets[t], f));
+          if (s[0] >= lo && s[0] < hi)
+            emit(static_cast<Index>(s[0] - lo), FaceRef{s[1], s[2], static_cast<Index>(t), static_cast<std::uint16_t>(f), even});
+        }
+      },
+      counts != nullptr ? counts->data() + lo : nullptr);
   sort_buckets(b, std::less<FaceRef>());
   return b;
+}
+
+/// The number of faces of every tet whose smallest point is p, for each p
+/// below `points`: one pass, so that a caller walking the points in slices
+/// counts them once.
+inline std::vector<std::size_t> face_counts(std::span<const Tet> tets, std::size_t points) {
+  std::vector<std::size_t> counts(points, 0);
+  for_each_chunk(tets.size(), 16384, [&](std::size_t, std::size_t lo, std::size_t hi) {
+    for (std::size_t t = lo; t < hi; ++t)
+      for (int f = 0; f < 4; ++f) {
+        const Tri s = topo::sorted_key(topo::face_of(tets[t], f));
+        std::atomic_ref<std::size_t>(counts[s[0]]).fetch_add(1, std::memory_order_relaxed);
+      }
+  });
+  return counts;
 }
 
 /// Every face (every index must be below `points`).
