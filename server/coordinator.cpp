@@ -117,11 +117,12 @@ Result<std::unique_ptr<Coordinator>> Coordinator::BuildAndStart(const Options& o
     // run here rather than wait for one.
     std::shared_ptr<WorkerPool> pool = c->pool_;
     engine = std::make_unique<PdrEngine>(std::make_shared<FallbackLeafDispatch>(
-        c->remote_dispatch_, std::make_shared<LocalLeafDispatch>(threads),
-        [pool] { return !pool->workers().empty(); }));
+                                             c->remote_dispatch_, std::make_shared<LocalLeafDispatch>(threads),
+                                             [pool] { return !pool->workers().empty(); }),
+                                         options.test_checkpoint_delay);
     spdlog::info("leaves run on worker daemons (in this process on {} thread(s) while no worker is known)", threads);
   } else if (!engine) {
-    engine = std::make_unique<PdrEngine>(std::make_shared<LocalLeafDispatch>(threads));
+    engine = std::make_unique<PdrEngine>(std::make_shared<LocalLeafDispatch>(threads), options.test_checkpoint_delay);
     spdlog::info("leaves run in this process on {} thread(s)", threads);
   }
   PDR_ASSIGN_OR_RETURN(c->manager_, JobManager::open(std::move(config), std::move(engine)));

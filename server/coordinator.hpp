@@ -5,6 +5,7 @@
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -53,6 +54,10 @@ struct Options {
   /// Leaves refined at once in this process when there are no workers
   /// (LocalLeafDispatch); 0: the hardware concurrency.
   std::size_t leaf_threads = 0;
+  /// TEST ONLY (PDRMESH_COORDINATOR_TEST_CHECKPOINT_DELAY_MS): a job waits this
+  /// long after storing each round checkpoint, so that the restart test can
+  /// kill the coordinator while one stands, however fast the job.
+  std::chrono::milliseconds test_checkpoint_delay{0};
   /// Finished jobs are deleted this many hours after they finished; 0: kept.
   double result_ttl_hours = 0;
   /// How often the expiry sweep runs, seconds.

@@ -8,6 +8,7 @@
 #include <chrono>
 #include <filesystem>
 #include <optional>
+#include <thread>
 
 #include "pdrmesh/layered_pipeline.hpp"
 #include "pdrmesh/tetgen_adapter.hpp"
@@ -108,8 +109,8 @@ Result<VolumeMesh> PdrEngine::mesh(const JobRecord& job, const JobDomain& domain
       // at most about 1/kCheckpointSpacing of the job (armadillo's 1.4M-tet job
       // stored six of 26-35 MB in 0.10-0.17 s each: 8% of its 9.4 s); a long
       // job's rounds are all stored.
-      po.pdr.checkpoint = [&job, checkpoint, since = std::chrono::steady_clock::now(),
-                           cost = 0.0](const PdrCheckpoint& c) mutable -> Status {
+      po.pdr.checkpoint = [&job, checkpoint, since = std::chrono::steady_clock::now(), cost = 0.0,
+                           delay = test_checkpoint_delay_](const PdrCheckpoint& c) mutable -> Status {
         const auto t0 = std::chrono::steady_clock::now();
         if (std::chrono::duration<double>(t0 - since).count() < kCheckpointSpacing * cost) {
           spdlog::debug("job {}: no checkpoint after its round {} ({}): the last one is {:.2f} s old", job.id,
@@ -127,6 +128,7 @@ Result<VolumeMesh> PdrEngine::mesh(const JobRecord& job, const JobDomain& domain
         const auto bytes = std::filesystem::file_size(checkpoint->file(), ec);
         spdlog::info("job {}: checkpoint after its round {} ({}): {:.1f} MB in {:.2f} s", job.id, c.rounds_done,
                      c.round, ec ? 0.0 : static_cast<double>(bytes) / 1e6, cost);
+        std::this_thread::sleep_for(delay);
         return {};
       };
     }

@@ -8,6 +8,7 @@
 // `pdrmesh run SURFACE -o OUT.meshb` with the same options.
 #pragma once
 
+#include <chrono>
 #include <memory>
 
 #include "job_runner.hpp"
@@ -22,7 +23,10 @@ ParallelOptions parallel_options(const JobOptions& options);
 
 class PdrEngine final : public MeshEngine {
  public:
-  explicit PdrEngine(std::shared_ptr<LeafDispatch> dispatch) : dispatch_(std::move(dispatch)) {}
+  /// test_checkpoint_delay: CoordinatorOptions::test_checkpoint_delay.
+  explicit PdrEngine(std::shared_ptr<LeafDispatch> dispatch,
+                     std::chrono::milliseconds test_checkpoint_delay = std::chrono::milliseconds{0})
+      : dispatch_(std::move(dispatch)), test_checkpoint_delay_(test_checkpoint_delay) {}
   /// With `checkpoint`, goes on from the round it holds (and stores one after
   /// each round); a checkpoint that cannot be stored is logged, the job goes on.
   Result<VolumeMesh> mesh(const JobRecord& job, const JobDomain& domain, const JobOptions& options,
@@ -30,6 +34,7 @@ class PdrEngine final : public MeshEngine {
 
  private:
   std::shared_ptr<LeafDispatch> dispatch_;
+  std::chrono::milliseconds test_checkpoint_delay_;
 };
 
 }  // namespace pdrmesh::server

@@ -9,7 +9,9 @@ source "$(dirname "$0")/coordinator_lib.sh"
 service_test_setup "$@"
 export PDRMESH_TOKEN=tok-alice
 printf 'alice tok-alice\n' > "$tmp/tokens"
-start_coordinator "$tmp/data" --leaf-threads 1
+# The first coordinator's jobs wait after each round checkpoint (a test-only
+# knob), so that the kill below finds one standing however fast the job is.
+PDRMESH_COORDINATOR_TEST_CHECKPOINT_DELAY_MS=3000 start_coordinator "$tmp/data" --leaf-threads 1
 
 # A finished job first (initial mesh alone: quick).
 done_id=$("$pdrmesh" submit "$surface" --max-volume 1e9 -o "$tmp/before.meshb" --json 2> /dev/null | json_field id)
