@@ -51,7 +51,9 @@ FaceNormals face_normals(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3
 constexpr int kEdgeFaces[6][2] = {{2, 3}, {1, 3}, {1, 2}, {0, 3}, {0, 2}, {0, 1}};
 
 /// The 10-degree histogram bin of an angle (the last bin takes 170 to 180).
-std::size_t bin_of_angle(double angle) { return std::min<std::size_t>(17, static_cast<std::size_t>(std::max(0.0, angle) / 10.0)); }
+std::size_t bin_of_angle(double angle) {
+  return std::min<std::size_t>(17, static_cast<std::size_t>(std::max(0.0, angle) / 10.0));
+}
 
 /// The bins by cosine, without an arc cosine per angle: thresholds[k - 1] is
 /// the smallest double cosine whose angle falls in bin k or above, found by

@@ -49,7 +49,8 @@ TEST(FixedChunks, SortedBucketsAreTheSerialGrouping) {
 // few keys (many chunks) and with more keys than a chunk-per-key count allows
 // (fewer, larger chunks), and leaves the groups of unused keys empty.
 TEST(FixedChunks, GroupIndicesIsTheSerialStableGrouping) {
-  for (const auto& [n, keys] : {std::pair<std::size_t, std::size_t>{300000, 5}, {300000, 40000}, {1000, 3}, {0, 4}}) {
+  for (const auto& sizes : {std::pair<std::size_t, std::size_t>{300000, 5}, {300000, 40000}, {1000, 3}, {0, 4}}) {
+    const std::size_t n = sizes.first, keys = sizes.second;  // (a lambda may not capture a structured binding in clang 14)
     const auto key = [&](std::size_t i) { return (i * 40503u) % (keys > 2 ? keys - 2 : 1); };  // the last two unused
     const detail::Buckets<Index> b = detail::group_indices(n, keys, key);
     std::vector<std::vector<Index>> serial(keys);

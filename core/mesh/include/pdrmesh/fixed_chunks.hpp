@@ -2,8 +2,8 @@
 // Deterministic parallel building blocks (oneTBB) for the validator and the
 // decompositions: loops over fixed chunks whose bounds do not depend on the
 // thread count (per-chunk results combined in chunk order give the serial
-// result), a parallel counting sort into buckets, and the faces of a tet mesh
-// grouped by their smallest point.
+// result), parallel counting sorts (into buckets, and of indices by a key), and
+// the faces of a tet mesh grouped by their smallest point.
 #pragma once
 
 #include <algorithm>
@@ -176,7 +176,8 @@ Buckets<Index> group_indices(std::size_t n, std::size_t keys, KeyOf&& key_of) {
   b.items.resize(sum);
   for_each_chunk(n, grain, [&](std::size_t c, std::size_t lo, std::size_t hi) {
     std::size_t* const next = at.data() + c * keys;
-    for (std::size_t i = lo; i < hi; ++i) b.items[next[static_cast<std::size_t>(key_of(i))]++] = static_cast<Index>(i);
+    for (std::size_t i = lo; i < hi; ++i)
+      b.items[next[static_cast<std::size_t>(key_of(i))]++] = static_cast<Index>(i);
   });
   return b;
 }
@@ -219,7 +220,8 @@ struct FaceRef {
   Index b, c;  // b <= c
   Index tet;
   std::uint16_t slot;  // topo::face_of(tets[tet], slot)
-  bool even;           // that face is an even permutation of (a, b, c): two tets with the face agree on it iff they overlap
+  bool even;           // that face is an even permutation of (a, b, c); the two tets of a face
+                       // of a valid mesh differ in it (the same: they overlap)
   friend bool operator<(const FaceRef& x, const FaceRef& y) {
     return std::tie(x.b, x.c, x.tet, x.slot) < std::tie(y.b, y.c, y.tet, y.slot);
   }
@@ -241,7 +243,8 @@ inline Buckets<FaceRef> faces_by_smallest_point(std::span<const Tet> tets, std::
         for (int f = 0; f < 4; ++f) {
           const auto [s, even] = topo::sorted_key_parity(topo::face_of(tets[t], f));
           if (s[0] >= lo && s[0] < hi)
-            emit(static_cast<Index>(s[0] - lo), FaceRef{s[1], s[2], static_cast<Index>(t), static_cast<std::uint16_t>(f), even});
+            emit(static_cast<Index>(s[0] - lo),
+                 FaceRef{s[1], s[2], static_cast<Index>(t), static_cast<std::uint16_t>(f), even});
         }
       },
       counts != nullptr ? counts->data() + lo : nullptr);
