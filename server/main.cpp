@@ -104,7 +104,7 @@ int main(int argc, char** argv) {
   if (std::getenv("MALLOC_ARENA_MAX") == nullptr) mallopt(M_ARENA_MAX, 2);
   spdlog::set_default_logger(spdlog::stderr_color_mt("pdrmesh-coordinator"));  // stdout: the address only
   spdlog::set_level(spdlog::level::from_str(log_level));
-  // TEST ONLY (see CoordinatorOptions::test_checkpoint_delay).
+  // TEST ONLY (see Options::test_checkpoint_delay in coordinator.hpp).
   if (const char* delay = std::getenv("PDRMESH_COORDINATOR_TEST_CHECKPOINT_DELAY_MS")) {
     o.test_checkpoint_delay = std::chrono::milliseconds(std::atoi(delay));
     spdlog::warn("test mode: every job waits {} ms after each checkpoint (PDRMESH_COORDINATOR_TEST_CHECKPOINT_DELAY_MS)",

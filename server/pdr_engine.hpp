@@ -23,7 +23,7 @@ ParallelOptions parallel_options(const JobOptions& options);
 
 class PdrEngine final : public MeshEngine {
  public:
-  /// test_checkpoint_delay: CoordinatorOptions::test_checkpoint_delay.
+  /// test_checkpoint_delay: Options::test_checkpoint_delay (coordinator.hpp).
   explicit PdrEngine(std::shared_ptr<LeafDispatch> dispatch,
                      std::chrono::milliseconds test_checkpoint_delay = std::chrono::milliseconds{0})
       : dispatch_(std::move(dispatch)), test_checkpoint_delay_(test_checkpoint_delay) {}
