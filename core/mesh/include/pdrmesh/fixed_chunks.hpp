@@ -102,13 +102,36 @@ struct Buckets {
   UninitVector<T> items;
 };
 
+/// bucket_items' counting pass: count[key] += 1 for every emit(key, item) of
+/// each(i, emit), i in [0, n) (in this thread when n <= grain).
+template <class Each>
+void count_items(std::size_t n, std::size_t grain, Each& each, std::size_t* count) {
+  if (n <= grain) {  // one chunk: without atomics
+    for (std::size_t i = 0; i < n; ++i) each(i, [&](Index key, const auto&) { ++count[key]; });
+    return;
+  }
+  for_each_chunk(n, grain, [&](std::size_t, std::size_t lo, std::size_t hi) {
+    for (std::size_t i = lo; i < hi; ++i)
+      each(i, [&](Index key, const auto&) { std::atomic_ref<std::size_t>(count[key]).fetch_add(1, std::memory_order_relaxed); });
+  });
+}
+
+/// The number of items of each key in [0, keys) that bucket_items(n, keys,
+/// grain, each) would bucket, for callers that bucket them in several calls.
+template <class Each>
+std::vector<std::size_t> bucket_counts(std::size_t n, std::size_t keys, std::size_t grain, Each&& each) {
+  std::vector<std::size_t> count(keys, 0);
+  count_items(n, grain, each, count.data());
+  return count;
+}
+
 /// A counting sort, in parallel: each(i, emit) for every i in [0, n) calls
 /// emit(key, item) for its items (the same ones on each of its two calls). The
 /// bucket sizes are exact; the order of the items *inside* a bucket depends on
 /// the threads, so a caller sorts each bucket by a total order (sort_buckets),
 /// after which the result is what a serial counting sort plus that sort gives.
 /// With `counts` (the number of items of each key, known from an earlier
-/// pass), the counting pass is skipped.
+/// pass: bucket_counts), the counting pass is skipped.
 template <class T, class Each>
 Buckets<T> bucket_items(std::size_t n, std::size_t keys, std::size_t grain, Each&& each,
                         const std::size_t* counts = nullptr) {
@@ -116,14 +139,8 @@ Buckets<T> bucket_items(std::size_t n, std::size_t keys, std::size_t grain, Each
   b.first.assign(keys + 1, 0);
   if (counts != nullptr) {
     std::copy(counts, counts + keys, b.first.begin() + 1);
-  } else if (n <= grain) {  // one chunk: in this thread, without atomics
-    for (std::size_t i = 0; i < n; ++i) each(i, [&](Index key, const T&) { ++b.first[key + 1]; });
   } else {
-    for_each_chunk(n, grain, [&](std::size_t, std::size_t lo, std::size_t hi) {
-      for (std::size_t i = lo; i < hi; ++i) {
-        each(i, [&](Index key, const T&) { std::atomic_ref<std::size_t>(b.first[key + 1]).fetch_add(1, std::memory_order_relaxed); });
-      }
-    });
+    count_items(n, grain, each, b.first.data() + 1);
   }
   if (n <= grain) {
     std::partial_sum(b.first.begin(), b.first.end(), b.first.begin());
@@ -227,6 +244,20 @@ struct FaceRef {
   }
 };
 
+inline constexpr std::size_t kFaceGrain = 16384;
+
+/// each(t, emit) for bucket_items: the faces of tet t whose smallest point a
+/// lies in [lo, hi), as (a - lo, FaceRef).
+inline auto face_emitter(std::span<const Tet> tets, std::size_t lo, std::size_t hi) {
+  return [tets, lo, hi](std::size_t t, auto&& emit) {
+    for (int f = 0; f < 4; ++f) {
+      const auto [s, even] = topo::sorted_key_parity(topo::face_of(tets[t], f));
+      if (s[0] >= lo && s[0] < hi)
+        emit(static_cast<Index>(s[0] - lo), FaceRef{s[1], s[2], static_cast<Index>(t), static_cast<std::uint16_t>(f), even});
+    }
+  };
+}
+
 /// Every face of every tet, bucketed by its smallest point (every index must be
 /// below `points`) and each bucket sorted by (b, c, tet, slot): the order of one
 /// sort of all faces by (sorted points, tet, slot), in linear time plus small
@@ -237,34 +268,17 @@ struct FaceRef {
 /// not counted again.
 inline Buckets<FaceRef> faces_by_smallest_point(std::span<const Tet> tets, std::size_t lo, std::size_t hi,
                                                 const std::vector<std::size_t>* counts = nullptr) {
-  auto b = bucket_items<FaceRef>(
-      tets.size(), hi - lo, 16384,
-      [&](std::size_t t, auto&& emit) {
-        for (int f = 0; f < 4; ++f) {
-          const auto [s, even] = topo::sorted_key_parity(topo::face_of(tets[t], f));
-          if (s[0] >= lo && s[0] < hi)
-            emit(static_cast<Index>(s[0] - lo),
-                 FaceRef{s[1], s[2], static_cast<Index>(t), static_cast<std::uint16_t>(f), even});
-        }
-      },
-      counts != nullptr ? counts->data() + lo : nullptr);
+  auto b = bucket_items<FaceRef>(tets.size(), hi - lo, kFaceGrain, face_emitter(tets, lo, hi),
+                                 counts != nullptr ? counts->data() + lo : nullptr);
   sort_buckets(b, std::less<FaceRef>());
   return b;
 }
 
-/// The number of faces of every tet whose smallest point is p, for each p
+/// The number of faces of the tets whose smallest point is p, for each p
 /// below `points`: one pass, so that a caller walking the points in slices
 /// counts them once.
 inline std::vector<std::size_t> face_counts(std::span<const Tet> tets, std::size_t points) {
-  std::vector<std::size_t> counts(points, 0);
-  for_each_chunk(tets.size(), 16384, [&](std::size_t, std::size_t lo, std::size_t hi) {
-    for (std::size_t t = lo; t < hi; ++t)
-      for (int f = 0; f < 4; ++f) {
-        const Tri s = topo::sorted_key(topo::face_of(tets[t], f));
-        std::atomic_ref<std::size_t>(counts[s[0]]).fetch_add(1, std::memory_order_relaxed);
-      }
-  });
-  return counts;
+  return bucket_counts(tets.size(), points, kFaceGrain, face_emitter(tets, 0, points));
 }
 
 /// Every face (every index must be below `points`).
