@@ -197,17 +197,14 @@ std::string with_thousands(double v) {
 
 Result<MeshEstimate> estimate_mesh(const SurfaceMesh& surface, const SizingOptions& options) {
   // h at the boundary points (validates the options and the triangles): with
-  // a size, the values of its field from the surface, which is built once
-  // here for both (surface_values would build the same field for them).
+  // a size, from its field from the surface, built once for both uses here
+  // (surface_values would build the same field).
   std::optional<SizingField> sized;
   std::vector<double> h_surface;
   if (options.size) {
     PDR_ASSIGN_OR_RETURN(SizingField f, SizingField::from_surface(surface, options));
     sized.emplace(std::move(f));
-    h_surface.assign(surface.points.size(), std::numeric_limits<double>::quiet_NaN());
-    for (const Tri& t : surface.triangles)
-      for (const Index p : t)
-        if (std::isnan(h_surface[p])) h_surface[p] = sized->at(surface.points[p]);
+    h_surface = sized->at_surface_points(surface);
   } else {
     PDR_ASSIGN_OR_RETURN(h_surface, SizingField::surface_values(surface, options));
   }

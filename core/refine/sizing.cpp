@@ -311,6 +311,14 @@ Result<SizingField> SizingField::from_surface(const SurfaceMesh& surface, const 
   return sized_field(options, spacing.points(surface), spacing.means());
 }
 
+std::vector<double> SizingField::at_surface_points(const SurfaceMesh& surface) const {
+  std::vector<double> out(surface.points.size(), kNaN);
+  for (const Tri& t : surface.triangles)
+    for (const Index p : t)
+      if (std::isnan(out[p])) out[p] = at(surface.points[p]);
+  return out;
+}
+
 Result<SizingField> SizingField::sized_field(const SizingOptions& options, std::vector<Vec3> points,
                                              std::vector<double> spacing) {
   SizingField f;
@@ -333,8 +341,7 @@ Result<std::vector<double>> SizingField::surface_values(const SurfaceMesh& surfa
   PDR_ASSIGN_OR_RETURN(const BoundarySpacing spacing, boundary_spacing(surface, name));
   if (options.size) {
     PDR_ASSIGN_OR_RETURN(const SizingField sized, sized_field(options, spacing.points(surface), spacing.means()));
-    for (Index p : spacing.used) out[p] = sized.at(surface.points[p]);
-    return out;
+    return sized.at_surface_points(surface);
   }
   // The field of the boundary points alone: no tets, so only at_point's
   // value and growth limit apply (what at() gives at a background vertex).

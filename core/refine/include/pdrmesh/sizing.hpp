@@ -142,6 +142,9 @@ class SizingField {
   /// background mesh is still being made. build's surface errors.
   static Result<std::vector<double>> surface_values(const SurfaceMesh& surface, const SizingOptions& options);
 
+  /// at() at every surface point a triangle uses, NaN at the others.
+  std::vector<double> at_surface_points(const SurfaceMesh& surface) const;
+
   /// h(x). Thread-safe, deterministic, allocation-free.
   double at(const Vec3& x) const;
   /// h(x), bit for bit at(x), starting from what the last query with `hint`
