@@ -16,6 +16,7 @@
 
 #include <oneapi/tbb/parallel_for.h>
 
+#include "pdrmesh/leaf_kernels.hpp"
 #include "pdrmesh/refine.hpp"
 #include "pdrmesh/stopwatch.hpp"
 #include "pdrmesh/surface_ids.hpp"
