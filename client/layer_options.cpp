@@ -108,16 +108,18 @@ Result<LayerOptions> LayerArgs::resolve(const SurfaceMesh& surface, const std::v
 
 std::string layer_growth_line(int layers, const LayeredResult& r) {
   return fmt::format(
-      "layers: {} on {} wall triangles ({} points), stack {:.4g} to {:.4g} thick, {} stacks compressed ({:.2f} s); "
-      "all {} layers at full thickness on {:.1f}% of the wall triangles, {:.1f}% of the {} smooth ones",
+      "layers: {} on {} wall triangles ({} points), stack {:.4g} to {:.4g} thick, {} stacks thinner, {} of them "
+      "with fewer layers ({:.2f} s); all {} layers at full thickness on {:.1f}% of the wall triangles, {:.1f}% of "
+      "the {} smooth ones",
       layers, r.wall_triangles, r.wall_points, r.thickness_min, r.thickness_max, r.compressed_points,
-      r.seconds_layers, layers, share(r.full_faces, r.wall_triangles), share(r.smooth_full_faces, r.smooth_faces),
+      r.stopped_points, r.seconds_layers, layers, share(r.full_faces, r.wall_triangles), share(r.smooth_full_faces, r.smooth_faces),
       r.smooth_faces);
 }
 
 std::string layer_growth_json(const LayeredResult& r) {
   const nlohmann::json j = {{"wall_points", r.wall_points},
                             {"compressed_points", r.compressed_points},
+                            {"stopped_points", r.stopped_points},
                             {"thickness_min", r.thickness_min},
                             {"thickness_max", r.thickness_max},
                             {"full_thickness_faces", r.full_faces},

@@ -53,7 +53,7 @@ struct LayerArgs {
 /// layers reached (wall triangles whose stacks kept all N layers at their
 /// full thickness, of all and of the smooth ones).
 std::string layer_growth_line(int layers, const LayeredResult& r);
-/// The same figures as a JSON object (wall_points, compressed_points,
+/// The same figures as a JSON object (wall_points, compressed_points, stopped_points,
 /// thickness_min/max, full_thickness_faces, smooth_faces,
 /// smooth_full_thickness_faces, full_thickness_share, smooth_full_thickness_share).
 std::string layer_growth_json(const LayeredResult& r);

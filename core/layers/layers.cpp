@@ -14,6 +14,7 @@
 
 #include "pdrmesh/bvh.hpp"
 #include "pdrmesh/mixed_cells.hpp"
+#include "pdrmesh/predicates.hpp"
 #include "pdrmesh/surface_check.hpp"
 
 namespace pdrmesh {
@@ -25,6 +26,7 @@ constexpr double kWallGap = 0.45;         // share of the distance to a wall tha
 constexpr double kPlainGap = 0.8;         // share of the distance to a triangle without layers
 constexpr double kGradeSlope = 0.5;       // neighbouring stacks differ by at most this times their distance
 constexpr double kShrink = 0.6;           // one round of compression of a stack that failed
+constexpr double kLeastShare = 0.5;       // a stack is compressed to this share of its thickness at most, then stops
 constexpr int kMaxShrinkRounds = 30;
 
 Vec3 normalized(const Vec3& v) {
@@ -204,6 +206,102 @@ void grade(const SurfaceMesh& s, const Wall& w, std::vector<double>& t) {
   }
 }
 
+/// The points of the stacks: how many layers each keeps, the share of the
+/// full heights it is scaled by, and the index of each of its points.
+class Stacks {
+ public:
+  Stacks(std::size_t stacks, int layers)
+      : n_(layers), count_(stacks, layers), scale_(stacks, 1.0), index_(stacks * (static_cast<std::size_t>(layers) + 1)) {}
+
+  /// From each stack's thickness t[v] (the offsets z of the full stack, z[n]
+  /// its thickness): a stack of at least kLeastShare of it keeps every layer,
+  /// its heights scaled by t[v] / z[n]; a thinner one keeps the heights of
+  /// that least share and stops at the last layer within t[v], so that its
+  /// first layers keep their height (the wall distance asked for).
+  void shape(const std::vector<double>& t, const std::vector<double>& z) {
+    const double full = z[static_cast<std::size_t>(n_)];
+    for (std::size_t v = 0; v < t.size(); ++v) {
+      const double share = t[v] / full;
+      if (share >= kLeastShare) {
+        scale_[v] = share;
+        count_[v] = n_;
+        continue;
+      }
+      scale_[v] = kLeastShare;
+      int k = 0;
+      while (k < n_ && kLeastShare * z[static_cast<std::size_t>(k) + 1] <= t[v]) ++k;
+      count_[v] = k;
+    }
+  }
+
+  /// Numbers the points: stack v's foot is wall(v); from `first` on, layer by
+  /// layer, the points of the stacks that reach the layer, in stack order. A
+  /// stack's point at a layer above its last is its last point.
+  template <class WallPoint>
+  void number(std::size_t first, WallPoint wall) {
+    const std::size_t stride = static_cast<std::size_t>(n_) + 1;
+    std::size_t next = first;
+    for (std::size_t v = 0; v < count_.size(); ++v) index_[v * stride] = wall(static_cast<Index>(v));
+    for (int k = 1; k <= n_; ++k)
+      for (std::size_t v = 0; v < count_.size(); ++v)
+        index_[v * stride + k] = k <= count_[v] ? static_cast<Index>(next++) : index_[v * stride + k - 1];
+    points_ = next;
+  }
+
+  Index point(Index v, int k) const { return index_[v * (static_cast<std::size_t>(n_) + 1) + k]; }
+  int count(Index v) const { return count_[v]; }
+  double scale(Index v) const { return scale_[v]; }
+  std::size_t point_count() const { return points_; }
+
+ private:
+  int n_;
+  std::vector<int> count_;
+  std::vector<double> scale_;
+  std::vector<Index> index_;
+  std::size_t points_ = 0;
+};
+
+enum class CellKind { kNone, kPrism, kPyramid, kTet };
+
+/// The cell of one layer over one wall triangle, `p` in prism order (bottom
+/// 0, 1, 2, vertex i + 3 above vertex i; mixed_cells.hpp), where a stack that
+/// stopped below the layer repeats its point (p[i + 3] == p[i]): three rising
+/// edges give the prism, two a pyramid on the side quad between them with the
+/// stopped point as apex, one a tet, none no cell. Such collapsed prisms share
+/// their faces with their neighbours' (a side quad with one stopped corner is
+/// a triangle on both sides), so the layers stay conforming where they stop.
+CellKind close_stack(const Prism& p, std::vector<Prism>& prisms, std::vector<Pyramid>& pyramids,
+                     std::vector<Tet>& tets) {
+  int rising = 0;
+  for (int i = 0; i < 3; ++i) rising += p[i + 3] != p[i] ? 1 : 0;
+  if (rising == 3) {
+    prisms.push_back(p);
+    return CellKind::kPrism;
+  }
+  // Seen from corner i (the rotation that makes it corner 0, which keeps the
+  // orientation): q = p[i], p[i+1], p[i+2], and the points above them.
+  const auto rotated = [&](int i) {
+    const int j = (i + 1) % 3, k = (i + 2) % 3;
+    return std::array<Index, 6>{p[i], p[j], p[k], p[i + 3], p[j + 3], p[k + 3]};
+  };
+  for (int i = 0; i < 3; ++i) {
+    const bool up = p[i + 3] != p[i];
+    const std::array<Index, 6> q = rotated(i);
+    if (rising == 2 && !up) {
+      // The prism's cut (q0, q1, q2, q5), (q0, q1, q5, q4) with q3 = q0: the
+      // base quad q1, q4, q5, q2 (counterclockwise seen from the apex q0).
+      pyramids.push_back({q[1], q[4], q[5], q[2], q[0]});
+      return CellKind::kPyramid;
+    }
+    if (rising == 1 && up) {
+      // The cut's tet (q0, q4, q5, q3) with q4 = q1, q5 = q2.
+      tets.push_back({q[0], q[1], q[2], q[3]});
+      return CellKind::kTet;
+    }
+  }
+  return CellKind::kNone;
+}
+
 }  // namespace
 
 Status validate(const LayerOptions& o) {
@@ -276,33 +374,14 @@ Result<LayerMesh> grow_layers(const SurfaceMesh& s, const LayerOptions& o) {
   LayerMesh out;
   out.wall_triangles = w.triangles.size();
   out.wall_points = nw;
-  const auto layer_point = [&](Index v, int k) -> Index {
-    return k == 0 ? w.points[v] : static_cast<Index>(ns + static_cast<std::size_t>(k - 1) * nw + v);
-  };
-  out.points.assign(ns + static_cast<std::size_t>(n) * nw, Vec3{0, 0, 0});
-  std::copy(s.points.begin(), s.points.end(), out.points.begin());
-  const auto place = [&] {
-    for (Index v = 0; v < nw; ++v)
-      for (int k = 1; k <= n; ++k)
-        out.points[layer_point(v, k)] = s.points[w.points[v]] + (t[v] / full * z[k] * stretch[v]) * dir[v];
-  };
-  // Prisms: the wall triangle (a, b, c) is outward, so its bottom in prism
-  // order is (a, c, b), turning counterclockwise seen from the top.
-  for (int k = 1; k <= n; ++k)
-    for (Index tri : w.triangles) {
-      const Tri& f = s.triangles[tri];
-      const Index a = w.local[f[0]], b = w.local[f[1]], c = w.local[f[2]];
-      out.prisms.push_back({layer_point(a, k - 1), layer_point(c, k - 1), layer_point(b, k - 1), layer_point(a, k),
-                            layer_point(c, k), layer_point(b, k)});
-    }
-  // The fill boundary: the tops, then the triangles without layers.
+  // The fill boundary: the tops (their corners, the last points of the
+  // stacks, set by place()), then the triangles without layers.
   std::vector<char> on_wall(s.triangles.size(), 0);
   for (Index k : w.triangles) on_wall[k] = 1;
   std::vector<Tri> fill_tris;
   std::vector<int> fill_ids;
   for (Index k : w.triangles) {
-    const Tri& f = s.triangles[k];
-    fill_tris.push_back({layer_point(w.local[f[0]], n), layer_point(w.local[f[1]], n), layer_point(w.local[f[2]], n)});
+    fill_tris.push_back(s.triangles[k]);  // the top's corners: set by place()
     fill_ids.push_back(s.surface_ids[k]);
   }
   for (Index k = 0; k < s.triangles.size(); ++k)
@@ -311,22 +390,69 @@ Result<LayerMesh> grow_layers(const SurfaceMesh& s, const LayerOptions& o) {
       fill_ids.push_back(s.surface_ids[k]);
     }
 
+  Stacks stacks(nw, n);
+  // Per cell, the wall triangle (position in w.triangles) it stands on.
+  std::vector<Index> prism_on, pyramid_on, tet_on;
+  const auto place = [&] {
+    stacks.shape(t, z);
+    stacks.number(ns, [&](Index v) { return w.points[v]; });
+    out.points.assign(stacks.point_count(), Vec3{0, 0, 0});
+    std::copy(s.points.begin(), s.points.end(), out.points.begin());
+    for (Index v = 0; v < nw; ++v)
+      for (int k = 1; k <= stacks.count(v); ++k)
+        out.points[stacks.point(v, k)] =
+            s.points[w.points[v]] + (stacks.scale(v) * z[k] * stretch[v]) * dir[v];
+    out.prisms.clear();
+    out.pyramids.clear();
+    out.tets.clear();
+    prism_on.clear();
+    pyramid_on.clear();
+    tet_on.clear();
+    // The wall triangle (a, b, c) is outward, so its bottom in prism order is
+    // (a, c, b), turning counterclockwise seen from the top.
+    for (int k = 1; k <= n; ++k)
+      for (Index tri = 0; tri < w.triangles.size(); ++tri) {
+        const Tri& f = s.triangles[w.triangles[tri]];
+        const Index a = w.local[f[0]], b = w.local[f[1]], c = w.local[f[2]];
+        const Prism cell{stacks.point(a, k - 1), stacks.point(c, k - 1), stacks.point(b, k - 1),
+                         stacks.point(a, k),     stacks.point(c, k),     stacks.point(b, k)};
+        switch (close_stack(cell, out.prisms, out.pyramids, out.tets)) {
+          case CellKind::kPrism: prism_on.push_back(tri); break;
+          case CellKind::kPyramid: pyramid_on.push_back(tri); break;
+          case CellKind::kTet: tet_on.push_back(tri); break;
+          case CellKind::kNone: break;
+        }
+      }
+    for (Index tri = 0; tri < w.triangles.size(); ++tri) {
+      const Tri& f = s.triangles[w.triangles[tri]];
+      fill_tris[tri] = {stacks.point(w.local[f[0]], n), stacks.point(w.local[f[1]], n),
+                        stacks.point(w.local[f[2]], n)};
+    }
+  };
+
   CheckOptions check;
   check.max_defects_per_kind = std::numeric_limits<std::size_t>::max();
   for (int round = 0;; ++round) {
     place();
     std::vector<char> bad(nw, 0);
     bool any = false;
+    const auto mark = [&](Index tri) {
+      for (Index v : s.triangles[w.triangles[tri]]) bad[w.local[v]] = 1;
+      any = true;
+    };
     for (std::size_t c = 0; c < out.prisms.size(); ++c)
-      if (!prism_positive(out.points, out.prisms[c])) {
-        const Tri& f = s.triangles[w.triangles[c % w.triangles.size()]];
-        for (Index v : f) bad[w.local[v]] = 1;
-        any = true;
-      }
-    std::string why = "a prism would not be positive";
+      if (!prism_positive(out.points, out.prisms[c])) mark(prism_on[c]);
+    for (std::size_t c = 0; c < out.pyramids.size(); ++c)
+      if (!pyramid_positive(out.points, out.pyramids[c])) mark(pyramid_on[c]);
+    for (std::size_t c = 0; c < out.tets.size(); ++c) {
+      const Tet& k = out.tets[c];
+      if (exact::orient3d(out.points[k[0]], out.points[k[1]], out.points[k[2]], out.points[k[3]]) <= 0)
+        mark(tet_on[c]);
+    }
+    std::string why = "a layer cell would not be positive";
     if (!any) {
       // The fill boundary must be a valid surface: tops that cross each other
-      // or the surface compress the stacks under them.
+      // or the surface make the stacks under them thinner.
       SurfaceMesh fill;
       fill.points = out.points;
       fill.triangles = fill_tris;
@@ -335,8 +461,7 @@ Result<LayerMesh> grow_layers(const SurfaceMesh& s, const LayerOptions& o) {
       for (const Defect& d : report.defects) {
         if (d.kind == DefectKind::kIndexOutOfRange || d.kind == DefectKind::kOpenEdge) continue;
         for (Index tri : d.triangles)
-          if (tri < w.triangles.size())
-            for (Index v : s.triangles[w.triangles[tri]]) bad[w.local[v]] = 1, any = true;
+          if (tri < w.triangles.size()) mark(tri);
       }
       why = "the top of the layers would cross itself or the surface";
     }
@@ -375,10 +500,12 @@ Result<LayerMesh> grow_layers(const SurfaceMesh& s, const LayerOptions& o) {
   out.thickness_max = 0;
   const double wanted = o.max_thickness ? std::min(full, *o.max_thickness) : full;
   for (Index v = 0; v < nw; ++v) {
-    const double along = t[v] * stretch[v];
+    const int kept = stacks.count(v);
+    const double along = kept == n ? t[v] * stretch[v] : stacks.scale(v) * z[kept] * stretch[v];
     out.thickness_min = std::min(out.thickness_min, along);
     out.thickness_max = std::max(out.thickness_max, along);
     if (t[v] < wanted) ++out.compressed_points;
+    if (kept < n) ++out.stopped_points;
   }
   // The layers reached per wall triangle: a stack only ever gets thinner, so
   // one that kept `wanted` exactly was never compressed.

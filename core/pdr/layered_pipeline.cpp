@@ -60,6 +60,7 @@ void add_layer_figures(LayeredResult& all, const LayeredResult& part) {
   all.wall_triangles += part.wall_triangles;
   all.wall_points += part.wall_points;
   all.compressed_points += part.compressed_points;
+  all.stopped_points += part.stopped_points;
   all.full_faces += part.full_faces;
   all.smooth_faces += part.smooth_faces;
   all.smooth_full_faces += part.smooth_full_faces;
@@ -78,6 +79,7 @@ Result<LayerMesh> grow_checked(const SurfaceMesh& surface, const LayerOptions& l
   out.wall_triangles = layers.wall_triangles;
   out.wall_points = layers.wall_points;
   out.compressed_points = layers.compressed_points;
+  out.stopped_points = layers.stopped_points;
   out.full_faces = layers.full_faces;
   out.smooth_faces = layers.smooth_faces;
   out.smooth_full_faces = layers.smooth_full_faces;
@@ -118,21 +120,29 @@ Status merge_layers_and_fill(const SurfaceMesh& surface, LayerMesh& layers, cons
     for (Index v : k) mark(to_mixed[v]);
   for (const Prism& p : layers.prisms)
     for (Index v : p) mark(v);
+  for (const Pyramid& p : layers.pyramids)
+    for (Index v : p) mark(v);
+  for (const Tet& k : layers.tets)
+    for (Index v : k) mark(v);
   for (Index v = 0; v < points.size(); ++v)
     if (renumber[v] != kNoIndex) {
       renumber[v] = static_cast<Index>(mesh.points.size());
       mesh.points.push_back(points[v]);
     }
-  mesh.tets.reserve(fill.tets.size());
+  // The layers' tets (where stacks stop) first, then the fill's.
+  mesh.tets.reserve(layers.tets.size() + fill.tets.size());
+  for (const Tet& k : layers.tets) mesh.tets.push_back({renumber[k[0]], renumber[k[1]], renumber[k[2]], renumber[k[3]]});
   for (const Tet& k : fill.tets)
     mesh.tets.push_back({renumber[to_mixed[k[0]]], renumber[to_mixed[k[1]]], renumber[to_mixed[k[2]]],
                          renumber[to_mixed[k[3]]]});
+  const auto renumbered = [&](auto cell) {
+    for (Index& v : cell) v = renumber[v];
+    return cell;
+  };
   mesh.prisms.reserve(layers.prisms.size());
-  for (const Prism& p : layers.prisms) {
-    Prism q{};
-    for (int i = 0; i < 6; ++i) q[i] = renumber[p[i]];
-    mesh.prisms.push_back(q);
-  }
+  for (const Prism& p : layers.prisms) mesh.prisms.push_back(renumbered(p));
+  mesh.pyramids.reserve(layers.pyramids.size());
+  for (const Pyramid& p : layers.pyramids) mesh.pyramids.push_back(renumbered(p));
   for (const Tri& f : surface.triangles) {
     if (renumber[f[0]] == kNoIndex || renumber[f[1]] == kNoIndex || renumber[f[2]] == kNoIndex)
       return internal_error("layers: a surface triangle is not a face of the mixed mesh");

@@ -275,18 +275,29 @@ TEST(Layers, BoxGrowsFiveLayersAcrossItsEdgesAndCorners) {
   EXPECT_EQ(r.smooth_full_faces, 6u * 8u);
 }
 
-TEST(Layers, LShapedDuctKeepsEveryPrismPositiveWhereLayersMeet) {
+TEST(Layers, LShapedDuctStopsItsStacksWhereLayersMeet) {
   // Thick layers inside an L: they meet at the concave edges and corners and
-  // fan out at the re-entrant edge; stacks are compressed, none inverts.
+  // fan out at the re-entrant edge. Stacks there are compressed, and where
+  // half their thickness is too much they stop: pyramids and tets close the
+  // layers above them, every cell positive and conforming (validated).
   const SurfaceMesh l = voxel_surface({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}, 3, 1);
   LayerOptions o = five_layers(0.06);
   o.layers = 6;
   const LayeredResult r = mesh_layered(l, o);
-  EXPECT_EQ(r.mesh.prisms.size(), 6 * l.triangles.size());
-  EXPECT_GT(r.compressed_points, 0u);
-  EXPECT_LT(r.full_faces, l.triangles.size());  // compressed where the layers meet
+  EXPECT_GT(r.compressed_points, r.stopped_points);
+  EXPECT_GT(r.stopped_points, 0u);
+  EXPECT_LT(r.full_faces, l.triangles.size());
   EXPECT_LE(r.smooth_full_faces, r.smooth_faces);
+  EXPECT_LT(r.mesh.prisms.size(), 6 * l.triangles.size());
+  EXPECT_GT(r.mesh.pyramids.size(), 0u);
   for (const Prism& p : r.mesh.prisms) ASSERT_TRUE(prism_positive(r.mesh.points, p));
+  for (const Pyramid& p : r.mesh.pyramids) ASSERT_TRUE(pyramid_positive(r.mesh.points, p));
+  const LayerReport layers = measure_layers(r.mesh);
+  EXPECT_EQ(layers.stacks, l.triangles.size());
+  EXPECT_LT(layers.min_layers, 6u);
+  EXPECT_EQ(layers.max_layers, 6u);
+  // A stopped stack keeps the first height of a stack compressed to half.
+  EXPECT_GE(layers.first_height_min, 0.5 * 0.06 * (1 - 1e-9));
 }
 
 TEST(Layers, CavityWallsGrowIntoTheVolumeAroundThem) {
@@ -304,15 +315,27 @@ TEST(Layers, CavityWallsGrowIntoTheVolumeAroundThem) {
   EXPECT_EQ(layers.min_layers, 5u);
 }
 
-TEST(Layers, ThicknessCapCompressesTheStacks) {
+TEST(Layers, ThicknessCapCompressesTheStacksThenStopsThem) {
   const SurfaceMesh box = voxel_surface({{0, 0, 0}}, 2, 1);
   LayerOptions o = five_layers(0.05);  // 0.372 in all
-  o.max_thickness = 0.1;
-  const LayeredResult r = mesh_layered(box, o);
-  EXPECT_LE(r.thickness_max, 0.1 * 2 + 1e-12);  // along a stretched corner direction at most twice
-  const LayerReport layers = measure_layers(r.mesh);
+  // Two thirds of the stack: compressed, all five layers, the first lower.
+  o.max_thickness = 0.25;
+  const LayeredResult compressed = mesh_layered(box, o);
+  EXPECT_LE(compressed.thickness_max, 0.25 * 2 + 1e-12);  // along a stretched corner direction at most twice
+  EXPECT_EQ(compressed.stopped_points, 0u);
+  LayerReport layers = measure_layers(compressed.mesh);
   EXPECT_EQ(layers.min_layers, 5u);
-  EXPECT_LT(layers.first_height_max, 0.05);  // the whole stack, first layer included, is compressed
+  EXPECT_LT(layers.first_height_min, 0.05);
+  // Less than half of it: the heights of half the stack, as many layers as fit.
+  o.max_thickness = 0.1;
+  const LayeredResult stopped = mesh_layered(box, o);
+  EXPECT_LE(stopped.thickness_max, 0.1 * 2 + 1e-12);
+  EXPECT_EQ(stopped.stopped_points, stopped.wall_points);
+  layers = measure_layers(stopped.mesh);
+  EXPECT_EQ(layers.min_layers, 3u);  // 0.025, 0.055, 0.091 of 0.1
+  EXPECT_EQ(layers.max_layers, 3u);
+  EXPECT_NEAR(layers.ratio_min, 1.2, 1e-6);
+  EXPECT_GE(layers.first_height_min, 0.025 * (1 - 1e-9));
 }
 
 TEST(Layers, RefusesWallsThatMeetTrianglesWithoutLayers) {

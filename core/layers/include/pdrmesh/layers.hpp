@@ -15,12 +15,17 @@
 // Heights: layer k ends at H (R^k - 1) / (R - 1) from the wall (H k when R = 1).
 // Where the stack must be thinner (the thickness cap; a ray along the direction
 // that meets the surface within the stack: 0.45 of the distance to a wall that
-// grows layers too, 0.8 to one that does not; a prism that would not be
+// grows layers too, 0.8 to one that does not; a layer cell that would not be
 // positive; a top that would cross another part of the top or the surface) the
-// whole stack of that point is compressed, every height scaled by one factor,
-// and the factors are graded so that neighbours differ by at most half their
-// distance. Every point keeps all N layers. The validity checks are exact: every
-// prism positive (mixed_cells.hpp) and the fill boundary free of
+// stack of that point is first compressed, every height scaled by one factor,
+// down to half its thickness; a stack that must be thinner still keeps the
+// heights of that half and stops at the last layer that fits, so that its
+// first layers keep the wall distance asked for. Where a stack stops beside
+// taller ones, the layers above it close with pyramids (two rising corners)
+// and tets (one): prisms collapsed along the stopped stack's edge, which
+// share their faces with their neighbours. The thicknesses are graded so that
+// neighbours differ by at most half their distance. The validity checks are
+// exact: every cell positive (mixed_cells.hpp) and the fill boundary free of
 // self-intersections (the surface check).
 //
 // This first slice grows layers on whole closed components: a wall triangle
@@ -93,10 +98,15 @@ Result<LayerOptions> resolve_layers(const LayerRequest& request, const SurfaceMe
 Result<double> first_height_for_yplus(double yplus, double reynolds, double length);
 
 struct LayerMesh {
-  /// The surface's points (same indices), then the layer points: layer k's
-  /// point of wall point w at surface_points + (k - 1) * wall_points + w.
+  /// The surface's points (same indices), then the layer points, layer by
+  /// layer, each layer's in wall point order (the stacks that reach it).
   std::vector<Vec3> points;
-  std::vector<Prism> prisms;  ///< layer by layer, wall triangle by wall triangle
+  /// The cells, each list layer by layer, wall triangle by wall triangle:
+  /// prisms, and the pyramids and tets that close the layers above a stack
+  /// that stopped.
+  std::vector<Prism> prisms;
+  std::vector<Pyramid> pyramids;
+  std::vector<Tet> tets;
   std::size_t wall_triangles = 0, wall_points = 0;
   /// The boundary of what is left to fill: the last layer's top (oriented
   /// like the wall under it, with its id) and the triangles without layers,
@@ -106,13 +116,14 @@ struct LayerMesh {
   std::vector<Index> top_triangles;  ///< the fill triangles that are the top of a layer stack
   double thickness_min = 0, thickness_max = 0;  ///< of the stacks, along their directions
   std::size_t compressed_points = 0;  ///< wall points whose stack is thinner than N layers of H, R
+  std::size_t stopped_points = 0;     ///< of those, the stacks with fewer than N layers
   /// Wall triangles whose three stacks have their full thickness (N layers of
   /// H, R, or the cap): the layers they reach. Smooth: the wall triangles whose
   /// neighbours at their points all have normals within kSmoothAngle degrees
   /// of their own (away from the surface's sharp edges and corners).
   std::size_t full_faces = 0, smooth_faces = 0, smooth_full_faces = 0;
   static constexpr double kSmoothAngle = 30;
-  int shrink_rounds = 0;  ///< rounds of compression for validity
+  int shrink_rounds = 0;  ///< rounds of thinning for validity
 };
 
 /// Grows the layers on a checked (closed, outward, meshable) surface.

@@ -13,9 +13,9 @@
 namespace pdrmesh {
 
 struct LayeredResult {
-  VolumeMesh mesh;  ///< tets and prisms; boundary = the surface's triangles, ids and names
+  VolumeMesh mesh;  ///< tets, prisms and pyramids; boundary = the surface's triangles, ids and names
   SerialResult fill;  ///< the tet fill's figures (its mesh moved into `mesh`)
-  std::size_t wall_triangles = 0, wall_points = 0, compressed_points = 0;
+  std::size_t wall_triangles = 0, wall_points = 0, compressed_points = 0, stopped_points = 0;
   std::size_t full_faces = 0, smooth_faces = 0, smooth_full_faces = 0;  ///< as LayerMesh's
   double thickness_min = 0, thickness_max = 0;
   int shrink_rounds = 0;
