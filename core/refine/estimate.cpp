@@ -114,14 +114,15 @@ std::vector<std::uint8_t> inside_cells(const SurfaceMesh& surface, const Grid& g
 template <class Cost>
 std::vector<Index> propagate_seeds(const Grid& g, const std::vector<Vec3>& pts, Cost cost) {
   std::vector<Index> seed(g.size(), kNoIndex);
+  std::vector<double> best(g.size());  // cost(seed[cell], centre of cell), kept with the seed
   auto offer = [&](std::size_t cell, const Vec3& x, Index candidate) {
     const Index cur = seed[cell];
-    if (cur == kNoIndex) {
+    if (candidate == cur) return;
+    const double c_new = cost(candidate, x);
+    if (cur == kNoIndex || c_new < best[cell] || (c_new == best[cell] && candidate < cur)) {
       seed[cell] = candidate;
-      return;
+      best[cell] = c_new;
     }
-    const double c_new = cost(candidate, x), c_cur = cost(cur, x);
-    if (c_new < c_cur || (c_new == c_cur && candidate < cur)) seed[cell] = candidate;
   };
   for (Index p = 0; p < pts.size(); ++p) {
     const int i = g.clamp_cell(pts[p][0], 0), j = g.clamp_cell(pts[p][1], 1), k = g.clamp_cell(pts[p][2], 2);
@@ -130,13 +131,15 @@ std::vector<Index> propagate_seeds(const Grid& g, const std::vector<Vec3>& pts, 
   auto visit = [&](int i, int j, int k) {
     const std::size_t cell = g.index(i, j, k);
     const Vec3 x = g.centre(i, j, k);
+    Index last = kNoIndex;  // a candidate offered again changes nothing
     for (int dk = -1; dk <= 1; ++dk) {
       for (int dj = -1; dj <= 1; ++dj) {
         for (int di = -1; di <= 1; ++di) {
           const int a = i + di, b = j + dj, c = k + dk;
           if (a < 0 || b < 0 || c < 0 || a >= g.n[0] || b >= g.n[1] || c >= g.n[2]) continue;
           const Index s = seed[g.index(a, b, c)];
-          if (s != kNoIndex) offer(cell, x, s);
+          if (s != kNoIndex && s != last) offer(cell, x, s);
+          last = s;
         }
       }
     }
