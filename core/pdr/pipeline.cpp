@@ -26,36 +26,43 @@ namespace pdrmesh {
 namespace {
 using Clock = std::chrono::steady_clock;
 
-/// With --size: the plan for the size, its depth from the estimated tet count
-/// (the size rises next to wider triangles), its seeds only where h is the size.
-Result<PdrPlan> plan_for_size(const SurfaceMesh& surface, const SizingOptions& o, const PdrOptions& pdr,
-                              const LeafKernel& kernel) {
+/// The plan for the sizing options `o` whose h at the surface points is
+/// `surface_h` (with --size: the size, clamped): its depth from the estimated
+/// tet count (estimate.hpp: the size rises next to wider triangles, a graded
+/// field grows away from the surface; the volume over a tet of the surface's
+/// spacing would count a far-field box as refined as the body), and with a
+/// size its seeds only where h is the size (PdrPlan::sizing).
+Result<PdrPlan> plan_for_field(const SurfaceMesh& surface, const SizingOptions& o, double surface_h,
+                               const PdrOptions& pdr, const LeafKernel& kernel) {
   PDR_ASSIGN_OR_RETURN(const MeshEstimate estimate, estimate_mesh(surface, o));
-  const double size = std::clamp(*o.size, o.hmin.value_or(0.0), o.hmax.value_or(std::numeric_limits<double>::infinity()));
-  PDR_ASSIGN_OR_RETURN(PdrPlan plan, plan_pdr(surface, size, pdr, kernel, estimate.tets));
+  PDR_ASSIGN_OR_RETURN(PdrPlan plan, plan_pdr(surface, surface_h, pdr, kernel, estimate.tets));
   plan.sizing = o;
   return plan;
 }
 
-/// run_pdr's plan from the surface alone (plan_for_size, or
-/// SizingField::surface_values' h at the surface points summed in point order,
-/// as surface_spacing does), or none when those values are not all finite or
-/// the plan fails.
-std::optional<PdrPlan> plan_from_surface(const SurfaceMesh& surface, const ParallelOptions& options,
-                                         const LeafKernel& kernel) {
-  if (options.sizing.size) {
-    Result<PdrPlan> plan = plan_for_size(surface, options.sizing, options.pdr, kernel);
-    if (!plan.ok()) return std::nullopt;
-    return std::move(*plan);
-  }
-  Result<std::vector<double>> h = SizingField::surface_values(surface, options.sizing);
+/// The h a plan sizes leaves by, before the field is built (as surface_spacing
+/// does): the size, or SizingField::surface_values' h at the surface points
+/// summed in point order; none when those values are not all finite.
+std::optional<double> planned_spacing(const SurfaceMesh& surface, const SizingOptions& o) {
+  if (o.size)
+    return std::clamp(*o.size, o.hmin.value_or(0.0), o.hmax.value_or(std::numeric_limits<double>::infinity()));
+  Result<std::vector<double>> h = SizingField::surface_values(surface, o);
   if (!h.ok()) return std::nullopt;
   double sum_h = 0;
   for (double v : *h) {
     if (!std::isfinite(v)) return std::nullopt;
     sum_h += v;
   }
-  Result<PdrPlan> plan = plan_pdr(surface, sum_h / static_cast<double>(h->size()), options.pdr, kernel);
+  return sum_h / static_cast<double>(h->size());
+}
+
+/// run_pdr's plan from the surface alone (plan_for_field at planned_spacing),
+/// or none when the spacing or the plan fails.
+std::optional<PdrPlan> plan_from_surface(const SurfaceMesh& surface, const ParallelOptions& options,
+                                         const LeafKernel& kernel) {
+  const std::optional<double> h = planned_spacing(surface, options.sizing);
+  if (!h) return std::nullopt;
+  Result<PdrPlan> plan = plan_for_field(surface, options.sizing, *h, options.pdr, kernel);
   if (!plan.ok()) return std::nullopt;
   return std::move(*plan);
 }
@@ -296,11 +303,7 @@ Result<ParallelResult> mesh_parallel_one(const SurfaceMesh& surface, const Paral
     };
   }
   if (!plan && pdr.resume == nullptr) {  // the field's own plan
-    if (options.sizing.size) {
-      PDR_ASSIGN_OR_RETURN(plan, plan_for_size(surface, options.sizing, pdr, *kernel));
-    } else {
-      PDR_ASSIGN_OR_RETURN(plan, plan_pdr(surface, surface_spacing(surface, sizing), pdr, *kernel));
-    }
+    PDR_ASSIGN_OR_RETURN(plan, plan_for_field(surface, options.sizing, surface_spacing(surface, sizing), pdr, *kernel));
     t = Clock::now();
     PDR_ASSIGN_OR_RETURN(initial, initial_mesh(surface, *plan, &background));
     initial_s = seconds_since(t);

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "pdr_fixtures.hpp"
+#include "pdrmesh/farfield.hpp"
 #include "pdrmesh/leaf_kernels.hpp"
 #include "pdrmesh/optimize.hpp"
 #include "pdrmesh/pipeline.hpp"
@@ -814,6 +815,28 @@ TEST(Pdr, ASizeThatRisesOverMostOfThePartGetsTheSerialMesh) {
   Result<SerialResult> serial = mesh_serial(cube, serial_options);
   ASSERT_TRUE(serial.ok()) << serial.status().to_string();
   EXPECT_EQ(run->mesh.points, serial->mesh.points);
+  EXPECT_EQ(run->mesh.tets, serial->mesh.tets);
+}
+
+TEST(Pdr, AFarFieldsGradedSpacingPlansByTheEstimate) {
+  // sphere966 in a box 10 body lengths away, at the default graded spacing:
+  // about 83,000 tets, most of the box's volume in a few coarse ones. The
+  // volume over a tet of the surface's mean spacing would count the box as
+  // refined as the body (several leaves of seeds over it, and more tets than
+  // the serial mesh); the plan's estimate of the graded field says depth 0,
+  // the serial mesh.
+  const Sphere* sp = sphere();
+  ASSERT_NE(sp, nullptr) << "sphere966.mesh not readable";
+  Result<FarfieldDomain> domain = make_farfield(sp->surface, {10, FarfieldShape::kBox});
+  ASSERT_TRUE(domain.ok()) << domain.status().to_string();
+  ParallelOptions o;
+  o.pdr.workers = 2;
+  Result<ParallelResult> run = mesh_parallel(domain->surface, o);
+  ASSERT_TRUE(run.ok()) << run.status().to_string();
+  expect_valid(run->mesh, domain->surface, true);
+  EXPECT_EQ(run->profile.depth, 0);
+  Result<SerialResult> serial = mesh_serial(domain->surface, SerialOptions{});
+  ASSERT_TRUE(serial.ok()) << serial.status().to_string();
   EXPECT_EQ(run->mesh.tets, serial->mesh.tets);
 }
 
