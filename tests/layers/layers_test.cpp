@@ -118,6 +118,25 @@ std::filesystem::path temp_path(const std::string& name) {
   return std::filesystem::temp_directory_path() / fmt::format("pdrmesh_layers_{}_{}", ::getpid(), name);
 }
 
+/// Writes `mesh` in every format that reads a mixed mesh back, and checks
+/// that each gives the same cells and validates against `surface`.
+void expect_read_back(const VolumeMesh& mesh, const SurfaceMesh& surface) {
+  for (const char* suffix : {".mesh", ".meshb", ".vtu", ".msh", ".su2", ".ugrid", ".lb8.ugrid", ".b8.ugrid"}) {
+    const auto path = temp_path(std::string("out") + suffix);
+    ASSERT_TRUE(write_volume(mesh, path).ok()) << suffix;
+    auto back = read_volume(path);
+    std::filesystem::remove(path);
+    std::filesystem::remove(mapbc_path(path));
+    ASSERT_TRUE(back.ok()) << suffix << ": " << back.status().to_string();
+    EXPECT_EQ(back->points, mesh.points) << suffix;
+    EXPECT_EQ(back->tets, mesh.tets) << suffix;
+    EXPECT_EQ(back->prisms, mesh.prisms) << suffix;
+    EXPECT_EQ(back->pyramids, mesh.pyramids) << suffix;
+    EXPECT_EQ(back->boundary, mesh.boundary) << suffix;
+    EXPECT_TRUE(validate_mesh(*back, &surface).ok()) << suffix;
+  }
+}
+
 /// The sphere's layered mesh, made once for the tests that read it.
 const LayeredResult& sphere_layers() {
   static const LayeredResult r = mesh_layered(fixtures::corpus_surface("sphere966"), five_layers(0.05));
@@ -150,19 +169,7 @@ TEST(Layers, MixedMeshIsWrittenInEveryFormatAndReadBackValid) {
     EXPECT_GT(std::filesystem::file_size(path), 0u);
     std::filesystem::remove(path);
   }
-  for (const char* suffix : {".mesh", ".meshb", ".vtu", ".msh", ".su2", ".ugrid", ".lb8.ugrid", ".b8.ugrid"}) {
-    const auto path = temp_path(std::string("out") + suffix);
-    ASSERT_TRUE(write_volume(r.mesh, path).ok()) << suffix;
-    auto back = read_volume(path);
-    std::filesystem::remove(path);
-    std::filesystem::remove(mapbc_path(path));
-    ASSERT_TRUE(back.ok()) << suffix << ": " << back.status().to_string();
-    EXPECT_EQ(back->points, r.mesh.points) << suffix;
-    EXPECT_EQ(back->tets, r.mesh.tets) << suffix;
-    EXPECT_EQ(back->prisms, r.mesh.prisms) << suffix;
-    EXPECT_EQ(back->boundary, r.mesh.boundary) << suffix;
-    EXPECT_TRUE(validate_mesh(*back, &sphere).ok()) << suffix;
-  }
+  expect_read_back(r.mesh, sphere);
 }
 
 TEST(Layers, FarfieldBodyGrowsLayersIntoTheFluidAndTheFarFieldNone) {
@@ -298,6 +305,17 @@ TEST(Layers, LShapedDuctStopsItsStacksWhereLayersMeet) {
   EXPECT_EQ(layers.max_layers, 6u);
   // A stopped stack keeps the first height of a stack compressed to half.
   EXPECT_GE(layers.first_height_min, 0.5 * 0.06 * (1 - 1e-9));
+  // Every format holds the pyramids, and the parallel path grows the same layers.
+  expect_read_back(r.mesh, l);
+  ParallelOptions parallel;
+  parallel.sizing.growth = 1.2;
+  parallel.pdr.workers = 2;
+  Result<LayeredParallelResult> p = mesh_parallel_layered(l, o, parallel);
+  ASSERT_TRUE(p.ok()) << p.status().to_string();
+  EXPECT_TRUE(validate_mesh(p->layered.mesh, &l).ok());
+  EXPECT_EQ(p->layered.mesh.prisms, r.mesh.prisms);
+  EXPECT_EQ(p->layered.mesh.pyramids, r.mesh.pyramids);
+  EXPECT_EQ(p->layered.stopped_points, r.stopped_points);
 }
 
 TEST(Layers, CavityWallsGrowIntoTheVolumeAroundThem) {
