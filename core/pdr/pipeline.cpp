@@ -302,18 +302,20 @@ Result<ParallelResult> mesh_parallel_one(const SurfaceMesh& surface, const Paral
       return bounds.outside(a, b, c, d);
     };
   }
-  if (!plan && pdr.resume == nullptr) {  // the field's own plan
+  // The field's own plan, as the run that wrote a checkpoint made it: a
+  // resumed run goes on over the same grid from the checkpoint's mesh.
+  if (!plan) {
     PDR_ASSIGN_OR_RETURN(plan, plan_for_field(surface, options.sizing, surface_spacing(surface, sizing), pdr, *kernel));
-    t = Clock::now();
-    PDR_ASSIGN_OR_RETURN(initial, initial_mesh(surface, *plan, &background));
-    initial_s = seconds_since(t);
+    if (pdr.resume != nullptr) {
+      initial = InitialMesh{std::move(pdr.resume->mesh), {}};
+    } else {
+      t = Clock::now();
+      PDR_ASSIGN_OR_RETURN(initial, initial_mesh(surface, *plan, &background));
+      initial_s = seconds_since(t);
+    }
   }
-  if (plan) {
-    PDR_ASSIGN_OR_RETURN(out.mesh, run_pdr(surface, sizing, *kernel, pdr, &out.profile, *plan,
-                                           std::move(*initial), initial_s));
-  } else {
-    PDR_ASSIGN_OR_RETURN(out.mesh, run_pdr(surface, sizing, *kernel, pdr, &out.profile));
-  }
+  PDR_ASSIGN_OR_RETURN(out.mesh, run_pdr(surface, sizing, *kernel, pdr, &out.profile, *plan, std::move(*initial),
+                                         initial_s));
   out.profile.background = background_s;
   out.profile.sizing = build_s;
   out.profile.overlapped = overlapped_s;

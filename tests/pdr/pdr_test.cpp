@@ -1011,6 +1011,35 @@ TEST(Pdr, ResumingFromEachRoundsCheckpointGivesTheSameBytes) {
   }
 }
 
+TEST(Pdr, AResumedFarFieldJobKeepsItsPlannedGrid) {
+  // A default depth planned from the estimate (fandisk 5 body lengths inside
+  // a box: depth 2, where the volume over a tet of the surface's spacing says
+  // 4): a run resumed from its first checkpoint goes on over the same grid.
+  const SurfaceMesh fandisk = fixtures::corpus_surface("fandisk");
+  Result<FarfieldDomain> domain = make_farfield(fandisk, {5, FarfieldShape::kBox});
+  ASSERT_TRUE(domain.ok()) << domain.status().to_string();
+  ParallelOptions o;
+  o.pdr.workers = 2;
+  std::optional<std::string> first;
+  o.pdr.checkpoint = [&](const PdrCheckpoint& c) {
+    if (!first) first = c.encode();
+    return Status{};
+  };
+  Result<ParallelResult> whole = mesh_parallel(domain->surface, o);
+  ASSERT_TRUE(whole.ok()) << whole.status().to_string();
+  expect_valid(whole->mesh, domain->surface, true);
+  EXPECT_EQ(whole->profile.depth, 2);
+  ASSERT_TRUE(first.has_value());
+  Result<PdrCheckpoint> c = PdrCheckpoint::decode(*first);
+  ASSERT_TRUE(c.ok()) << c.status().to_string();
+  o.pdr.checkpoint = nullptr;
+  o.pdr.resume = &*c;
+  Result<ParallelResult> resumed = mesh_parallel(domain->surface, o);
+  ASSERT_TRUE(resumed.ok()) << resumed.status().to_string();
+  EXPECT_EQ(resumed->profile.depth, 2);
+  EXPECT_EQ(meshb_bytes(resumed->mesh, "pdr_resume_farfield"), meshb_bytes(whole->mesh, "pdr_whole_farfield"));
+}
+
 TEST(Pdr, ACheckpointThatDoesNotDecodeIsRefused) {
   PdrCheckpoint c;
   c.rounds_done = 2;
