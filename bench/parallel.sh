@@ -11,7 +11,8 @@
 # `mesh` and in the 1-worker run (its rounds with their selections and merges) and their ratio,
 # and "=" when 1 and 2 workers wrote the same bytes.
 # Needs GNU time (scripts/install-deps.sh --bench). PROFILE_DIR=DIR keeps each 2-worker run's
-# profile (pdrmesh_bench_replay projects it to more workers).
+# profile (pdrmesh_bench_replay projects it to more workers). FARFIELD=D meshes the space
+# between each surface and a box D body lengths away instead (--farfield D: external flow).
 # Surfaces from $PDRMESH_CORPUS (default bench/corpus: bench/fetch-corpus.sh).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -20,6 +21,7 @@ corpus=${PDRMESH_CORPUS:-$root/bench/corpus}
 pdrmesh=${PDRMESH:-$root/build/client/pdrmesh}
 size=${1:-default}; shift || true
 size_args=(); [[ $size == default ]] || size_args=(--size "$size")
+[[ -z ${FARFIELD:-} ]] || size_args+=(--farfield "$FARFIELD")
 names=("$@"); ((${#names[@]})) || names=(sphere966 bunny_npm hinge elephant couplingdown knot2 fandisk primitives13)
 tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
 
@@ -36,7 +38,7 @@ angles() {  # angles PREFIX: tets, min, max, interior min, interior max
 ratio() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.2f", a / b }'; }
 
 echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'); $(date -u +%F); load $(cut -d' ' -f1-3 /proc/loadavg)"
-echo "size: $size; serial: pdrmesh mesh; parallel: pdrmesh run --workers 1|2 [--depth D]; seconds are wall unless named CPU"
+echo "size: $size${FARFIELD:+; far field $FARFIELD body lengths away}; serial: pdrmesh mesh; parallel: pdrmesh run --workers 1|2 [--depth D]; seconds are wall unless named CPU"
 printf '%-13s %9s %6s %6s %7s %13s %13s | %5s %9s %6s %13s %13s %6s %6s %6s %6s %5s %6s %6s %5s %s\n' surface ser_tets ser_s \
   ser_cpu ser_kt/s ser_min/max ser_int depth tets ratio min/max int_min/max w1_s w1_cpu w2_s speedup work opt_s opt_w1 opt_r same
 for n in "${names[@]}"; do
