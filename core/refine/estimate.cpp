@@ -155,7 +155,8 @@ std::vector<Index> propagate_seeds(const Grid& g, const std::vector<Vec3>& pts, 
   return seed;
 }
 
-/// Surface components beyond this many share one nearest-point search.
+/// Nearest-point searches at most: beyond this many surface components, the
+/// smaller ones share the last search (blended_groups).
 constexpr std::size_t kMaxBlendedComponents = 8;
 
 /// The used points (original[k]: the surface point of used point k) grouped
@@ -184,6 +185,37 @@ std::vector<std::vector<Index>> point_components(const SurfaceMesh& surface, con
     out[c].push_back(k);
   }
   return out;
+}
+
+/// The components as groups of used points, one nearest-point search each:
+/// every component alone when there are at most kMaxBlendedComponents, else
+/// the kMaxBlendedComponents - 1 widest (bounding-box diagonal; ties: the
+/// first) alone and the others together. The widest keep their own blend, so
+/// an enclosing far field stays apart from the bodies inside it.
+std::vector<std::vector<Index>> blended_groups(std::vector<std::vector<Index>> components, const std::vector<Vec3>& pts) {
+  if (components.size() <= kMaxBlendedComponents) return components;
+  std::vector<double> width(components.size());
+  for (std::size_t c = 0; c < components.size(); ++c) {
+    Box b;
+    for (Index p : components[c]) b.add(pts[p]);
+    width[c] = b.diagonal();
+  }
+  std::vector<std::size_t> order(components.size());
+  for (std::size_t c = 0; c < order.size(); ++c) order[c] = c;
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return width[a] > width[b]; });
+  std::vector<char> alone(components.size(), 0);
+  for (std::size_t k = 0; k + 1 < kMaxBlendedComponents; ++k) alone[order[k]] = 1;
+  std::vector<std::vector<Index>> groups, rest(1);
+  for (std::size_t c = 0; c < components.size(); ++c) {
+    if (alone[c]) {
+      groups.push_back(std::move(components[c]));
+    } else {
+      rest[0].insert(rest[0].end(), components[c].begin(), components[c].end());
+    }
+  }
+  std::sort(rest[0].begin(), rest[0].end());
+  groups.push_back(std::move(rest[0]));
+  return groups;
 }
 
 std::string with_thousands(double v) {
@@ -266,20 +298,15 @@ Result<MeshEstimate> estimate_mesh(const SurfaceMesh& surface, const SizingOptio
       const Vec3 d = x - pts[p];
       return dot(d, d);
     };
-    // The nearest boundary point of each surface component (up to
-    // kMaxBlendedComponents; one nearest point of all beyond that).
-    const std::vector<std::vector<Index>> components = point_components(surface, original);
+    // The nearest boundary point of each group of surface components
+    // (blended_groups: each component alone, up to kMaxBlendedComponents).
     std::vector<std::vector<Index>> nearest;
-    if (components.size() <= kMaxBlendedComponents) {
-      for (const std::vector<Index>& c : components) {
-        std::vector<Vec3> cp;
-        for (const Index p : c) cp.push_back(pts[p]);
-        std::vector<Index> seeds = propagate_seeds(g, cp, [&](Index q, const Vec3& x) { return squared_distance(c[q], x); });
-        for (Index& q : seeds) q = c[q];
-        nearest.push_back(std::move(seeds));
-      }
-    } else {
-      nearest.push_back(propagate_seeds(g, pts, squared_distance));
+    for (const std::vector<Index>& c : blended_groups(point_components(surface, original), pts)) {
+      std::vector<Vec3> cp;
+      for (const Index p : c) cp.push_back(pts[p]);
+      std::vector<Index> seeds = propagate_seeds(g, cp, [&](Index q, const Vec3& x) { return squared_distance(c[q], x); });
+      for (Index& q : seeds) q = c[q];
+      nearest.push_back(std::move(seeds));
     }
     // h between components as the background interpolation gives it: the
     // nearest points' spacings weighted by inverse distance (one component:

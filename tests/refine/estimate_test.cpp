@@ -86,15 +86,15 @@ TEST(Estimate, VolumeIsExactAndUniformSizeScalesAsTheCube) {
   EXPECT_GT(b->peak_bytes, a->peak_bytes);
 }
 
-/// The estimate of `surface` with `o` is within kFactor of a real mesh's count,
+/// The estimate of `surface` with `o` is within `factor` of a real mesh's count,
 /// and the same when asked again (a function of its inputs only).
-void expect_estimate_within_factor(const SurfaceMesh& surface, const SizingOptions& o) {
+void expect_estimate_within_factor(const SurfaceMesh& surface, const SizingOptions& o, double factor = kFactor) {
   auto e = estimate_mesh(surface, o);
   ASSERT_TRUE(e.ok()) << e.status().to_string();
   const double real = real_tets(surface, o);
   ASSERT_GT(real, 0);
-  EXPECT_LT(e->tets, kFactor * real) << "estimate " << e->tets << ", real " << real;
-  EXPECT_GT(e->tets, real / kFactor) << "estimate " << e->tets << ", real " << real;
+  EXPECT_LT(e->tets, factor * real) << "estimate " << e->tets << ", real " << real;
+  EXPECT_GT(e->tets, real / factor) << "estimate " << e->tets << ", real " << real;
   auto again = estimate_mesh(surface, o);
   ASSERT_TRUE(again.ok());
   EXPECT_EQ(again->tets, e->tets);
@@ -126,6 +126,29 @@ TEST(Estimate, ABodyInAFarFieldWithinFactorOfARealMesh) {
     outer.surface_ids.push_back(body.surface_ids[t] + 10);
   }
   expect_estimate_within_factor(outer, SizingOptions{});
+}
+
+TEST(Estimate, NineBodiesInAFarFieldWithinFactorFourOfARealMesh) {
+  // More components than the estimate blends one by one: nine finely split
+  // cubes (spacing 0.2) inside a coarse one (spacing 8). Between the bodies
+  // and the far field h still grows; the nearest boundary point of all the
+  // components at once gave the bodies' spacing over half the box (about ten
+  // times the real count). Blending the spacings of several bodies around a
+  // point keeps h lower between them than the background mesh does (two
+  // bodies: 2.5 times the real count, four: 3.2), hence a factor 4 here.
+  SurfaceMesh outer = subdivided_cube(16.0, 2);
+  const SurfaceMesh body = subdivided_cube(1.0, 5);
+  for (int i = 0; i < 9; ++i) {
+    const Vec3 at{4.0 + 4.0 * (i % 3), 4.0 + 4.0 * (i / 3), 7.5};
+    const Index offset = static_cast<Index>(outer.points.size());
+    for (const Vec3& p : body.points) outer.points.push_back(p + at);
+    for (std::size_t t = 0; t < body.triangles.size(); ++t) {  // reversed: a cavity
+      const Tri& k = body.triangles[t];
+      outer.triangles.push_back({k[0] + offset, k[2] + offset, k[1] + offset});
+      outer.surface_ids.push_back(body.surface_ids[t] + 10);
+    }
+  }
+  expect_estimate_within_factor(outer, SizingOptions{}, 4.0);
 }
 
 TEST(Estimate, ASizeRisingNextToWideTrianglesWithinFactorOfARealMesh) {

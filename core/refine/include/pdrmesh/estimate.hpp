@@ -17,7 +17,8 @@
 //    min(s(x), g(x)) clamped: s(x) the spacings of the nearest boundary point
 //    of each surface component weighted by inverse distance (what the
 //    background interpolation gives between a body and its far field; one
-//    component: its nearest point's spacing) and g the growth limit
+//    component: its nearest point's spacing; beyond 8 components the 7 widest
+//    alone and the others as one) and g the growth limit
 //    min_p s(p) + (G - 1)|x - p|, both over the boundary points found by a
 //    seed propagation over the grid. That mean times the exact volume is the
 //    count. A body thinner than the grid (no centre inside) uses the mean
