@@ -234,14 +234,13 @@ class Stacks {
     }
   }
 
-  /// Numbers the points: stack v's foot is wall(v); from `first` on, layer by
+  /// Numbers the points: stack v's foot is feet[v]; from `first` on, layer by
   /// layer, the points of the stacks that reach the layer, in stack order. A
   /// stack's point at a layer above its last is its last point.
-  template <class WallPoint>
-  void number(std::size_t first, WallPoint wall) {
+  void number(std::size_t first, const std::vector<Index>& feet) {
     const std::size_t stride = static_cast<std::size_t>(n_) + 1;
     std::size_t next = first;
-    for (std::size_t v = 0; v < count_.size(); ++v) index_[v * stride] = wall(static_cast<Index>(v));
+    for (std::size_t v = 0; v < count_.size(); ++v) index_[v * stride] = feet[v];
     for (int k = 1; k <= n_; ++k)
       for (std::size_t v = 0; v < count_.size(); ++v)
         index_[v * stride + k] = k <= count_[v] ? static_cast<Index>(next++) : index_[v * stride + k - 1];
@@ -395,7 +394,7 @@ Result<LayerMesh> grow_layers(const SurfaceMesh& s, const LayerOptions& o) {
   std::vector<Index> prism_on, pyramid_on, tet_on;
   const auto place = [&] {
     stacks.shape(t, z);
-    stacks.number(ns, [&](Index v) { return w.points[v]; });
+    stacks.number(ns, w.points);
     out.points.assign(stacks.point_count(), Vec3{0, 0, 0});
     std::copy(s.points.begin(), s.points.end(), out.points.begin());
     for (Index v = 0; v < nw; ++v)

@@ -205,16 +205,17 @@ std::vector<std::vector<Index>> blended_groups(std::vector<std::vector<Index>> c
   std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return width[a] > width[b]; });
   std::vector<char> alone(components.size(), 0);
   for (std::size_t k = 0; k + 1 < kMaxBlendedComponents; ++k) alone[order[k]] = 1;
-  std::vector<std::vector<Index>> groups, rest(1);
+  std::vector<std::vector<Index>> groups;
+  std::vector<Index> rest;
   for (std::size_t c = 0; c < components.size(); ++c) {
     if (alone[c]) {
       groups.push_back(std::move(components[c]));
     } else {
-      rest[0].insert(rest[0].end(), components[c].begin(), components[c].end());
+      rest.insert(rest.end(), components[c].begin(), components[c].end());
     }
   }
-  std::sort(rest[0].begin(), rest[0].end());
-  groups.push_back(std::move(rest[0]));
+  std::sort(rest.begin(), rest.end());
+  groups.push_back(std::move(rest));
   return groups;
 }
 
