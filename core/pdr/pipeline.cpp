@@ -70,9 +70,10 @@ std::optional<PdrPlan> plan_from_surface(const SurfaceMesh& surface, const Paral
 
 namespace {
 
-/// mesh_serial of a surface that is one region.
+/// mesh_serial of a surface that is one region; `boundary_mesh`, when given,
+/// is tetrahedralize(surface, options.tetgen), made by the caller.
 Result<SerialResult> mesh_serial_one(const SurfaceMesh& surface, const SerialOptions& options,
-                                     const RefineProgress& progress) {
+                                     const RefineProgress& progress, VolumeMesh* boundary_mesh = nullptr) {
   PDR_TRY(validate(options.sizing));
   PDR_TRY(validate(options.refine));
   if (options.optimize) PDR_TRY(validate(*options.optimize));
@@ -91,7 +92,12 @@ Result<SerialResult> mesh_serial_one(const SurfaceMesh& surface, const SerialOpt
   };
   TetgenOptions tetgen = options.tetgen;
   if (deadline) tetgen.time_limit_s = std::min(tetgen.time_limit_s, options.time_limit_s);
-  PDR_ASSIGN_OR_RETURN(VolumeMesh initial, tetrahedralize(surface, tetgen));
+  VolumeMesh initial;
+  if (boundary_mesh != nullptr) {
+    initial = std::move(*boundary_mesh);
+  } else {
+    PDR_ASSIGN_OR_RETURN(initial, tetrahedralize(surface, tetgen));
+  }
   out.seconds_initial = seconds_since(t);
   PDR_TRY(past_deadline("initial mesh"));
   // The optimizer takes boundary id 0 for "not the surface" (surface_ids.hpp).
@@ -180,15 +186,24 @@ namespace {
 
 /// mesh_serial with `options`' sizing and optimization, as a ParallelResult:
 /// one leaf (tet_regions all 0) and the serial steps' times in the profile.
-Result<ParallelResult> serial_as_parallel(const SurfaceMesh& surface, const ParallelOptions& options) {
+/// The TetGen options of the boundary-conforming mesh: the serial mesher's
+/// initial mesh and the parallel one's background mesh.
+TetgenOptions boundary_only(const ParallelOptions& options) {
+  TetgenOptions o;
+  o.time_limit_s = options.pdr.tetgen_time_limit_s;
+  return o;
+}
+
+/// mesh_serial of a surface of one region, from its boundary mesh (tetrahedralize with boundary_only).
+Result<ParallelResult> serial_as_parallel(const SurfaceMesh& surface, const ParallelOptions& options,
+                                          VolumeMesh boundary_mesh, double boundary_s) {
   const auto t0 = Clock::now();
-  if (options.pdr.progress && !options.pdr.progress({"initial mesh", 0, 0, 0}))
-    return cancelled("stopped before the initial mesh");
   SerialOptions so;
   so.sizing = options.sizing;
   so.optimize = options.optimize;
-  so.tetgen.time_limit_s = options.pdr.tetgen_time_limit_s;
-  PDR_ASSIGN_OR_RETURN(SerialResult serial, mesh_serial(surface, so));
+  so.tetgen = boundary_only(options);
+  PDR_ASSIGN_OR_RETURN(SerialResult serial, mesh_serial_one(surface, so, {}, &boundary_mesh));
+  serial.seconds_initial += boundary_s;
   ParallelResult out;
   out.mesh = std::move(serial.mesh);
   out.mesh.tet_regions.assign(out.mesh.tets.size(), 0);
@@ -202,7 +217,7 @@ Result<ParallelResult> serial_as_parallel(const SurfaceMesh& surface, const Para
   p.max_concurrency = 1;
   p.final_tets = out.mesh.tets.size();
   p.interior_points = out.mesh.points.size() - surface.points.size();
-  p.total = seconds_since(t0);
+  p.total = boundary_s + seconds_since(t0);
   out.seconds_sizing = serial.seconds_sizing;
   if (options.pdr.progress) options.pdr.progress({"optimization", 1, 1, out.mesh.tets.size()});
   return out;
@@ -219,14 +234,31 @@ Result<ParallelResult> mesh_parallel_one(const SurfaceMesh& surface, const Paral
     PDR_ASSIGN_OR_RETURN(native, make_leaf_kernel("native"));
     kernel = native.get();
   }
-  // run_pdr's plan from the surface alone (none when resuming). A surface too
-  // small for leaf tasks (its depth 0) with the native kernel is the serial
-  // mesher's job: its steps, its bytes.
-  const std::optional<PdrPlan> surface_plan =
-      options.pdr.resume == nullptr ? plan_from_surface(surface, options, *kernel) : std::nullopt;
+  // run_pdr's plan from the surface alone (none when resuming), from 2 workers
+  // on made beside TetGen's boundary-conforming mesh (its own process: this
+  // thread only waits for it). A surface too small for leaf tasks (its depth
+  // 0) with the native kernel is the serial mesher's job: its steps, its bytes.
+  if (options.pdr.resume == nullptr && options.pdr.progress && !options.pdr.progress({"initial mesh", 0, 0, 0}))
+    return cancelled("stopped before the initial mesh");
+  std::optional<PdrPlan> surface_plan;
+  std::optional<std::thread> planner;
+  const auto make_plan = [&] {
+    if (options.pdr.resume == nullptr) surface_plan = plan_from_surface(surface, options, *kernel);
+  };
+  if (options.pdr.workers >= 2) planner.emplace(make_plan);
+  auto t = Clock::now();
+  Result<VolumeMesh> boundary_mesh = tetrahedralize(surface, boundary_only(options));
+  const double background_s = seconds_since(t);
+  if (planner) {
+    planner->join();
+  } else {
+    make_plan();
+  }
+  if (!boundary_mesh.ok()) return boundary_mesh.status();
   if (surface_plan && surface_plan->depth == 0 && !options.pdr.checkpoint && kernel->name() == "native" &&
       !kernel->needs_manifold_hull())
-    return serial_as_parallel(surface, options);
+    return serial_as_parallel(surface, options, std::move(*boundary_mesh), background_s);
+  const VolumeMesh background = std::move(*boundary_mesh);
   ParallelResult out;
   // TetGen's boundary-conforming mesh is the sizing field's background mesh
   // and, with the seed lattice inserted (initial_mesh), the initial mesh: with
@@ -235,11 +267,6 @@ Result<ParallelResult> mesh_parallel_one(const SurfaceMesh& surface, const Paral
   // alone gives (SizingField::surface_values). Checked against the built
   // field afterwards; on any difference the initial mesh is made again from
   // the field's own plan, so the result is always run_pdr's.
-  auto t = Clock::now();
-  TetgenOptions boundary_only;
-  boundary_only.time_limit_s = options.pdr.tetgen_time_limit_s;
-  PDR_ASSIGN_OR_RETURN(const VolumeMesh background, tetrahedralize(surface, boundary_only));
-  const double background_s = seconds_since(t);
   std::optional<SizingField> sizing_slot;
   double build_s = 0;
   const auto make_sizing = [&]() -> Status {
@@ -253,8 +280,6 @@ Result<ParallelResult> mesh_parallel_one(const SurfaceMesh& surface, const Paral
   std::optional<InitialMesh> initial;
   double initial_s = 0, overlapped_s = 0;
   if (plan) {
-    if (options.pdr.progress && !options.pdr.progress({"initial mesh", 0, 0, 0}))
-      return cancelled("stopped before the initial mesh");
     Status sizing_status;
     std::optional<std::thread> side;
     if (options.pdr.workers >= 2) side.emplace([&] { sizing_status = make_sizing(); });
