@@ -9,10 +9,13 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <exception>
 #include <functional>
+#include <limits>
 #include <optional>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include <oneapi/tbb/parallel_for.h>
 
@@ -44,6 +47,28 @@ constexpr double kSeedLeafSpacings = 6;
 /// task, and next to wide input triangles (hinge at diag/100, depth 4) the
 /// rounds' cuts leave worse angles than the single task.
 constexpr int kMinFinalDepth = 3;
+/// Tets per point in a refined mesh, a little under what quality meshes have.
+constexpr double kTetsPerPoint = 5;
+
+/// Room for n items in v, so that it grows in place up to n: a vector that
+/// outgrows its room is copied whole by one thread, into memory that one
+/// thread first touches. Only room: where the memory is not to be had, v
+/// grows as it goes.
+template <class T>
+void reserve_room(std::vector<T>& v, std::size_t n) noexcept {
+  try {
+    v.reserve(n);
+  } catch (const std::exception&) {  // std::bad_alloc, std::length_error
+  }
+}
+
+/// Room in `m` for the `tets` a plan expects and their points.
+void reserve_for(VolumeMesh& m, double tets) {
+  const auto n = static_cast<std::size_t>(std::clamp(tets * 1.05, 0.0, double{std::numeric_limits<Index>::max()}));
+  reserve_room(m.tets, n);
+  reserve_room(m.tet_regions, n);
+  reserve_room(m.points, static_cast<std::size_t>(static_cast<double>(n) / kTetsPerPoint));
+}
 
 }  // namespace
 
@@ -71,10 +96,11 @@ Result<PdrPlan> plan_pdr(const SurfaceMesh& surface, double surface_h, const Pdr
   plan.surface_h = surface_h;
   plan.depth = options.depth;
   const bool buffered = options.buffered && !options.fixups.value_or(kernel.needs_manifold_hull());
+  const double volume = enclosed_volume(surface);
+  const double estimate = estimated_tets >= 0 ? estimated_tets : volume / regular_tet_volume(surface_h);
+  const double capped = std::isfinite(estimate) ? std::clamp(estimate, 0.0, 1e15) : 0.0;
+  plan.estimated_tets = capped;
   if (plan.depth < 0) {
-    const double volume = enclosed_volume(surface);
-    const double estimate = estimated_tets >= 0 ? estimated_tets : volume / regular_tet_volume(surface_h);
-    const double capped = std::isfinite(estimate) ? std::clamp(estimate, 0.0, 1e15) : 0.0;
     const std::size_t per_leaf =
         options.final_tets_per_leaf > 0 ? options.final_tets_per_leaf : buffered ? 5000 : 20000;
     plan.depth = capped < static_cast<double>(options.min_parallel_tets)
@@ -168,6 +194,7 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
   prof.initial = initial_s;
   prof.initial_tets = initial.mesh.tets.size();
   VolumeMesh cur = std::move(initial.mesh);
+  reserve_for(cur, plan.estimated_tets);
   if (options.resume != nullptr && cur.tet_regions.size() != cur.tets.size()) {
     return invalid_input("PDR checkpoint: its mesh has no leaf for each tet");
   }
@@ -288,6 +315,7 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
       assign_leaves(cur, box1, depth);
       // h at every point, evaluated once here and then by the task that makes the point.
       std::vector<double> sizes(cur.points.size());
+      reserve_room(sizes, cur.points.capacity());
       tbb::parallel_for(std::size_t{0}, sizes.size(), [&](std::size_t v) { sizes[v] = sizing.at(cur.points[v]); });
       // The colour rounds of one sweep over `m` (the mesh, or a later sweep's
       // sub-mesh with its boundary faces `fb` and point sizes `sz`); with

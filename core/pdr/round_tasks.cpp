@@ -88,17 +88,22 @@ BufferedRound buffered_round(const VolumeMesh& m, const Box& box, int depth, int
                              const std::vector<LeafId>* allowed, const std::vector<char>* selected) {
   constexpr LeafId kNone = std::numeric_limits<LeafId>::max();
   constexpr LeafId kBlocked = kNone - 1;
-  std::vector<LeafId> owner(m.tets.size(), kNone);
+  // Per-round arrays as large as the mesh, written whole by parallel passes
+  // (no serial zero fill: these rounds run dozens of times on large meshes).
+  detail::UninitVector<LeafId> owner(m.tets.size());
   tbb::parallel_for(std::size_t{0}, m.tets.size(), [&](std::size_t t) {
+    owner[t] = kNone;
     if (selected != nullptr && !(*selected)[t]) return;
     const auto l = static_cast<LeafId>(m.tet_regions[t]);
     if (colour_of(l, depth) != colour) return;
     if (allowed == nullptr || std::binary_search(allowed->begin(), allowed->end(), l)) owner[t] = l;
   });
-  std::vector<LeafId> lo(m.points.size()), hi(m.points.size());
+  detail::UninitVector<LeafId> lo(m.points.size()), hi(m.points.size());
   for (int layer = 0; layer < layers; ++layer) {
-    std::fill(lo.begin(), lo.end(), kNone);
-    std::fill(hi.begin(), hi.end(), LeafId{0});
+    tbb::parallel_for(std::size_t{0}, m.points.size(), [&](std::size_t v) {
+      lo[v] = kNone;
+      hi[v] = LeafId{0};
+    });
     tbb::parallel_for(std::size_t{0}, m.tets.size(), [&](std::size_t t) {
       if (owner[t] >= kBlocked) return;
       for (Index v : m.tets[t]) {
@@ -128,14 +133,15 @@ BufferedRound buffered_round(const VolumeMesh& m, const Box& box, int depth, int
 
 
 BufferedRound selected_round(const VolumeMesh& m, const Box& box, int depth, const std::vector<char>& selected) {
-  std::vector<LeafId> owner(m.tets.size(), std::numeric_limits<LeafId>::max());
+  detail::UninitVector<LeafId> owner(m.tets.size());
   tbb::parallel_for(std::size_t{0}, m.tets.size(), [&](std::size_t t) {
-    if (selected[t]) owner[t] = leaf_of_point(box, depth, tet_barycenter(m, static_cast<Index>(t)));
+    owner[t] = selected[t] ? leaf_of_point(box, depth, tet_barycenter(m, static_cast<Index>(t)))
+                           : std::numeric_limits<LeafId>::max();
   });
   return tasks_of_owners(owner, box, depth);
 }
 
-BufferedRound tasks_of_owners(const std::vector<LeafId>& owner, const Box& box, int depth) {
+BufferedRound tasks_of_owners(std::span<const LeafId> owner, const Box& box, int depth) {
   constexpr LeafId kBlocked = std::numeric_limits<LeafId>::max() - 1;
   BufferedRound r;
   r.d.box = box;

@@ -157,7 +157,7 @@ std::vector<Index> cost_ranks(const VolumeMesh& cur, const Decomposition& d, con
 /// The outside tets' flags (RoundExtras::cored and ::bad, when set), which
 /// the splice copies.
 struct OutsideFlags {
-  std::vector<char> cored, bad;
+  detail::UninitVector<char> cored, bad;
 };
 
 /// Puts a round's results into `cur` as if leaf by leaf in ascending order,
@@ -174,7 +174,8 @@ struct OutsideFlags {
 /// moved point's is evaluated again. The flags of x.cored and x.bad follow
 /// the tets: the outside tets' from `outside_flags`, the others set here.
 void splice(VolumeMesh& cur, const std::vector<LeafId>& leaves, std::vector<TaskResult>& results,
-            std::vector<std::vector<Tet>>& kept, std::vector<Tet>& outside, std::vector<int>& outside_leaf,
+            std::vector<std::vector<Tet>>& kept, detail::UninitVector<Tet>& outside,
+            detail::UninitVector<int>& outside_leaf,
             OutsideFlags& outside_flags, const RoundExtras& x, const SizingField& sizing, const PdrOptions& options,
             RoundResult& rr) {
   const Grid* grid = x.grid;
@@ -202,7 +203,7 @@ void splice(VolumeMesh& cur, const std::vector<LeafId>& leaves, std::vector<Task
   detail::parallel_copy(outside.begin(), outside.end(), cur.tets.begin());
   detail::parallel_copy(outside_leaf.begin(), outside_leaf.end(), cur.tet_regions.begin());
   if (cored != nullptr) {
-    cored->assign(tet_at[n], 0);
+    cored->resize(tet_at[n]);
     detail::parallel_copy(outside_flags.cored.begin(), outside_flags.cored.end(), cored->begin());
   }
   if (bad != nullptr) {
@@ -235,6 +236,9 @@ void splice(VolumeMesh& cur, const std::vector<LeafId>& leaves, std::vector<Task
     std::copy(kept[l].begin(), kept[l].end(), out);
     std::fill(cur.tet_regions.begin() + static_cast<std::ptrdiff_t>(tet_at[l]),
               cur.tet_regions.begin() + static_cast<std::ptrdiff_t>(tet_at[l + 1]), static_cast<int>(leaves[l]));
+    if (cored != nullptr)
+      std::fill(cored->begin() + static_cast<std::ptrdiff_t>(tet_at[l]),
+                cored->begin() + static_cast<std::ptrdiff_t>(tet_at[l + 1]), char{0});
     if (grid != nullptr) {
       for (std::size_t t = tet_at[l]; t < tet_at[l] + r.output.tets.size(); ++t) {
         cur.tet_regions[t] = static_cast<int>(leaf_of_point(grid->box, grid->depth, tet_barycenter(cur, static_cast<Index>(t))));
@@ -261,15 +265,17 @@ Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const
   tbb::parallel_for(Index{0}, static_cast<Index>(d.size()), [&](Index l) {
     for (Index t : d.leaf_tets[l]) (selected == nullptr || (*selected)[t] ? leaf_tets[l] : kept[l]).push_back(cur.tets[t]);
   });
-  std::vector<Tet> outside;
-  std::vector<int> outside_leaf;
+  // The tets of no task, gathered by parallel passes that also first touch
+  // their memory (a round on a large mesh leaves most of it outside).
+  detail::UninitVector<Tet> outside;
+  detail::UninitVector<int> outside_leaf;
   if (extras.outside != nullptr) {
     const bool has_leaf = cur.tet_regions.size() == cur.tets.size();
     outside.resize(extras.outside->size());
-    outside_leaf.resize(extras.outside->size(), 0);
+    outside_leaf.resize(extras.outside->size());
     tbb::parallel_for(std::size_t{0}, outside.size(), [&](std::size_t i) {
       outside[i] = cur.tets[(*extras.outside)[i]];
-      if (has_leaf) outside_leaf[i] = cur.tet_regions[(*extras.outside)[i]];
+      outside_leaf[i] = has_leaf ? cur.tet_regions[(*extras.outside)[i]] : 0;
     });
   }
   for (const std::vector<Tet>& sent : leaf_tets) {
@@ -361,7 +367,7 @@ Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const
   const auto t0 = Clock::now();
   OutsideFlags outside_flags;
   if (extras.outside != nullptr) {
-    const auto gather = [&](const std::vector<char>* all, std::vector<char>& out) {
+    const auto gather = [&](const std::vector<char>* all, detail::UninitVector<char>& out) {
       if (all == nullptr) return;
       out.resize(extras.outside->size());
       tbb::parallel_for(std::size_t{0}, out.size(), [&](std::size_t i) { out[i] = (*all)[(*extras.outside)[i]]; });

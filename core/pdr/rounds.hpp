@@ -7,11 +7,13 @@
 #pragma once
 
 #include <cstddef>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include "pdrmesh/decomposition.hpp"
+#include "pdrmesh/fixed_chunks.hpp"
 #include "pdrmesh/pdr.hpp"
 #include "pdrmesh/scheduler.hpp"
 
@@ -47,7 +49,7 @@ struct Grid {
 /// before all others) and a core box to each task.
 struct RoundExtras {
   const std::vector<char>* selected = nullptr;
-  const std::vector<Index>* outside = nullptr;  ///< ascending
+  const detail::UninitVector<Index>* outside = nullptr;  ///< ascending
   const std::vector<Box>* cores = nullptr;      ///< per leaf
   const Grid* grid = nullptr;                   ///< see splice
   std::vector<double>* sizes = nullptr;         ///< h per point of `cur`, kept up to date (see splice)
@@ -102,7 +104,7 @@ std::vector<char> select_interface_tets(const VolumeMesh& m, int halo);
 /// its tets by atomic min and max, each tet writing only its own owner.
 struct BufferedRound {
   Decomposition d;             ///< leaves, leaf_tets (core and buffer); no lock sets (none conflict), no tet_leaf
-  std::vector<Index> outside;  ///< the tets of no task, ascending
+  detail::UninitVector<Index> outside;  ///< the tets of no task, ascending
   std::vector<Box> cores;      ///< per leaf: its box
 };
 /// The colour of leaf l of the depth-`depth` grid: the parities of its grid
@@ -127,7 +129,7 @@ BufferedRound selected_round(const VolumeMesh& m, const Box& box, int depth, con
 /// The tasks of a round from each tet's leaf (`owner`; at least kBlocked:
 /// none): leaves ascending, each one's tets ascending, the others `outside`;
 /// no cores, no lock sets, no tet_leaf (only the fix-ups read it).
-BufferedRound tasks_of_owners(const std::vector<LeafId>& owner, const Box& box, int depth);
+BufferedRound tasks_of_owners(std::span<const LeafId> owner, const Box& box, int depth);
 
 /// Some tets of a mesh as a mesh of their own, for rounds that work on a small
 /// part of a large mesh: their scans and copies then cost what the part does.

@@ -291,6 +291,10 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& checked_surface, const SizingField
 struct PdrPlan {
   double surface_h = 0;
   int depth = 0;
+  /// The final tet count the plan expects (the estimate it was given, or the
+  /// surface's volume over a regular tet of edge surface_h): run_pdr reserves
+  /// room for it, so that the rounds grow the mesh's arrays in place.
+  double estimated_tets = 0;
   TetgenOptions tetgen;
   /// With seeds only, the native kernel and buffered rounds: the initial mesh
   /// holds the seeds of insert_points' coarser rounds, and those of its finest
