@@ -135,7 +135,12 @@ Result<InitialMesh> initial_mesh(const SurfaceMesh& surface, const PdrPlan& plan
     PDR_ASSIGN_OR_RETURN(const SizingField h, SizingField::from_surface(surface, plan.sizing));
     if (!h.uniform()) {
       const double size = *h.requested_size();
-      std::erase_if(seeds, [&](const Vec3& x) { return h.at(x) > size; });
+      std::vector<char> rises(seeds.size());
+      tbb::parallel_for(std::size_t{0}, seeds.size(), [&](std::size_t i) { rises[i] = h.at(seeds[i]) > size; });
+      std::size_t kept = 0;
+      for (std::size_t i = 0; i < seeds.size(); ++i)
+        if (!rises[i]) seeds[kept++] = seeds[i];
+      seeds.resize(kept);
     }
   }
   if (plan.leaf_seeds) {
