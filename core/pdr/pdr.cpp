@@ -49,6 +49,10 @@ constexpr double kSeedLeafSpacings = 6;
 constexpr int kMinFinalDepth = 3;
 /// Tets per point in a refined mesh, a little under what quality meshes have.
 constexpr double kTetsPerPoint = 5;
+/// Room for this many times the plan's estimated tets: room costs address
+/// space, not memory, and an estimate a few percent short (armadillo at
+/// --size 0.12%: 1.0e8 for 1.08e8) would have the last rounds copy the mesh.
+constexpr double kRoomOverEstimate = 1.25;
 
 /// Room for n items in v, so that it grows in place up to n: a vector that
 /// outgrows its room is copied whole by one thread, into memory that one
@@ -64,7 +68,7 @@ void reserve_room(std::vector<T>& v, std::size_t n) noexcept {
 
 /// Room in `m` for the `tets` a plan expects and their points.
 void reserve_for(VolumeMesh& m, double tets) {
-  const auto n = static_cast<std::size_t>(std::clamp(tets * 1.05, 0.0, double{std::numeric_limits<Index>::max()}));
+  const auto n = static_cast<std::size_t>(std::clamp(tets * kRoomOverEstimate, 0.0, double{std::numeric_limits<Index>::max()}));
   reserve_room(m.tets, n);
   reserve_room(m.tet_regions, n);
   reserve_room(m.points, static_cast<std::size_t>(static_cast<double>(n) / kTetsPerPoint));
