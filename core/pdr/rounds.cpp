@@ -196,10 +196,10 @@ void splice(VolumeMesh& cur, const std::vector<LeafId>& leaves, std::vector<Task
     tet_at[l + 1] = tet_at[l] + r.output.tets.size() + kept[l].size();
     point_at[l + 1] = point_at[l] + r.output.new_points.size();
   }
-  cur.tets.resize(tet_at[n]);
-  cur.tet_regions.resize(tet_at[n]);
-  pts.resize(point_at[n]);
-  if (sizes != nullptr) sizes->resize(point_at[n]);
+  detail::resize_prefaulted(cur.tets, tet_at[n]);
+  detail::resize_prefaulted(cur.tet_regions, tet_at[n]);
+  detail::resize_prefaulted(pts, point_at[n]);
+  if (sizes != nullptr) detail::resize_prefaulted(*sizes, point_at[n]);
   detail::parallel_copy(outside.begin(), outside.end(), cur.tets.begin());
   detail::parallel_copy(outside_leaf.begin(), outside_leaf.end(), cur.tet_regions.begin());
   if (cored != nullptr) {

@@ -6,6 +6,8 @@
 // the faces of a tet mesh grouped by their smallest point.
 #pragma once
 
+#include <sys/mman.h>
+
 #include <algorithm>
 #include <atomic>
 #include <cstddef>
@@ -49,6 +51,28 @@ void parallel_copy(In first, In last, Out out, std::size_t grain = std::size_t{1
     std::copy(first + static_cast<std::ptrdiff_t>(b), first + static_cast<std::ptrdiff_t>(e),
               out + static_cast<std::ptrdiff_t>(b));
   });
+}
+
+/// v.resize(n), with the pages of the new items (within v's capacity) faulted
+/// in ahead by all threads: resize zero-fills the new items by one thread, and
+/// into pages not yet touched that is a page fault, and the kernel zeroing a
+/// page, every few items. MADV_POPULATE_WRITE (Linux 5.14) faults a range in;
+/// where the kernel lacks it, resize faults the pages as before.
+template <class T>
+void resize_prefaulted(std::vector<T>& v, std::size_t n) {
+  if (n > v.size() && n <= v.capacity()) {
+    constexpr std::uintptr_t kPage = 4096;
+    constexpr std::size_t kChunk = std::size_t{1} << 22;  // 4 MiB: whole pages, many chunks a call
+    const auto base = reinterpret_cast<std::uintptr_t>(v.data());
+    const std::uintptr_t lo = (base + v.size() * sizeof(T)) & ~(kPage - 1);
+    const std::uintptr_t hi = base + n * sizeof(T);
+    if (hi - lo >= 2 * kChunk) {
+      for_each_chunk(static_cast<std::size_t>(hi - lo), kChunk, [&](std::size_t, std::size_t b, std::size_t e) {
+        madvise(reinterpret_cast<void*>(lo + b), e - b, MADV_POPULATE_WRITE);  // a hint: a failure changes nothing
+      });
+    }
+  }
+  v.resize(n);
 }
 
 /// An allocator that leaves a resized vector's new items default-initialised
