@@ -472,9 +472,9 @@ class Refiner {
             return false;
           continue;
         }
-        // The bound before the neighbour's mark: most faces are too far to
-        // cross, and the bound gives the mark's prefetch time to arrive.
-        if (face_bound_below(a, b, c, p, r_point) && stamp_[face_tet(n)] != epoch_) {
+        // The neighbour's mark before the bound: about half the faces lead
+        // back into the visited tets, and the mark is cheaper than the bound.
+        if (stamp_[face_tet(n)] != epoch_ && face_bound_below(a, b, c, p, r_point)) {
           stamp_[face_tet(n)] = epoch_;
           stack_.push_back(n);
           m_.prefetch(face_tet(n));  // read when popped

@@ -536,6 +536,24 @@ double SizingField::combine(double interpolated, const Vec3& x, std::uint32_t* p
   return std::max(lo_, growth_limit(x, std::min(interpolated, hi_), point));
 }
 
+double SizingField::combine(double interpolated, const Vec3& x, SizingHint& hint) const {
+  const double best = std::min(interpolated, hi_);
+  // g(x) >= g(at) - (G - 1) |x - at|. With a relative slack far above the
+  // rounding of the computed values (a few ulps), a bound at or above `best`
+  // means no boundary point's computed value falls below it: the search
+  // would return `best`, so it is skipped. Otherwise the search runs from
+  // +inf (the hint point's value then starts it), so that it finds g itself
+  // for the queries after this one.
+  constexpr double kSlack = 1e-12;
+  if (!std::isnan(hint.limit)) {
+    const double reach = (growth_ - 1) * std::sqrt(dist2(x, hint.at));
+    if (hint.limit * (1 - kSlack) - reach * (1 + kSlack) >= best * (1 + kSlack)) return std::max(lo_, best);
+  }
+  hint.limit = growth_limit(x, kInf, &hint.point);
+  hint.at = x;
+  return std::max(lo_, std::min(best, hint.limit));
+}
+
 double SizingField::interpolate_in(Index tet, const Vec3& x) const {
   const Tet& t = tets_[tet];
   const Vec3 &a = points_[t[0]], &b = points_[t[1]], &c = points_[t[2]], &d = points_[t[3]];
@@ -667,11 +685,11 @@ double SizingField::at(const Vec3& x, SizingHint& hint) const {
   if (t == kNoIndex) t = locate(x);
   if (t != kNoIndex) {
     hint.tet = t;
-    return combine(interpolate_in(t, x), x, &hint.point);
+    return combine(interpolate_in(t, x), x, hint);
   }
   Vec3 y{};
   const Index n = nearest_tet(x, y);
-  return combine(interpolate_in(n, y), y, &hint.point);
+  return combine(interpolate_in(n, y), y, hint);
 }
 
 double SizingField::lower_bound(const Box& box) const {

@@ -70,6 +70,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -113,6 +114,11 @@ struct TreeNode {
 struct SizingHint {
   Index tet = kNoIndex;
   std::uint32_t point = UINT32_MAX;  ///< slot in the boundary-point tree
+  /// The growth limit g at `at` (NaN: none yet). g is (G - 1)-Lipschitz, so
+  /// where it stays above the interpolant by more than that allows for, the
+  /// next query near `at` needs no search.
+  double limit = std::numeric_limits<double>::quiet_NaN();
+  Vec3 at{};
 };
 
 /// The point distribution function h(x); see the top of this header.
@@ -189,6 +195,7 @@ class SizingField {
                                          std::vector<double> spacing);
 
   double combine(double interpolated, const Vec3& x, std::uint32_t* point = nullptr) const;
+  double combine(double interpolated, const Vec3& x, SizingHint& hint) const;
   double growth_limit(const Vec3& x, double best, std::uint32_t* point) const;
   double graded(const Vec3& x, std::uint32_t* point) const;
   Index walk_to(Index tet, const Vec3& x) const;
