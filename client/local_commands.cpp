@@ -410,7 +410,7 @@ void print_profile(const PdrProfile& p) {
   for (const auto& [name, s] : phases)
     fmt::print(stderr, "  {:<16} {:9.3f} s {:6.1f}%\n", name, s, 100 * s / wall);
   if (p.overlapped > 0) {
-    fmt::print(stderr, "  {:<16} {:9.3f} s {:6.1f}% (steps run side by side: sizing beside the seeds, validation beside the write)\n",
+    fmt::print(stderr, "  {:<16} {:9.3f} s {:6.1f}% (steps run side by side: validation beside the write)\n",
                "overlapped", -p.overlapped, -100 * p.overlapped / wall);
   }
   fmt::print(stderr, "  {:<16} {:9.3f} s; engine {:.3f} s; fix-ups moved {} tets by partition swap, {} by "

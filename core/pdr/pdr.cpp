@@ -114,8 +114,9 @@ Result<PdrPlan> plan_pdr(const SurfaceMesh& surface, double surface_h, const Pdr
   }
   TetgenOptions& tg = plan.tetgen;
   const double leaf_side = side / static_cast<double>(1 << plan.depth);
+  plan.seed_min_tets = options.initial_min_volume_factor.value_or(buffered ? 16 : 2);
   tg.max_volume = std::max(leaf_side * leaf_side * leaf_side / options.initial_volume_divisor,
-                           options.initial_min_volume_factor.value_or(buffered ? 16 : 2) * regular_tet_volume(surface_h));
+                           plan.seed_min_tets * regular_tet_volume(surface_h));
   tg.time_limit_s = options.tetgen_time_limit_s;
   tg.radius_edge = options.initial_radius_edge;
   tg.seeds_only = options.initial_seeds_only.value_or(!kernel.needs_manifold_hull());
@@ -128,30 +129,12 @@ Result<PdrPlan> plan_pdr(const SurfaceMesh& surface, double surface_h, const Pdr
   return plan;
 }
 
-Result<InitialMesh> initial_mesh(const SurfaceMesh& surface, const PdrPlan& plan, const VolumeMesh* background) {
+Result<InitialMesh> initial_mesh(const SurfaceMesh& surface, const PdrPlan& plan, const VolumeMesh* background,
+                                 const SizingField* sizing) {
   InitialMesh out;
   if (!plan.tetgen.seeds_only || !plan.tetgen.max_volume) {
     PDR_ASSIGN_OR_RETURN(out.mesh, tetrahedralize(surface, plan.tetgen));
     return out;
-  }
-  PDR_ASSIGN_OR_RETURN(std::vector<Vec3> seeds, seed_points(surface, *plan.tetgen.max_volume));
-  if (plan.sizing.size) {
-    PDR_ASSIGN_OR_RETURN(const SizingField h, SizingField::from_surface(surface, plan.sizing));
-    if (!h.uniform()) {
-      const double size = *h.requested_size();
-      std::vector<char> rises(seeds.size());
-      tbb::parallel_for(std::size_t{0}, seeds.size(), [&](std::size_t i) { rises[i] = h.at(seeds[i]) > size; });
-      std::size_t kept = 0;
-      for (std::size_t i = 0; i < seeds.size(); ++i)
-        if (!rises[i]) seeds[kept++] = seeds[i];
-      seeds.resize(kept);
-    }
-  }
-  if (plan.leaf_seeds) {
-    std::vector<Vec3> coarse;
-    for (std::size_t i = 0; i < seeds.size(); ++i)
-      (insertion_round(i) < kInsertionRounds - 1 ? coarse : out.leaf_seeds).push_back(seeds[i]);
-    seeds = std::move(coarse);
   }
   std::optional<VolumeMesh> made;
   if (background == nullptr) {
@@ -159,6 +142,32 @@ Result<InitialMesh> initial_mesh(const SurfaceMesh& surface, const PdrPlan& plan
     boundary_only.time_limit_s = plan.tetgen.time_limit_s;
     PDR_ASSIGN_OR_RETURN(made, tetrahedralize(surface, boundary_only));
     background = &*made;
+  }
+  std::optional<SizingField> built;
+  if (sizing == nullptr) {
+    PDR_ASSIGN_OR_RETURN(built, SizingField::build(surface, *background, plan.sizing));
+    sizing = &*built;
+  }
+  const SizingField& h = *sizing;
+  // No seed denser than seed_min_tets regular tets of the local h: the lattice
+  // thins out where the field is coarser than the plan's surface_h.
+  const auto widest = [&h, tets = plan.seed_min_tets](const Vec3& p) {
+    return seed_spacing(tets * regular_tet_volume(h.at(p)));
+  };
+  PDR_ASSIGN_OR_RETURN(std::vector<Vec3> seeds, seed_points(surface, *plan.tetgen.max_volume, widest));
+  if (const std::optional<double> size = h.requested_size(); plan.sizing.size && size && !h.uniform()) {
+    std::vector<char> rises(seeds.size());
+    tbb::parallel_for(std::size_t{0}, seeds.size(), [&](std::size_t i) { rises[i] = h.at(seeds[i]) > *size; });
+    std::size_t kept = 0;
+    for (std::size_t i = 0; i < seeds.size(); ++i)
+      if (!rises[i]) seeds[kept++] = seeds[i];
+    seeds.resize(kept);
+  }
+  if (plan.leaf_seeds) {
+    std::vector<Vec3> coarse;
+    for (std::size_t i = 0; i < seeds.size(); ++i)
+      (insertion_round(i) < kInsertionRounds - 1 ? coarse : out.leaf_seeds).push_back(seeds[i]);
+    seeds = std::move(coarse);
   }
   PDR_ASSIGN_OR_RETURN(TetMesh mesh, TetMesh::from_volume_mesh(*background));
   made.reset();
@@ -181,7 +190,7 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
   if (options.progress && !options.progress({"initial mesh", 0, 0, 0})) {
     return cancelled("stopped before the initial mesh");
   }
-  Result<InitialMesh> initial = initial_mesh(surface, plan);
+  Result<InitialMesh> initial = initial_mesh(surface, plan, nullptr, &sizing);
   if (!initial.ok()) return initial.status();
   return run_pdr(surface, sizing, kernel, options, profile, plan, std::move(*initial), seconds_since(t0));
 }

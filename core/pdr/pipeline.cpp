@@ -262,47 +262,13 @@ Result<ParallelResult> mesh_parallel_one(const SurfaceMesh& surface, const Paral
   ParallelResult out;
   // TetGen's boundary-conforming mesh is the sizing field's background mesh
   // and, with the seed lattice inserted (initial_mesh), the initial mesh: with
-  // a seeds-only plan (the native kernel) TetGen runs once. From 2 workers on
-  // the sizing field is built beside the initial mesh: the plan needs only h at the surface points, which the surface
-  // alone gives (SizingField::surface_values). Checked against the built
-  // field afterwards; on any difference the initial mesh is made again from
-  // the field's own plan, so the result is always run_pdr's.
-  std::optional<SizingField> sizing_slot;
-  double build_s = 0;
-  const auto make_sizing = [&]() -> Status {
-    const auto tb = Clock::now();
-    PDR_ASSIGN_OR_RETURN(SizingField field, SizingField::build(surface, background, options.sizing));
-    build_s = seconds_since(tb);
-    sizing_slot.emplace(std::move(field));
-    return {};
-  };
-  std::optional<PdrPlan> plan = surface_plan;  // set: `initial` was made from it
-  std::optional<InitialMesh> initial;
-  double initial_s = 0, overlapped_s = 0;
-  if (plan) {
-    Status sizing_status;
-    std::optional<std::thread> side;
-    if (options.pdr.workers >= 2) side.emplace([&] { sizing_status = make_sizing(); });
-    t = Clock::now();
-    Result<InitialMesh> made = initial_mesh(surface, *plan, &background);
-    initial_s = seconds_since(t);
-    if (side) {
-      side->join();
-      overlapped_s = std::min(initial_s, build_s);
-    } else {
-      sizing_status = make_sizing();
-    }
-    PDR_TRY(sizing_status);
-    if (surface_spacing(surface, *sizing_slot) == plan->surface_h) {
-      if (!made.ok()) return made.status();
-      initial = std::move(*made);
-    } else {
-      plan.reset();
-    }
-  } else {
-    PDR_TRY(make_sizing());
-  }
-  const SizingField& sizing = *sizing_slot;
+  // a seeds-only plan (the native kernel) TetGen runs once. The plan needs
+  // only h at the surface points, which the surface alone gives
+  // (SizingField::surface_values), so it is made beside TetGen; the seeds
+  // need the field itself, built next.
+  t = Clock::now();
+  PDR_ASSIGN_OR_RETURN(const SizingField sizing, SizingField::build(surface, background, options.sizing));
+  const double build_s = seconds_since(t);
   out.seconds_sizing = background_s + build_s;
   out.boundary_points = sizing.boundary_points();
   PdrOptions pdr = options.pdr;
@@ -327,23 +293,26 @@ Result<ParallelResult> mesh_parallel_one(const SurfaceMesh& surface, const Paral
       return bounds.outside(a, b, c, d);
     };
   }
-  // The field's own plan, as the run that wrote a checkpoint made it: a
-  // resumed run goes on over the same grid from the checkpoint's mesh.
-  if (!plan) {
+  // The field's own plan where the surface's differs, and as the run that
+  // wrote a checkpoint made it: a resumed run goes on over the same grid from
+  // the checkpoint's mesh.
+  std::optional<PdrPlan> plan = surface_plan;
+  if (!plan || surface_spacing(surface, sizing) != plan->surface_h) {
     PDR_ASSIGN_OR_RETURN(plan, plan_for_field(surface, options.sizing, surface_spacing(surface, sizing), pdr, *kernel));
-    if (pdr.resume != nullptr) {
-      initial = InitialMesh{std::move(pdr.resume->mesh), {}};
-    } else {
-      t = Clock::now();
-      PDR_ASSIGN_OR_RETURN(initial, initial_mesh(surface, *plan, &background));
-      initial_s = seconds_since(t);
-    }
+  }
+  std::optional<InitialMesh> initial;
+  double initial_s = 0;
+  if (pdr.resume != nullptr) {
+    initial = InitialMesh{std::move(pdr.resume->mesh), {}};
+  } else {
+    t = Clock::now();
+    PDR_ASSIGN_OR_RETURN(initial, initial_mesh(surface, *plan, &background, &sizing));
+    initial_s = seconds_since(t);
   }
   PDR_ASSIGN_OR_RETURN(out.mesh, run_pdr(surface, sizing, *kernel, pdr, &out.profile, *plan, std::move(*initial),
                                          initial_s));
   out.profile.background = background_s;
   out.profile.sizing = build_s;
-  out.profile.overlapped = overlapped_s;
   return out;
 }
 

@@ -14,6 +14,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <functional>
 #include <array>
 #include <cctype>
 #include <cerrno>
@@ -457,6 +458,18 @@ class SeedLattice {
   std::size_t slot(const std::array<std::size_t, 3>& ijk, std::size_t c) const {
     return ((ijk[0] * n_[1] + ijk[1]) * n_[2] + ijk[2]) * 2 + c;
   }
+  /// Whether the point of `slot` belongs to the lattice of spacing 2^k h
+  /// (k >= 0) with the same origin: for k >= 1 its cell corners are the
+  /// corners whose indices are multiples of 2^k, its cell centres the corners
+  /// whose indices are all 2^(k-1) modulo 2^k; no centre of this lattice.
+  bool on_coarser(std::size_t slot, int k) const {
+    if (k == 0) return true;
+    if (slot % 2 == 1) return false;
+    const std::size_t cell = slot / 2, m = std::size_t{1} << k;
+    const std::size_t i = cell / (n_[1] * n_[2]), j = (cell / n_[2]) % n_[1], l = cell % n_[2];
+    const std::size_t r = i % m;
+    return (r == 0 || r == m / 2) && j % m == r && l % m == r;
+  }
   Vec3 point(std::size_t slot) const {
     const std::size_t c = slot % 2, cell = slot / 2;
     const std::array<std::size_t, 3> ijk = {cell / (n_[1] * n_[2]), (cell / n_[2]) % n_[1], cell % n_[2]};
@@ -687,7 +700,13 @@ Result<pid_t> spawn_helper(const std::string& path, Fd& request, Fd& log, Fd& an
 // some inputs, e.g. elephant, even with only interior points.)
 double seed_spacing(double max_volume) { return 0.8 * std::cbrt(12.0 * max_volume); }
 
-Result<std::vector<Vec3>> seed_points(const SurfaceMesh& s, double max_volume) {
+namespace {
+/// seed_points' lattices are at most 2^this times as wide as the finest.
+constexpr int kMaxCoarser = 20;
+}  // namespace
+
+Result<std::vector<Vec3>> seed_points(const SurfaceMesh& s, double max_volume,
+                                      const std::function<double(const Vec3&)>& widest) {
   const double h = seed_spacing(max_volume);
   const SeedLattice lattice(s.bounds(), h);
   if (lattice.size() > 2e8)
@@ -712,6 +731,18 @@ Result<std::vector<Vec3>> seed_points(const SurfaceMesh& s, double max_volume) {
     });
   }
   drop_outside(s, lattice, keep);
+  if (widest) {
+    // Where widest allows twice the spacing or more, the seed stays only on
+    // the coarsest lattice of spacing 2^k h within it: the seeds thin out
+    // level by level, each level a regular lattice.
+    tbb::parallel_for(std::size_t{0}, keep.size(), [&](std::size_t slot) {
+      if (!keep[slot]) return;
+      const double w = widest(lattice.point(slot));
+      int k = 0;
+      while (k < kMaxCoarser && std::ldexp(h, k + 1) <= w) ++k;
+      if (!lattice.on_coarser(slot, k)) keep[slot] = 0;
+    });
+  }
   std::vector<Vec3> seeds;
   for (std::size_t slot = 0; slot < keep.size(); ++slot)
     if (keep[slot]) seeds.push_back(lattice.point(slot));

@@ -224,6 +224,41 @@ TEST(TetgenAdapter, SeedPointsLieInsideTheDomainAndFillIt) {
   }
 }
 
+TEST(TetgenAdapter, SeedPointsThinToCoarserLatticesWhereWidestAllows) {
+  // A 12 x 3 x 3 box at lattice spacing 0.5: widest allows the spacing itself
+  // for x < 4 and four times it beyond x = 6 (between, twice it).
+  SurfaceMesh box;
+  add_box(box, {0, 0, 0}, {12, 3, 3}, 1);
+  const double max_volume = std::pow(0.5 / 0.8, 3) / 12, h = 0.5;
+  const auto widest = [h](const Vec3& p) { return p[0] < 4 ? h : p[0] < 6 ? 2 * h : 4 * h; };
+  const Result<std::vector<Vec3>> all = seed_points(box, max_volume);
+  const Result<std::vector<Vec3>> thin = seed_points(box, max_volume, widest);
+  ASSERT_TRUE(all.ok() && thin.ok());
+  std::vector<Vec3> sorted = *all;
+  std::sort(sorted.begin(), sorted.end());
+  std::size_t fine_all = 0, fine_thin = 0, coarse_all = 0;
+  std::vector<Vec3> coarse;
+  for (const Vec3& p : *all) {
+    fine_all += p[0] < 3.9;
+    coarse_all += p[0] > 6.1;
+  }
+  for (const Vec3& p : *thin) {
+    EXPECT_TRUE(std::binary_search(sorted.begin(), sorted.end(), p)) << "a thinned seed is one of the lattice's";
+    fine_thin += p[0] < 3.9;
+    if (p[0] > 6.6) coarse.push_back(p);
+  }
+  EXPECT_EQ(fine_thin, fine_all) << "where widest is the spacing, every seed stays";
+  ASSERT_FALSE(coarse.empty());
+  EXPECT_LT(coarse.size() * 40, coarse_all) << "four times the spacing: about 1/64 of the seeds";
+  // The nearest neighbours of a body-centred cubic lattice of spacing 2 are
+  // sqrt(3) apart; the jitter moves each seed by at most 0.025 per axis.
+  double nearest = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < coarse.size(); ++i)
+    for (std::size_t j = i + 1; j < coarse.size(); ++j) nearest = std::min(nearest, norm(coarse[i] - coarse[j]));
+  EXPECT_GT(nearest, std::sqrt(3.0) - 0.1);
+  EXPECT_LT(nearest, std::sqrt(3.0) + 0.1);
+}
+
 TEST(TetgenAdapter, RadiusEdgeKeepsBoundary) {
   const SurfaceMesh s = fixtures::corpus_surface("hinge");
   TetgenOptions o;

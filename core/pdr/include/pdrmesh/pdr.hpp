@@ -252,7 +252,7 @@ struct PdrProfile {
   double surface_check = 0;    ///< surface_check (CLI)
   double background = 0;       ///< TetGen's boundary mesh: the sizing field's background and the initial mesh's start (mesh_parallel)
   double sizing = 0;           ///< SizingField::build (mesh_parallel)
-  double overlapped = 0;       ///< time steps ran side by side: the sizing field beside the seeds, validation beside the write (CLI)
+  double overlapped = 0;       ///< time steps ran side by side: validation beside the write (CLI)
   double validation = 0;       ///< validate_mesh of the result (CLI)
   double write = 0;            ///< writing the result (CLI)
   double quality = 0;          ///< the quality summary (CLI)
@@ -302,6 +302,14 @@ struct PdrPlan {
   /// the refinement: each to the task of the leaf that holds it
   /// (LeafTaskInput::seeds), in parallel with the other leaves.
   bool leaf_seeds = false;
+  /// With seeds only: no seed's lattice cell holds fewer than about this many
+  /// regular tets of edge h at the seed (PdrOptions::initial_min_volume_factor).
+  /// Where h is coarser than surface_h, in a far field above all, the lattice
+  /// of max_volume thins out to coarser lattices (seed_points' widest), so
+  /// that at no depth are the seeds denser than the field asks for: one depth
+  /// below the default, a lattice spaced for the smaller leaves had put a
+  /// quarter to a third more tets into far-field meshes.
+  double seed_min_tets = 16;
   /// With a size (SizingOptions::size): the initial mesh leaves out the seeds
   /// where h rises above it next to wider surface triangles (the lattice is
   /// spaced for the size, and points the refiner would not put there stay).
@@ -331,12 +339,15 @@ Result<PdrPlan> plan_pdr(const SurfaceMesh& checked_surface, double surface_h, c
 /// max_volume): TetGen's boundary-conforming mesh of the surface (`background`
 /// when given: tetrahedralize(surface) with no volume bound, as the sizing
 /// field's background mesh is made) with the seed lattice's points
-/// (seed_points) inserted by constrained Delaunay insertion (insert_points):
-/// TetGen runs once, not again with the seeds. With plan.leaf_seeds only the
-/// seeds of the coarser rounds (insertion_round) go in here; the others come
-/// back in leaf_seeds, in lattice order. Otherwise tetrahedralize(surface, plan.tetgen).
+/// (seed_points, graded by the field's h: PdrPlan::seed_min_tets) inserted by
+/// constrained Delaunay insertion (insert_points): TetGen runs once, not again
+/// with the seeds. `sizing`: the field of plan.sizing over that background
+/// (SizingField::build), or null to build it here. With plan.leaf_seeds only
+/// the seeds of the coarser rounds (insertion_round) go in here; the others
+/// come back in leaf_seeds, in lattice order. Otherwise tetrahedralize(surface,
+/// plan.tetgen).
 Result<InitialMesh> initial_mesh(const SurfaceMesh& checked_surface, const PdrPlan& plan,
-                                 const VolumeMesh* background = nullptr);
+                                 const VolumeMesh* background = nullptr, const SizingField* sizing = nullptr);
 
 /// run_pdr from an initial mesh the caller made with initial_mesh(surface,
 /// plan) (in initial_s seconds, counted in the profile), plan from

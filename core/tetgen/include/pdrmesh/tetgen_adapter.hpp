@@ -23,6 +23,7 @@
 #pragma once
 
 #include <cstddef>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -78,9 +79,14 @@ Result<VolumeMesh> tetrahedralize(const SurfaceMesh& surface, const TetgenOption
 /// The interior points added for `max_volume` (TetGenOptions::max_volume): the
 /// points of a jittered body-centred cubic lattice whose Delaunay tets have
 /// about half that volume, inside the domain and at least 0.4 lattice spacing
-/// from every triangle, in lattice order. Deterministic. resource_exhausted
-/// when the lattice over the bounding box would exceed 2e8 points.
-Result<std::vector<Vec3>> seed_points(const SurfaceMesh& surface, double max_volume);
+/// from every triangle, in lattice order. With `widest` (a spacing at a point),
+/// a seed p where widest(p) is 2^k times the lattice's spacing or more (k >= 1)
+/// stays only if it lies on the lattice 2^k times as wide with the same origin:
+/// the seeds grade with what widest allows. Deterministic (widest must be a
+/// pure function; it is called from several threads). resource_exhausted when
+/// the lattice over the bounding box would exceed 2e8 points.
+Result<std::vector<Vec3>> seed_points(const SurfaceMesh& surface, double max_volume,
+                                      const std::function<double(const Vec3&)>& widest = {});
 
 /// The spacing of seed_points' lattice for `max_volume`.
 double seed_spacing(double max_volume);
