@@ -12,7 +12,9 @@
 # and "=" when 1 and 2 workers wrote the same bytes.
 # Needs GNU time (scripts/install-deps.sh --bench). PROFILE_DIR=DIR keeps each 2-worker run's
 # profile (pdrmesh_bench_replay projects it to more workers). FARFIELD=D meshes the space
-# between each surface and a box D body lengths away instead (--farfield D: external flow).
+# between each surface and a box D body lengths away instead (--farfield D: external flow);
+# ARGS="..." adds options to every mesh and run (e.g. prism layers: ARGS="--layers 20
+# --first-height 1e-4 --growth-ratio 1.2"; the tet columns then count the fill's tets).
 # Surfaces from $PDRMESH_CORPUS (default bench/corpus: bench/fetch-corpus.sh).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -22,6 +24,7 @@ pdrmesh=${PDRMESH:-$root/build/client/pdrmesh}
 size=${1:-default}; shift || true
 size_args=(); [[ $size == default ]] || size_args=(--size "$size")
 [[ -z ${FARFIELD:-} ]] || size_args+=(--farfield "$FARFIELD")
+[[ -z ${ARGS:-} ]] || read -r -a extra <<<"$ARGS" && size_args+=("${extra[@]}")
 names=("$@"); ((${#names[@]})) || names=(sphere966 bunny_npm hinge elephant couplingdown knot2 fandisk primitives13)
 tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
 
@@ -38,13 +41,14 @@ angles() {  # angles PREFIX: tets, min, max, interior min, interior max
 ratio() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.2f", a / b }'; }
 
 echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'); $(date -u +%F); load $(cut -d' ' -f1-3 /proc/loadavg)"
-echo "size: $size${FARFIELD:+; far field $FARFIELD body lengths away}; serial: pdrmesh mesh; parallel: pdrmesh run --workers 1|2 [--depth D]; seconds are wall unless named CPU"
+echo "size: $size${FARFIELD:+; far field $FARFIELD body lengths away}${ARGS:+; options $ARGS}; serial: pdrmesh mesh; parallel: pdrmesh run --workers 1|2 [--depth D]; seconds are wall unless named CPU"
 printf '%-13s %9s %6s %6s %7s %13s %13s | %5s %9s %6s %13s %13s %6s %6s %6s %6s %5s %6s %6s %5s %s\n' surface ser_tets ser_s \
   ser_cpu ser_kt/s ser_min/max ser_int depth tets ratio min/max int_min/max w1_s w1_cpu w2_s speedup work opt_s opt_w1 opt_r same
 for n in "${names[@]}"; do
   s=$corpus/$n.stl
   measure "$tmp/ser" "$pdrmesh" mesh "$s" -o "$tmp/ser.meshb" "${size_args[@]}" || continue
   ser_opt=$(sed -n 's/.*refined: .*optimization \([0-9.]*\) s).*/\1/p' "$tmp/ser.err")
+  ser_opt=${ser_opt:--}  # a layered run does not report it
   read -r st smin smax simin simax < <(angles "$tmp/ser")
   depth=
   for deeper in 0 1; do
@@ -63,6 +67,7 @@ for n in "${names[@]}"; do
       "$n" "$st" "$(cat "$tmp/ser.s")" "$(cat "$tmp/ser.cpu")" "$(awk -v a="$st" -v b="$(cat "$tmp/ser.cpu")" 'BEGIN { print a / b / 1000 }')" "$smin" "$smax" "$simin" "$simax" "$d" "$pt" \
       "$(awk -v a="$pt" -v b="$st" 'BEGIN { printf "%.3f", a / b }')" "$pmin" "$pmax" "$pimin" "$pimax" \
       "$(cat "$tmp/w1.s")" "$(cat "$tmp/w1.cpu")" "$(cat "$tmp/w2.s")" "$(ratio "$(cat "$tmp/ser.s")" "$(cat "$tmp/w2.s")")" \
-      "$(ratio "$(cat "$tmp/w1.cpu")" "$(cat "$tmp/ser.cpu")")" "$ser_opt" "$w1_opt" "$(ratio "$w1_opt" "$ser_opt")" "$same"
+      "$(ratio "$(cat "$tmp/w1.cpu")" "$(cat "$tmp/ser.cpu")")" "$ser_opt" "$w1_opt" \
+      "$([[ $ser_opt == - ]] && echo - || ratio "$w1_opt" "$ser_opt")" "$same"
   done
 done
