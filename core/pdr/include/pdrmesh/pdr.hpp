@@ -350,10 +350,10 @@ Result<InitialMesh> initial_mesh(const SurfaceMesh& checked_surface, const PdrPl
                                  const VolumeMesh* background = nullptr, const SizingField* sizing = nullptr);
 
 /// run_pdr from an initial mesh the caller made with initial_mesh(surface,
-/// plan) (in initial_s seconds, counted in the profile), plan from
-/// plan_pdr(surface, surface_spacing(surface, sizing), options): the same
-/// result as run_pdr above. Lets the caller make the initial mesh while the
-/// sizing field is still being built (mesh_parallel does with 2 or more workers).
+/// plan, background, &sizing) (in initial_s seconds, counted in the profile),
+/// plan from plan_pdr(surface, surface_spacing(surface, sizing), options): the
+/// same result as run_pdr above. Lets the caller plan beside TetGen and share
+/// TetGen's mesh and the field with the initial mesh (mesh_parallel does).
 Result<VolumeMesh> run_pdr(const SurfaceMesh& checked_surface, const SizingField& sizing,
                            const LeafKernel& kernel, const PdrOptions& options, PdrProfile* profile,
                            const PdrPlan& plan, InitialMesh initial, double initial_s);
