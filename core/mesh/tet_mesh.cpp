@@ -351,6 +351,55 @@ void TetMesh::replace_cavity(std::span<const Index> old_tets, std::span<const Te
   // ones now hold new tets, whose flags were set above.
 }
 
+void TetMesh::replace_star(std::span<const Index> old_tets, Index apex, std::span<const StarFace> faces) {
+  created_.clear();
+  old_regions_.clear();
+  if (!regions_.empty())
+    for (Index t : old_tets) old_regions_.push_back(regions_[t]);
+  for (auto it = old_tets.rbegin(); it != old_tets.rend(); ++it) free_tet(*it);
+  // Each boundary edge is held by two faces, so 3 n / 2 keys: a table of at
+  // least twice that, a power of two.
+  std::size_t capacity = 64;
+  while (capacity < 3 * faces.size()) capacity *= 2;
+  if (edges_.size() < capacity) edges_.resize(capacity);
+  std::fill(edges_.begin(), edges_.begin() + static_cast<std::ptrdiff_t>(capacity), EdgeSlot{kNoEdge, kNoIndex});
+  const std::size_t mask = capacity - 1;
+  [[maybe_unused]] std::size_t paired = 0;
+  for (const StarFace& face : faces) {
+    const Index t = allocate_tet();
+    const Tri& p = face.points;
+    cells_[t].v = {p[0], p[2], p[1], apex};
+    flags_[t] = static_cast<Flags>(kAlive | kActive | (face.frozen ? frozen_bit(3) : 0));
+    quality_[t] = kUnknown;
+    if (!regions_.empty()) regions_[t] = old_regions_[face.parent];
+    ++alive_count_;
+    created_.push_back(t);
+    cells_[t].adj[3] = face.neighbour;
+    if (face.neighbour != kNoIndex) cells_[face_tet(face.neighbour)].adj[face_local(face.neighbour)] = pack_face(t, 3);
+    // Face i < 3 of (p0, p2, p1, apex) holds the apex and the edge of the
+    // other two: face 0 (p2, p1), face 1 (p0, p1), face 2 (p0, p2).
+    const std::array<std::array<Index, 2>, 3> edge{{{p[2], p[1]}, {p[0], p[1]}, {p[0], p[2]}}};
+    for (int i = 0; i < 3; ++i) {
+      const Index lo = std::min(edge[i][0], edge[i][1]), hi = std::max(edge[i][0], edge[i][1]);
+      const std::uint64_t key = (std::uint64_t{lo} << 32) | hi;
+      std::size_t h = static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ull) >> 32) & mask;
+      for (;; h = (h + 1) & mask) {
+        EdgeSlot& slot = edges_[h];
+        if (slot.edge == kNoEdge) {
+          slot = {key, pack_face(t, i)};
+          break;
+        }
+        if (slot.edge != key) continue;
+        cells_[t].adj[i] = slot.face;
+        cells_[face_tet(slot.face)].adj[face_local(slot.face)] = pack_face(t, i);
+        ++paired;
+        break;
+      }
+    }
+  }
+  assert(2 * paired == 3 * faces.size());  // every boundary edge held by exactly two faces
+}
+
 std::vector<Index> TetMesh::remove_unused_points(Index first) {
   std::vector<Index> map(points_.size(), kNoIndex);
   for (Index v = 0; v < std::min(first, num_points()); ++v) map[v] = 0;

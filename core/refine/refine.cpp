@@ -643,8 +643,7 @@ class Refiner {
       if (stamp_[t] == in) cavity_[kept++] = t;
     cavity_.resize(kept);
     // The star over the boundary faces; every cavity vertex must stay in it.
-    fresh_.clear();
-    parent_.clear();
+    star_.clear();
     if (vstamp_.size() < m_.num_points()) vstamp_.resize(m_.num_points(), 0);
     if (++vepoch_ == 0) {  // wrapped: reset the marks
       std::fill(vstamp_.begin(), vstamp_.end(), 0u);
@@ -657,8 +656,7 @@ class Refiner {
         if (!cavity_face(t, f)) continue;
         const Index a = k[topo::kFaceVertex[f][0]], b = k[topo::kFaceVertex[f][1]], c = k[topo::kFaceVertex[f][2]];
         vstamp_[a] = vstamp_[b] = vstamp_[c] = vepoch_;
-        fresh_.push_back({a, c, b, kNoIndex});
-        parent_.push_back(static_cast<Index>(i));
+        star_.push_back({{a, b, c}, m_.neighbour(t, f), static_cast<Index>(i), m_.frozen(t, f)});
       }
     }
     for (const Index t : cavity_)
@@ -666,8 +664,7 @@ class Refiner {
         if (vstamp_[v] != vepoch_) return false;
     const Index q = m_.add_point(p);
     h_.push_back(h);
-    for (Tet& k : fresh_) k[3] = q;
-    m_.replace_cavity(cavity_, fresh_, parent_);
+    m_.replace_star(cavity_, q, star_);
     return true;
   }
 
@@ -924,8 +921,7 @@ class Refiner {
   std::vector<Index> queue_;
   std::vector<Index> seeds_;
   std::vector<Index> cavity_;
-  std::vector<Tet> fresh_;
-  std::vector<Index> parent_;
+  std::vector<TetMesh::StarFace> star_;  ///< cavity_insert's boundary faces
   std::vector<std::uint32_t> vstamp_;  ///< cavity_insert's vertex marks
   std::uint32_t vepoch_ = 0;
   std::uint32_t in_ = 0, out_ = 0;

@@ -11,6 +11,7 @@
 #include "pdrmesh/insert.hpp"
 #include "pdrmesh/predicates.hpp"
 #include "pdrmesh/topology.hpp"
+#include "octree_fixtures.hpp"
 #include "tet_fixtures.hpp"
 
 namespace pdrmesh {
@@ -280,6 +281,55 @@ TEST(TetMesh, RemoveUnusedPointsKeepsTheOthersAndTheirIds) {
   }
   EXPECT_TRUE(m.check().ok()) << m.check().to_string();
   EXPECT_EQ(m.remove_unused_points(), (std::vector<Index>{0, 1, 2, 3, 4}));  // nothing left to drop
+}
+
+TEST(TetMesh, ReplaceStarIsReplaceCavityOfTheStar) {
+  // The ball of the grid's centre point (24 Kuhn tets, one link face frozen)
+  // re-tiled from a new point beside it: replace_star and replace_cavity of
+  // the same tets leave the same slots, adjacency, marks and created list.
+  VolumeMesh grid = fixtures::with_hull_boundary(fixtures::kuhn_grid(4));
+  grid.tet_regions.assign(grid.tets.size(), 7);
+  TetMesh m = build(grid);
+  const Index centre = 2 + 5 * (2 + 5 * 2);
+  ASSERT_EQ(m.point(centre), (Vec3{2, 2, 2}));
+  std::vector<Index> ball;
+  for (Index t = 0; t < m.num_slots(); ++t)
+    if (m.alive(t) && topo::local_vertex(m.tet(t), centre) >= 0) ball.push_back(t);
+  ASSERT_EQ(ball.size(), 24u);
+  m.set_frozen(ball[5], topo::local_vertex(m.tet(ball[5]), centre), true);
+  const Index apex = m.add_point({2.1, 1.95, 2.05});
+  TetMesh other = m;
+  std::vector<TetMesh::StarFace> star;
+  std::vector<Tet> tets;
+  std::vector<Index> parent;
+  for (std::size_t i = 0; i < ball.size(); ++i) {
+    const int f = topo::local_vertex(m.tet(ball[i]), centre);
+    const Tri p = topo::face_of(m.tet(ball[i]), f);
+    star.push_back({p, m.neighbour(ball[i], f), static_cast<Index>(i), m.frozen(ball[i], f)});
+    tets.push_back({p[0], p[2], p[1], apex});
+    parent.push_back(static_cast<Index>(i));
+  }
+  m.replace_star(ball, apex, star);
+  other.replace_cavity(ball, tets, parent);
+  ASSERT_TRUE(m.check().ok()) << m.check().to_string();
+  EXPECT_TRUE(std::equal(m.last_created().begin(), m.last_created().end(), other.last_created().begin(),
+                         other.last_created().end()));
+  ASSERT_EQ(m.num_slots(), other.num_slots());
+  for (Index t = 0; t < m.num_slots(); ++t) {
+    ASSERT_EQ(m.alive(t), other.alive(t)) << t;
+    if (!m.alive(t)) continue;
+    EXPECT_EQ(m.tet(t), other.tet(t)) << t;
+    EXPECT_EQ(m.region(t), other.region(t)) << t;
+    EXPECT_EQ(m.active(t), other.active(t)) << t;
+    for (int f = 0; f < 4; ++f) {
+      EXPECT_EQ(m.neighbour(t, f), other.neighbour(t, f)) << t << " face " << f;
+      EXPECT_EQ(m.frozen(t, f), other.frozen(t, f)) << t << " face " << f;
+    }
+  }
+  int frozen = 0;
+  for (const Index t : m.last_created())
+    for (int f = 0; f < 4; ++f) frozen += m.frozen(t, f) ? 1 : 0;
+  EXPECT_EQ(frozen, 1) << "the new tet over the frozen link face";
 }
 
 TEST(TetMesh, CheckReportsAnInvertedTet) {

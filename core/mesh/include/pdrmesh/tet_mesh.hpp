@@ -145,7 +145,23 @@ class TetMesh {
   /// free-list policy below). Allocation-free once the scratch buffers have grown.
   void replace_cavity(std::span<const Index> old_tets, std::span<const Tet> new_tets,
                       std::span<const Index> parent);
-  /// Tet indices created by the last replace_cavity, in new_tets order.
+  /// A face of a cavity's boundary for replace_star: its points as seen from
+  /// outside the cavity (face_of of the cavity tet `parent` that holds it),
+  /// the tet across it (packed, or kNoIndex on the hull) and its frozen mark.
+  struct StarFace {
+    Tri points;
+    Index neighbour;
+    Index parent;  ///< index into old_tets
+    bool frozen;
+  };
+  /// replace_cavity for a cavity that is star-shaped from `apex` (every
+  /// boundary face seen strictly from it, as a Bowyer-Watson insertion makes
+  /// it): new tet j is (points[0], points[2], points[1], apex) over faces[j],
+  /// which it takes over as its face 3. The same tets, slots, adjacency, marks
+  /// and regions as replace_cavity with those tets, faster: the new tets' other
+  /// faces pair by the boundary edge they hold, each edge shared by two faces.
+  void replace_star(std::span<const Index> old_tets, Index apex, std::span<const StarFace> faces);
+  /// Tet indices created by the last replace_cavity or replace_star, in new_tets order.
   std::span<const Index> last_created() const { return created_; }
 
   /// Free-list policy: LIFO. Freed slots are pushed in reverse cavity order, so
@@ -207,6 +223,12 @@ class TetMesh {
   std::vector<int> old_regions_;
   std::vector<Index> created_;
   std::vector<Index> bucket_;  ///< replace_cavity's face table: index into faces_, or kNoIndex
+  struct EdgeSlot {
+    std::uint64_t edge;  ///< (smaller point << 32) | larger point; kNoEdge when empty
+    Index face;          ///< packed face of the new tet that holds it
+  };
+  static constexpr std::uint64_t kNoEdge = ~std::uint64_t{0};
+  std::vector<EdgeSlot> edges_;  ///< replace_star's edge table
 };
 
 }  // namespace pdrmesh

@@ -41,7 +41,7 @@
 //     within one region to every tet whose circumsphere holds it strictly
 //     (exact insphere); tets with a boundary face the point does not see
 //     strictly (exact orient3d) are dropped until the cavity is star-shaped,
-//     and it is re-tiled as the point's star (one TetMesh::replace_cavity).
+//     and it is re-tiled as the point's star (one TetMesh::replace_star).
 //     When that cannot be done (a containing tet would be dropped, a cavity
 //     vertex would vanish, over 1024 tets), the point splits its tet, face or
 //     edge and Lawson's flips (2-3, 3-2) follow instead.
