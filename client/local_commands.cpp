@@ -494,6 +494,10 @@ int run_run(const RunArgs& a) {
   progress.say("point distribution function built from {} boundary points", result->boundary_points);
   progress.say("parallel refinement ({} kernel, {} worker(s), depth {}): {} tets, {} points", (*kernel)->name(),
                a.workers, profile.depth, mesh.tets.size(), mesh.points.size());
+  if (profile.requested_depth > profile.depth)
+    progress.say("note: depth {} would make leaves narrower than {} times the surface's spacing, where the parallel "
+                 "mesh drifts from the serial one; meshed at depth {}",
+                 profile.requested_depth, options.pdr.min_leaf_width, profile.depth);
 
   if (profile.failed_leaves > 0) {
     progress.say("warning: {} leaf task(s) failed and were kept unrefined (first: {})", profile.failed_leaves,

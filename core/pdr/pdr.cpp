@@ -88,6 +88,9 @@ Result<PdrPlan> plan_pdr(const SurfaceMesh& surface, double surface_h, const Pdr
   if (options.depth > kMaxDepth) {
     return invalid_input(fmt::format("octree depth {} is outside [0, {}] (or -1)", options.depth, kMaxDepth));
   }
+  if (!(options.min_leaf_width >= 0) || !std::isfinite(options.min_leaf_width)) {
+    return invalid_input(fmt::format("min_leaf_width must be finite and not negative, got {}", options.min_leaf_width));
+  }
   if (!(options.initial_volume_divisor > 0) || !std::isfinite(options.initial_volume_divisor)) {
     return invalid_input(fmt::format("initial_volume_divisor must be positive, got {}", options.initial_volume_divisor));
   }
@@ -111,6 +114,12 @@ Result<PdrPlan> plan_pdr(const SurfaceMesh& surface, double surface_h, const Pdr
                      ? 0
                      : default_depth(static_cast<std::size_t>(capped), per_leaf,
                                      [&](int d) { return occupied_leaves_estimate(surface.points, volume, d); });
+  }
+  if (options.min_leaf_width > 0 && std::isfinite(surface_h) && surface_h > 0) {
+    const int asked = plan.depth;
+    while (plan.depth > 0 && side / static_cast<double>(1 << plan.depth) < options.min_leaf_width * surface_h)
+      --plan.depth;
+    if (plan.depth != asked) plan.requested_depth = asked;
   }
   TetgenOptions& tg = plan.tetgen;
   const double leaf_side = side / static_cast<double>(1 << plan.depth);
@@ -205,6 +214,7 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
   prof = PdrProfile{};
   const int depth = plan.depth;
   prof.depth = depth;
+  prof.requested_depth = plan.requested_depth;
   prof.threads = static_cast<std::size_t>(tbb::this_task_arena::max_concurrency());
   const auto report = [&](std::string_view phase, std::size_t tets) {
     return !options.progress || options.progress({phase, 0, 0, tets});

@@ -62,6 +62,7 @@ std::string profile_to_json(const PdrProfile& p, std::size_t workers) {
   j["version"] = 1;
   j["workers"] = workers;
   j["depth"] = p.depth;
+  if (p.requested_depth >= 0) j["requested_depth"] = p.requested_depth;
   j["initial_tets"] = p.initial_tets;
   j["final_tets"] = p.final_tets;
   j["failed_leaves"] = p.failed_leaves;
@@ -87,6 +88,7 @@ Result<PdrProfile> profile_from_json(std::string_view text) {
   PdrProfile p;
   try {
     p.depth = j.at("depth").get<int>();
+    p.requested_depth = j.value("requested_depth", -1);
     p.initial_tets = j.at("initial_tets").get<std::size_t>();
     p.final_tets = j.at("final_tets").get<std::size_t>();
     p.failed_leaves = j.value("failed_leaves", std::size_t{0});

@@ -55,6 +55,12 @@ TEST(PdrProfile, JsonRoundTrips) {
   EXPECT_EQ(back->rounds[0].task_s, p.rounds[0].task_s);
   EXPECT_EQ(back->rounds[0].rank, p.rounds[0].rank);
   EXPECT_EQ(profile_to_json(*back, 2), profile_to_json(p, 2));
+  EXPECT_EQ(back->requested_depth, -1);  // not written when the run went as deep as asked
+  PdrProfile shallower = p;
+  shallower.requested_depth = 5;
+  Result<PdrProfile> back5 = profile_from_json(profile_to_json(shallower, 2));
+  ASSERT_TRUE(back5.ok()) << back5.status().to_string();
+  EXPECT_EQ(back5->requested_depth, 5);
   EXPECT_DOUBLE_EQ(serial_seconds(*back), 10.0);  // total less the rounds' wall time
   PdrProfile short_run = p;
   short_run.total = 30;

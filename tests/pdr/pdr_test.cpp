@@ -70,6 +70,7 @@ void expect_valid(const VolumeMesh& m, const SurfaceMesh& s, bool pipeline = fal
 PdrOptions depth2(std::size_t workers = 1) {
   PdrOptions o;
   o.depth = 2;
+  o.min_leaf_width = 0;  // the cube's leaves are 2.5 spacings wide: these tests exercise the rounds
   o.workers = workers;
   o.initial_volume_divisor = 60;
   return o;
@@ -681,6 +682,7 @@ TEST(Pdr, DefaultDepthFollowsTheSizing) {
   EXPECT_EQ(prof.depth, 0);
   o.min_parallel_tets = 0;
   o.final_tets_per_leaf = 1000;  // so depth 1
+  o.min_leaf_width = 0;          // (its leaves 2.5 spacings wide)
   m = run_pdr(fixtures::unit_cube_surface(), uniform_sizing(0.2), kernel, o, &prof);
   ASSERT_TRUE(m.ok()) << m.status().to_string();
   EXPECT_EQ(prof.depth, 1);
@@ -771,6 +773,39 @@ TEST(Pdr, DepthZeroStartsFromTheSerialInitialMesh) {
   ASSERT_TRUE(plan.ok()) << plan.status().to_string();
   EXPECT_TRUE(plan->tetgen.max_volume.has_value());
   EXPECT_TRUE(plan->tetgen.seeds_only);
+}
+
+TEST(Pdr, ADepthWhoseLeavesWouldBeNarrowerThanMinLeafWidthRunsShallower) {
+  // The unit cube at h = 0.1 with leaves at least 3 h wide: depth 1 (0.5
+  // wide) is the deepest; depth 2 leaves would be 2.5 h wide.
+  const SurfaceMesh cube = fixtures::unit_cube_surface();
+  const NativeLeafKernel kernel(barycenter_hook(1));
+  PdrOptions o;
+  o.depth = 4;
+  Result<PdrPlan> plan = plan_pdr(cube, 0.1, o, kernel);
+  ASSERT_TRUE(plan.ok()) << plan.status().to_string();
+  EXPECT_EQ(plan->depth, 1);
+  EXPECT_EQ(plan->requested_depth, 4);
+  o.depth = 1;  // wide enough: as asked
+  plan = plan_pdr(cube, 0.1, o, kernel);
+  ASSERT_TRUE(plan.ok()) << plan.status().to_string();
+  EXPECT_EQ(plan->depth, 1);
+  EXPECT_EQ(plan->requested_depth, -1);
+  o.depth = 4;
+  o.min_leaf_width = 0;  // any depth
+  plan = plan_pdr(cube, 0.1, o, kernel);
+  ASSERT_TRUE(plan.ok()) << plan.status().to_string();
+  EXPECT_EQ(plan->depth, 4);
+  o.min_leaf_width = -1;
+  EXPECT_EQ(plan_pdr(cube, 0.1, o, kernel).status().code(), StatusCode::kInvalidInput);
+  // The run says what was asked, and meshes at the depth it ran.
+  o.min_leaf_width = 3;
+  PdrProfile prof;
+  Result<VolumeMesh> m = run_pdr(cube, uniform_sizing(0.1), kernel, o, &prof);
+  ASSERT_TRUE(m.ok()) << m.status().to_string();
+  expect_valid(*m, cube, false);
+  EXPECT_EQ(prof.depth, 1);
+  EXPECT_EQ(prof.requested_depth, 4);
 }
 
 TEST(Pdr, ASurfaceTooSmallForLeafTasksGetsTheSerialMesh) {

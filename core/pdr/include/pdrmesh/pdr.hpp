@@ -83,6 +83,15 @@ struct PdrOptions {
   /// occupied_leaves_estimate), E the estimated final tet count, enclosed
   /// volume / regular_tet_volume(mean h at the surface points).
   int depth = -1;
+  /// A depth, asked for or chosen, whose leaves would be narrower than this
+  /// many times the surface's spacing (PdrPlan::surface_h) runs at the
+  /// deepest depth whose leaves are that wide (PdrPlan::requested_depth then
+  /// says what was asked). The colour order shifts the points within about
+  /// one spacing of a leaf's faces (the first leaves pile them up there, the
+  /// last ones lack them), so a leaf with little inside those bands drifts
+  /// from the serial mesh: more tets and a far longer optimization
+  /// (bench/NOTES.md). 0: any depth.
+  double min_leaf_width = 3;
   /// 0: 5000 with buffered rounds (each of the eight rounds then has many
   /// tasks, none of them long), 20000 without.
   std::size_t final_tets_per_leaf = 0;
@@ -262,6 +271,7 @@ struct PdrProfile {
   std::size_t threads = 0;     ///< threads the run's parallel steps had (0: not recorded)
   // Counts.
   int depth = 0;
+  int requested_depth = -1;  ///< PdrPlan::requested_depth: the depth asked for when the run went shallower
   std::size_t initial_tets = 0;
   std::size_t leaf_count = 0;          ///< non-empty leaves of round one
   std::size_t interface_leaf_count = 0;
@@ -291,6 +301,9 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& checked_surface, const SizingField
 struct PdrPlan {
   double surface_h = 0;
   int depth = 0;
+  /// The depth asked for (PdrOptions::depth) when min_leaf_width made it
+  /// shallower, else -1.
+  int requested_depth = -1;
   /// The final tet count the plan expects (the estimate it was given, or the
   /// surface's volume over a regular tet of edge surface_h): run_pdr reserves
   /// room for it, so that the rounds grow the mesh's arrays in place.
