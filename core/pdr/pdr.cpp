@@ -58,17 +58,22 @@ constexpr double kRoomOverEstimate = 1.25;
 /// outgrows its room is copied whole by one thread, into memory that one
 /// thread first touches. Only room: where the memory is not to be had, v
 /// grows as it goes.
-template <class T>
-void reserve_room(std::vector<T>& v, std::size_t n) noexcept {
+template <class Vector>
+void reserve_room(Vector& v, std::size_t n) noexcept {
   try {
     v.reserve(n);
   } catch (const std::exception&) {  // std::bad_alloc, std::length_error
   }
 }
 
+/// The tets to make room for when a plan expects `tets`.
+std::size_t room_for(double tets) {
+  return static_cast<std::size_t>(std::clamp(tets * kRoomOverEstimate, 0.0, double{std::numeric_limits<Index>::max()}));
+}
+
 /// Room in `m` for the `tets` a plan expects and their points.
 void reserve_for(VolumeMesh& m, double tets) {
-  const auto n = static_cast<std::size_t>(std::clamp(tets * kRoomOverEstimate, 0.0, double{std::numeric_limits<Index>::max()}));
+  const std::size_t n = room_for(tets);
   reserve_room(m.tets, n);
   reserve_room(m.tet_regions, n);
   reserve_room(m.points, static_cast<std::size_t>(static_cast<double>(n) / kTetsPerPoint));
@@ -223,6 +228,9 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
   prof.initial_tets = initial.mesh.tets.size();
   VolumeMesh cur = std::move(initial.mesh);
   reserve_for(cur, plan.estimated_tets);
+  RoundScratch scratch;  // the rounds' copies of the tets of no task, room for the whole mesh
+  reserve_room(scratch.outside, room_for(plan.estimated_tets));
+  reserve_room(scratch.outside_leaf, room_for(plan.estimated_tets));
   if (options.resume != nullptr && cur.tet_regions.size() != cur.tets.size()) {
     return invalid_input("PDR checkpoint: its mesh has no leaf for each tet");
   }
@@ -311,7 +319,7 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
       prof.decomposition += seconds_since(td);
       RoundResult r;
       PDR_TRY(run_round(phase, cur, std::move(b.d), boundary, sizing, k, options, false, r,
-                        {.outside = &b.outside, .bad = &seeds}));
+                        {.scratch = &scratch, .outside = &b.outside, .bad = &seeds}));
       account(std::move(r));
       return {};
     });
@@ -363,7 +371,8 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
           done.insert(done.end(), b.d.leaves.begin(), b.d.leaves.end());
           RoundResult r;
           PDR_TRY(run_round("refinement", m, std::move(b.d), fb, sizing, kernel, options, false, r,
-                            {.outside = &b.outside,
+                            {.scratch = &scratch,
+                             .outside = &b.outside,
                              .cores = &b.cores,
                              .grid = &grid,
                              .sizes = &sz,
@@ -411,7 +420,11 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
           }
           RoundResult r;
           PDR_TRY(run_round("seeds", cur, std::move(b.d), boundary, sizing, kernel, options, false, r,
-                            {.outside = &b.outside, .cores = &b.cores, .grid = &seed_grid, .sizes = &sizes,
+                            {.scratch = &scratch,
+                             .outside = &b.outside,
+                             .cores = &b.cores,
+                             .grid = &seed_grid,
+                             .sizes = &sizes,
                              .seeds = &task_seeds}));
           account(std::move(r));
         }
@@ -536,7 +549,8 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
           RoundResult r;
           PDR_TRY(run_round("final optimization", sub.mesh, std::move(b.d), sub_boundary, sizing,
                             final_depth > 0 ? *options.optimize_kernel : *final_kernel, options, false, r,
-                            {.outside = &b.outside,
+                            {.scratch = &scratch,
+                             .outside = &b.outside,
                              .cores = &b.cores,
                              .grid = &grid,
                              .tets_beside = cur.tets.size() - sub.global_tets.size(),

@@ -210,8 +210,8 @@ void splice(VolumeMesh& cur, const std::vector<LeafId>& leaves, std::vector<Task
     bad->resize(tet_at[n]);
     detail::parallel_copy(outside_flags.bad.begin(), outside_flags.bad.end(), bad->begin());
   }
-  outside = {};
-  outside_leaf = {};
+  outside.clear();  // the run's scratch keeps its room for the next round
+  outside_leaf.clear();
   outside_flags = {};
   tbb::parallel_for(std::size_t{0}, n, [&](std::size_t l) {
     TaskResult& r = results[l];
@@ -267,8 +267,10 @@ Status run_round(std::string_view phase, VolumeMesh& cur, Decomposition d, const
   });
   // The tets of no task, gathered by parallel passes that also first touch
   // their memory (a round on a large mesh leaves most of it outside).
-  detail::UninitVector<Tet> outside;
-  detail::UninitVector<int> outside_leaf;
+  RoundScratch own;
+  RoundScratch& scratch = extras.scratch != nullptr ? *extras.scratch : own;
+  detail::UninitVector<Tet>& outside = scratch.outside;
+  detail::UninitVector<int>& outside_leaf = scratch.outside_leaf;
   if (extras.outside != nullptr) {
     const bool has_leaf = cur.tet_regions.size() == cur.tets.size();
     outside.resize(extras.outside->size());

@@ -47,7 +47,17 @@ struct Grid {
 /// selected tets and the others are kept as they are, after the task's tets.
 /// A buffered round (BufferedRound) gives tets to no leaf (kept as they are,
 /// before all others) and a core box to each task.
+/// Buffers as large as the mesh that a run's rounds reuse (the tets of no
+/// task and their leaves, gathered before the tasks and put back after
+/// them): allocated, and their pages first touched, once per run rather than
+/// once per round, and handed back to the system when the run ends.
+struct RoundScratch {
+  detail::UninitVector<Tet> outside;
+  detail::UninitVector<int> outside_leaf;
+};
+
 struct RoundExtras {
+  RoundScratch* scratch = nullptr;  ///< none: the round's own buffers
   const std::vector<char>* selected = nullptr;
   const detail::UninitVector<Index>* outside = nullptr;  ///< ascending
   const std::vector<Box>* cores = nullptr;      ///< per leaf
