@@ -26,22 +26,38 @@
 namespace pdrmesh::round_detail {
 
 void grow_selection(const VolumeMesh& m, std::vector<char>& flag, int layers) {
-  // A tet writes only its own flag and marks its points with atomic stores of
-  // the same value, so the result does not depend on the threads.
-  std::vector<char> touched(m.points.size());
-  for (int layer = 0; layer < layers; ++layer) {
-    std::fill(touched.begin(), touched.end(), 0);
+  if (layers <= 0) return;
+  // touched[v]: the layer whose pass first reached point v (the flagged
+  // tets' points: 1; 0: not yet). Pass L flags the tets with a point touched
+  // before it, and marks their untouched points L + 1. A store races only
+  // with stores of the same value and with loads that take 0 and L + 1
+  // alike (not before pass L + 1), so the result does not depend on the
+  // threads, and each layer costs one pass over the tets instead of two.
+  std::vector<std::uint16_t> touched(m.points.size(), 0);
+  tbb::parallel_for(std::size_t{0}, m.tets.size(), [&](std::size_t t) {
+    if (flag[t])
+      for (Index v : m.tets[t]) std::atomic_ref<std::uint16_t>(touched[v]).store(1, std::memory_order_relaxed);
+  });
+  for (int layer = 1; layer <= layers; ++layer) {
+    const auto before = static_cast<std::uint16_t>(std::min(layer, 65534));
+    const bool mark = layer < layers;
     tbb::parallel_for(std::size_t{0}, m.tets.size(), [&](std::size_t t) {
-      if (flag[t])
-        for (Index v : m.tets[t]) std::atomic_ref<char>(touched[v]).store(1, std::memory_order_relaxed);
-    });
-    tbb::parallel_for(std::size_t{0}, m.tets.size(), [&](std::size_t t) {
-      if (!flag[t])
-        for (Index v : m.tets[t]) flag[t] = static_cast<char>(flag[t] | touched[v]);
+      if (flag[t]) return;
+      bool near = false;
+      for (Index v : m.tets[t]) {
+        const std::uint16_t at = std::atomic_ref<std::uint16_t>(touched[v]).load(std::memory_order_relaxed);
+        near = near || (at != 0 && at <= before);
+      }
+      if (!near) return;
+      flag[t] = 1;
+      if (!mark) return;
+      for (Index v : m.tets[t]) {
+        std::atomic_ref<std::uint16_t> at(touched[v]);
+        if (at.load(std::memory_order_relaxed) == 0) at.store(static_cast<std::uint16_t>(before + 1), std::memory_order_relaxed);
+      }
     });
   }
 }
-
 
 std::vector<char> bad_tets(const VolumeMesh& m, const PdrOptions& options) {
   std::vector<char> bad(m.tets.size());
