@@ -138,8 +138,9 @@ std::optional<FarfieldOptions> FarfieldArgs::options() const {
 
 void RunOptionArgs::add_to(CLI::App* cmd) {
   add_number(cmd, "--depth", depth,
-             "octree depth (2^d leaves a side); default: chosen from the target size and the leaves the body "
-             "occupies; at most the depth whose leaves are 3 times the surface's spacing wide",
+             fmt::format("octree depth (2^d leaves a side); default: chosen from the target size and the leaves the "
+                         "body occupies; at most the depth whose leaves are {:g} times the surface's spacing wide",
+                         PdrOptions{}.min_leaf_width),
              kDepth);
   cmd->add_option("--kernel", kernel, "leaf kernel")->check(CLI::IsMember({"native", "tetgen"}))->capture_default_str();
   cmd->add_flag("--no-interface-round", no_interface_round, "with --kernel tetgen (leaf hulls frozen): skip the interface rounds over the grids shifted by half and a quarter leaf");

@@ -229,8 +229,9 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
   VolumeMesh cur = std::move(initial.mesh);
   reserve_for(cur, plan.estimated_tets);
   RoundScratch scratch;  // the rounds' copies of the tets of no task, room for the whole mesh
-  reserve_room(scratch.outside, room_for(plan.estimated_tets));
-  reserve_room(scratch.outside_leaf, room_for(plan.estimated_tets));
+  const std::size_t room = room_for(plan.estimated_tets);
+  reserve_room(scratch.outside, room);
+  reserve_room(scratch.outside_leaf, room);
   if (options.resume != nullptr && cur.tet_regions.size() != cur.tets.size()) {
     return invalid_input("PDR checkpoint: its mesh has no leaf for each tet");
   }
