@@ -522,6 +522,31 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
       // selection and its buffer as a sub-mesh (its hull unchanged), put back
       // into the mesh at the end: their scans cost what the selection does.
       const auto tg = Clock::now();
+      // Over more than one leaf, the rounds' cuts can leave a tet with no
+      // point on the surface outside the targets where two tasks' buffers
+      // met; such tets, if any, and their halo go to one more task with the
+      // one-task kernel (no cuts). Only the `swept` tets, the mesh's last ones
+      // (put_back), can be such tets: the others were not bad.
+      const auto leftovers = [&](std::size_t swept) -> Status {
+        const auto surface_points = static_cast<Index>(surface.points.size());
+        const std::size_t first = cur.tets.size() - swept;
+        std::vector<char> seeds(cur.tets.size(), 0);
+        tbb::parallel_for(first, cur.tets.size(), [&](std::size_t t) {
+          const Tet& k = cur.tets[t];
+          const bool interior = std::all_of(k.begin(), k.end(), [&](Index v) { return v >= surface_points; });
+          seeds[t] = interior ? is_bad(cur, k, options) : char{0};
+        });
+        if (std::find(seeds.begin() + static_cast<std::ptrdiff_t>(first), seeds.end(), char{1}) == seeds.end())
+          return {};
+        const auto td = Clock::now();
+        BufferedRound b = selected_round(cur, box1, 0, select_around(cur, seeds, options.optimize_halo));
+        prof.decomposition += seconds_since(td);
+        RoundResult r;
+        PDR_TRY(run_round("final optimization", cur, std::move(b.d), boundary, sizing, *final_kernel, options, false,
+                          r, {.scratch = &scratch, .outside = &b.outside}));
+        account(std::move(r));
+        return {};
+      };
       const auto sweep = [&]() -> Status {
         const Grid grid{box1, final_depth};
         auto td = Clock::now();
@@ -560,9 +585,11 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
           account(std::move(r));
         }
         td = Clock::now();
+        const std::size_t swept = sub.mesh.tets.size();
         put_back(cur, std::move(sub));
         bad_known = false;  // the tets moved: no later step reads the flags
         prof.merge += seconds_since(td);
+        if (final_depth > 0) PDR_TRY(leftovers(swept));
         return {};
       };
       PDR_TRY(step("final optimization", sweep));

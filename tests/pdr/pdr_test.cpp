@@ -57,6 +57,13 @@ const Sphere* sphere() {
   return s ? &*s : nullptr;
 }
 
+/// fandisk in a box 5 body lengths away (--farfield 5): the domain's surface.
+SurfaceMesh fandisk_in_a_box() {
+  Result<FarfieldDomain> domain = make_farfield(fixtures::corpus_surface("fandisk"), {5, FarfieldShape::kBox});
+  EXPECT_TRUE(domain.ok()) << domain.status().to_string();
+  return domain.ok() ? std::move(domain->surface) : SurfaceMesh{};
+}
+
 /// Valid against `s`; run_pdr's meshes hold the leaf of every tet, and
 /// mesh_parallel's (`pipeline`) none, the surface being one region.
 void expect_valid(const VolumeMesh& m, const SurfaceMesh& s, bool pipeline = false) {
@@ -416,8 +423,9 @@ TEST(Pdr, TheFinalOptimizationRunsAsBufferedTasksOnACoarserGrid) {
   // sphere966 at depth 5 with the real refiner and optimizer: the final pass
   // goes in two sweeps of colour rounds over the depth-3 grid (two levels
   // coarser), each task a leaf's selected tets with a buffer around them, and
-  // no task gets the whole mesh's selection; the result is valid and the same
-  // for any workers.
+  // no task gets the whole mesh's selection (the one task after the rounds,
+  // if any, gets only the interior tets they left outside the targets, with
+  // their halo); the result is valid and the same for any workers.
   const Sphere* sp = sphere();
   ASSERT_NE(sp, nullptr) << "sphere966.mesh not readable";
   const std::unique_ptr<LeafKernel> kernel = make_leaf_kernel("native").value();
@@ -433,18 +441,27 @@ TEST(Pdr, TheFinalOptimizationRunsAsBufferedTasksOnACoarserGrid) {
   Result<VolumeMesh> one = run_pdr(sp->surface, *sp->sizing, *kernel, o, &prof);
   ASSERT_TRUE(one.ok()) << one.status().to_string();
   expect_valid(*one, sp->surface);
-  std::size_t final_rounds = 0, final_tasks = 0, final_sent = 0;
+  std::size_t final_rounds = 0, final_tasks = 0, final_sent = 0, swept_sent = 0, leftover_rounds = 0,
+              leftover_sent = 0;
   for (const RoundRecord& r : prof.rounds) {
     if (r.name != "final optimization") continue;
+    if (r.depth == 0) {  // the rounds' leftovers
+      ++leftover_rounds;
+      leftover_sent = r.tets_sent;
+      continue;
+    }
     ++final_rounds;
     final_tasks += r.leaves.size();
     final_sent = std::max(final_sent, r.tets_sent);
+    swept_sent += r.tets_sent;
     EXPECT_EQ(r.depth, 3);
     EXPECT_LT(r.tets_sent, r.tets) << "a round got every tet of the mesh";
   }
   EXPECT_GT(final_rounds, 8u) << "two sweeps of colour rounds";
   EXPECT_GT(final_tasks, final_rounds) << "several tasks a round";
   EXPECT_GT(final_sent, 0u);
+  EXPECT_LE(leftover_rounds, 1u);
+  EXPECT_LT(leftover_sent, swept_sent / 4) << "the leftovers' task against the rounds' selections";
   o.workers = 3;
   Result<VolumeMesh> three = run_pdr(sp->surface, *sp->sizing, *kernel, o, nullptr);
   ASSERT_TRUE(three.ok()) << three.status().to_string();
@@ -902,6 +919,37 @@ TEST(Pdr, AFarFieldOneDepthDeeperKeepsTheSerialTetCount) {
                                 << serial->mesh.tets.size() << " serial";
 }
 
+TEST(Pdr, TheOptimizationRoundsLeaveNoInteriorTetOutsideTheTargets) {
+  // fandisk in a box 5 body lengths away at depth 5: the final optimization
+  // runs in rounds over a grid two levels up, each task's hull frozen, and
+  // left one tet with no point on the surface outside [15, 150] degrees
+  // (6.3 / 169.8) where two tasks' buffers met, until the rounds' leftovers
+  // got one more task without cuts.
+  const SurfaceMesh domain = fandisk_in_a_box();
+  ASSERT_FALSE(domain.triangles.empty());
+  ParallelOptions o;
+  o.pdr.workers = 2;
+  o.pdr.depth = 5;
+  Result<ParallelResult> run = mesh_parallel(domain, o);
+  ASSERT_TRUE(run.ok()) << run.status().to_string();
+  expect_valid(run->mesh, domain, true);
+  int final_rounds = 0;
+  for (const RoundRecord& r : run->profile.rounds)
+    if (r.name == "final optimization" && r.depth > 0) ++final_rounds;
+  EXPECT_GT(final_rounds, 1) << "the final optimization ran as one task";
+  const VolumeMesh& m = run->mesh;
+  const auto surface_points = static_cast<Index>(domain.points.size());
+  const DihedralBounds targets(15.0, 150.0);
+  std::size_t interior = 0, outside = 0;
+  for (const Tet& k : m.tets) {
+    if (std::any_of(k.begin(), k.end(), [&](Index v) { return v < surface_points; })) continue;
+    ++interior;
+    if (targets.outside(m.points[k[0]], m.points[k[1]], m.points[k[2]], m.points[k[3]])) ++outside;
+  }
+  EXPECT_GT(interior, 10000u);
+  EXPECT_EQ(outside, 0u) << "of " << interior << " interior tets";
+}
+
 TEST(Pdr, DeepGridsKeepTheSeedsTheirRoundsInsert) {
   // sphere966 at 4% of its diagonal: at depth 4 the seed lattice is wider
   // than a leaf one level up, so the seed rounds' leaves must be coarser
@@ -1075,9 +1123,8 @@ TEST(Pdr, AResumedFarFieldJobKeepsItsPlannedGrid) {
   // A default depth planned from the estimate (fandisk 5 body lengths inside
   // a box: depth 2, where the volume over a tet of the surface's spacing says
   // 4): a run resumed from its first checkpoint goes on over the same grid.
-  const SurfaceMesh fandisk = fixtures::corpus_surface("fandisk");
-  Result<FarfieldDomain> domain = make_farfield(fandisk, {5, FarfieldShape::kBox});
-  ASSERT_TRUE(domain.ok()) << domain.status().to_string();
+  const SurfaceMesh domain = fandisk_in_a_box();
+  ASSERT_FALSE(domain.triangles.empty());
   ParallelOptions o;
   o.pdr.workers = 2;
   std::optional<std::string> first;
@@ -1085,16 +1132,16 @@ TEST(Pdr, AResumedFarFieldJobKeepsItsPlannedGrid) {
     if (!first) first = c.encode();
     return Status{};
   };
-  Result<ParallelResult> whole = mesh_parallel(domain->surface, o);
+  Result<ParallelResult> whole = mesh_parallel(domain, o);
   ASSERT_TRUE(whole.ok()) << whole.status().to_string();
-  expect_valid(whole->mesh, domain->surface, true);
+  expect_valid(whole->mesh, domain, true);
   EXPECT_EQ(whole->profile.depth, 2);
   ASSERT_TRUE(first.has_value());
   Result<PdrCheckpoint> c = PdrCheckpoint::decode(*first);
   ASSERT_TRUE(c.ok()) << c.status().to_string();
   o.pdr.checkpoint = nullptr;
   o.pdr.resume = &*c;
-  Result<ParallelResult> resumed = mesh_parallel(domain->surface, o);
+  Result<ParallelResult> resumed = mesh_parallel(domain, o);
   ASSERT_TRUE(resumed.ok()) << resumed.status().to_string();
   EXPECT_EQ(resumed->profile.depth, 2);
   EXPECT_EQ(meshb_bytes(resumed->mesh, "pdr_resume_farfield"), meshb_bytes(whole->mesh, "pdr_whole_farfield"));
