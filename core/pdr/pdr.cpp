@@ -309,21 +309,25 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
     bad_known = true;
     return bad;
   };
-  /// An optimization round: only the bad tets and their optimize_halo layers
-  /// go to tasks, the others stay where they are (selected_round), and only
-  /// the tasks' tets get the round's leaves (no later step reads the leaf of a tet).
+  /// An optimization round: only the `seeds`' tets and their optimize_halo
+  /// layers go to tasks, the others stay where they are (selected_round), and
+  /// only the tasks' tets get the round's leaves (no later step reads the leaf
+  /// of a tet). With `keep`, the tasks keep `seeds` up to date for the next
+  /// round (they test only the tets they made).
+  const auto optimize_around = [&](std::string_view phase, const Box& box, int round_depth, const LeafKernel& k,
+                                   std::vector<char>& seeds, bool keep) -> Status {
+    const auto td = Clock::now();
+    BufferedRound b = selected_round(cur, box, round_depth, select_around(cur, seeds, options.optimize_halo));
+    prof.decomposition += seconds_since(td);
+    RoundResult r;
+    PDR_TRY(run_round(phase, cur, std::move(b.d), boundary, sizing, k, options, false, r,
+                      {.scratch = &scratch, .outside = &b.outside, .bad = keep ? &seeds : nullptr}));
+    account(std::move(r));
+    return {};
+  };
+  /// optimize_around the mesh's bad tets, as one checkpointed step.
   const auto selected_step = [&](std::string_view phase, const Box& box, int round_depth, const LeafKernel& k) -> Status {
-    return step(phase, [&]() -> Status {
-      const auto td = Clock::now();
-      std::vector<char>& seeds = bad_now();
-      BufferedRound b = selected_round(cur, box, round_depth, select_around(cur, seeds, options.optimize_halo));
-      prof.decomposition += seconds_since(td);
-      RoundResult r;
-      PDR_TRY(run_round(phase, cur, std::move(b.d), boundary, sizing, k, options, false, r,
-                        {.scratch = &scratch, .outside = &b.outside, .bad = &seeds}));
-      account(std::move(r));
-      return {};
-    });
+    return step(phase, [&]() -> Status { return optimize_around(phase, box, round_depth, k, bad_now(), true); });
   };
 
   const auto refinement = [&]() -> Status {
@@ -538,14 +542,7 @@ Result<VolumeMesh> run_pdr(const SurfaceMesh& surface, const SizingField& sizing
         });
         if (std::find(seeds.begin() + static_cast<std::ptrdiff_t>(first), seeds.end(), char{1}) == seeds.end())
           return {};
-        const auto td = Clock::now();
-        BufferedRound b = selected_round(cur, box1, 0, select_around(cur, seeds, options.optimize_halo));
-        prof.decomposition += seconds_since(td);
-        RoundResult r;
-        PDR_TRY(run_round("final optimization", cur, std::move(b.d), boundary, sizing, *final_kernel, options, false,
-                          r, {.scratch = &scratch, .outside = &b.outside}));
-        account(std::move(r));
-        return {};
+        return optimize_around("final optimization", box1, 0, *final_kernel, seeds, false);
       };
       const auto sweep = [&]() -> Status {
         const Grid grid{box1, final_depth};
