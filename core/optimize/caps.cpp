@@ -15,13 +15,13 @@ std::size_t Optimizer::repair_caps(bool relaxed) {
   if (sizing_ == nullptr || !o_.insert_points) return 0;
   // The surface triangles (TetMesh::boundary() with a non-zero id, or all
   // when there are no ids; not a leaf's interface), as sorted keys.
-  if (!surface_keys_known_) {
-    surface_keys_known_ = true;
+  if (!s_.surface_keys_known) {
+    s_.surface_keys_known = true;
     for (std::size_t i = 0; i < m_.boundary().size(); ++i)
-      if (surface_triangle(i)) surface_keys_.push_back(topo::sorted_key(m_.boundary()[i]));
-    std::sort(surface_keys_.begin(), surface_keys_.end());
+      if (surface_triangle(i)) s_.surface_keys.push_back(topo::sorted_key(m_.boundary()[i]));
+    std::sort(s_.surface_keys.begin(), s_.surface_keys.end());
   }
-  const std::vector<Tri>& surface = surface_keys_;
+  const std::vector<Tri>& surface = s_.surface_keys;
   find_fixed();
   // Worst first (the smaller of the smallest dihedral angle and 180 - the
   // largest; ties in slot order): a cavity may swallow a worse cap next to
@@ -175,12 +175,12 @@ bool Optimizer::cap_angles_rise(const Vec3& x, std::span<const Index> cavity, in
 }
 
 /// Whether x lies at least kCapMinSpacing times h(x) from every point of
-/// link_ that is not on the surface (surface_; new points are not).
+/// link_ that is not on the surface (s_.surface; new points are not).
 bool Optimizer::cap_spaced(const Vec3& x) const {
   const double reach = kCapMinSpacing * size_at(x);
   for (const Tri& f : link_)
     for (Index v : f)
-      if ((v >= surface_.size() || surface_[v] == 0) && norm(m_.point(v) - x) < reach) return false;
+      if ((v >= s_.surface.size() || s_.surface[v] == 0) && norm(m_.point(v) - x) < reach) return false;
   return true;
 }
 

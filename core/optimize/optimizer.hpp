@@ -1,8 +1,10 @@
 // SPDX-License-Identifier: AGPL-3.0-or-later
-// The optimizer's working state (private to core/optimize): class Optimizer, whose
-// passes live one family to a file (state.cpp, reconnect.cpp, slivers.cpp, smooth.cpp,
-// repair.cpp, caps.cpp, polish.cpp, size_polish.cpp), and the geometric helpers they share.
-// optimize.cpp runs the passes in order (see optimize.hpp).
+// The optimizer's working state (private to core/optimize): OptimizerState, what one
+// optimization knows of its mesh, and class Optimizer, whose passes live one family to a
+// file (state.cpp, reconnect.cpp, slivers.cpp, smooth.cpp, repair.cpp, caps.cpp,
+// polish.cpp, size_polish.cpp; moves.hpp runs their point moves, side by side where
+// allowed), and the geometric helpers they share. optimize.cpp runs the passes in order
+// (see optimize.hpp).
 #pragma once
 
 #include <oneapi/tbb/blocked_range.h>
@@ -15,6 +17,7 @@
 #include <cstdint>
 #include <iterator>
 #include <limits>
+#include <memory>
 #include <optional>
 #include <span>
 #include <tuple>
@@ -266,8 +269,66 @@ inline double smallest_angle(const Vec3& a, const Vec3& b, const Vec3& c) {
   return std::min({at(a, b, c), at(b, c, a), at(c, a, b)});
 }
 
-/// One optimization run over a mesh: the passes that optimize() calls in turn, and the
-/// state they share (scratch buffers, the bad-tet list, what is known of each tet).
+/// What one optimization knows of its mesh, shared by the optimizer that
+/// holds it and its hands (Optimizer's second constructor), which run point
+/// moves side by side (Optimizer::smooth).
+struct OptimizerState {
+  explicit OptimizerState(Index points) : first_new_point(points) {}
+  std::vector<char> fixed;    ///< per point, set by find_fixed(): on a frozen, hull or region face
+  std::vector<char> surface;  ///< per point, set by find_fixed(): on a surface triangle
+  bool fixed_known = false;   ///< find_fixed() has run once
+  /// Per point: moved by the optimization (move_point); the points from
+  /// first_new_point on were inserted by it. The size polish looks at their
+  /// edges only (h costs a few microseconds a point on a graded field, and
+  /// most of a large mesh is as the refiner left it).
+  std::vector<char> moved;
+  Index first_new_point;
+  std::vector<Index> moved_list;  ///< the points of moved, in the order first moved
+  /// Per slot: 1 + the Badness of the tet while known, 0 when unknown. Cleared
+  /// for every tet an operation creates (a reused slot included) and for the
+  /// star of a moved point, so a known entry of an alive tet is always current
+  /// (the full-mesh scans of each sweep then evaluate only what changed).
+  std::vector<unsigned char> known;
+  /// bad_tets(): the bad live tets in slot order when it last ran, and the
+  /// slots touched since.
+  std::vector<Index> bad, touched;
+  bool bad_known = false;
+  RangeTree range;  ///< angles()
+  bool range_built = false;
+  /// any_tet(): per point, a live tet that held it when last set.
+  std::vector<Index> any_tet;
+  bool any_known = false;
+  std::vector<Tri> surface_keys;  ///< repair_caps: the surface triangles, sorted keys
+  bool surface_keys_known = false;
+  /// The work queue's memory. clock counts the tets touched (touch); stamp
+  /// holds per point the clock when a tet holding it was last created or
+  /// moved. A failed attempt notes the clock (Failures::at, per slot or
+  /// point); it is not made again while no point of its tet (or the point
+  /// itself, whose star holds every tet it reads) has a later stamp and the
+  /// parameters are the same: it would fail again, so rounds cost what
+  /// changed since the last one, not what is bad.
+  /// (A map, as few slots or points ever fail; it is only looked up, never walked.)
+  struct Failures {
+    std::unordered_map<Index, std::uint64_t> at;  ///< slot or point -> the clock at its failure
+    std::uint64_t from = 0;  ///< failures before this clock were under other parameters
+    AttemptKey key{};
+  };
+  std::array<Failures, kAttempts> failed{};
+  std::vector<std::uint64_t> stamp;
+  std::uint64_t clock = 1;
+};
+
+/// What a hand's move_point leaves to the optimizer that holds the state: the
+/// point it moved and the tets of its star, in star order (Optimizer::note_moved).
+struct MoveNote {
+  Index point = kNoIndex;
+  std::vector<Index> tets;
+};
+
+/// One optimization run over a mesh: the passes that optimize() calls in turn and the
+/// scratch of one local operation. The state the passes share (the bad-tet list, what is
+/// known of each tet and point) is an OptimizerState, held by this optimizer and shared
+/// with its hands (the second constructor), which move points side by side (moves.hpp).
 class Optimizer {
  public:
   Optimizer(TetMesh& mesh, const SizingField* sizing, const OptimizeOptions& o, OptimizeStats& st)
@@ -276,7 +337,23 @@ class Optimizer {
         o_(o),
         st_(st),
         acute_(inverse_sine(o.target_min_dihedral)),
-        obtuse_(inverse_sine(180.0 - o.target_max_dihedral)) {}
+        obtuse_(inverse_sine(180.0 - o.target_max_dihedral)),
+        own_(std::make_unique<OptimizerState>(mesh.num_points())),
+        s_(*own_) {}
+
+  /// A hand of `holder`: its own scratch and stats, the holder's mesh and
+  /// state. A hand runs smooth_vertex only, on points whose stars no other
+  /// hand reads at the same time, and its move_point writes the point and
+  /// forgets its star's badness, leaving the rest to the holder (note_moved).
+  Optimizer(Optimizer& holder, OptimizeStats& st, MoveNote& note)
+      : m_(holder.m_),
+        sizing_(holder.sizing_),
+        o_(holder.o_),
+        st_(st),
+        acute_(holder.acute_),
+        obtuse_(holder.obtuse_),
+        s_(holder.s_),
+        note_(&note) {}
 
   /// The quality that smoothing and insertion raise: min_sine scaled to the
   /// targets (>= 1 for a good tet).
@@ -428,7 +505,7 @@ class Optimizer {
     return x;
   }
 
-  bool off_surface(Index v) const { return v >= surface_.size() || surface_[v] == 0; }
+  bool off_surface(Index v) const { return v >= s_.surface.size() || s_.surface[v] == 0; }
 
   /// The compass search of the angle and margin polish: v moves to the
   /// position y that compass_search finds where no edge bound (edge_bounds_,
@@ -476,6 +553,8 @@ class Optimizer {
   void gather_link_points();
   void gather_link(Index v, Index start);
   void move_point(Index v, const Vec3& x);
+  void note_moved(const MoveNote& note);
+  void mark_moved(Index v);
   static bool within(const AngleRange& r, const AngleRange& bounds);
   bool surface_triangle(std::size_t i) const;
   bool kept_face(Index t, int f) const;
@@ -510,6 +589,18 @@ class Optimizer {
   std::optional<double> link_measure(std::size_t i, const Vec3& x) const;
   void bound_edge_sizes(const Vec3& old);
   Outcome smooth_vertex(Index v, Index start, const SmoothRule& rule);
+  void bad_star_points(std::vector<Index>& next) const;
+
+  // moves.hpp
+  template <class Move, class After>
+  std::size_t move_points(std::span<const Index> todo, Attempt kind, bool tallied, Move&& move, After&& after,
+                          std::vector<Index>& out);
+  /// move_points for a pass that wants nothing of the moved stars.
+  template <class Move>
+  std::size_t move_points(std::span<const Index> todo, Attempt kind, Move&& move) {
+    std::vector<Index> none;
+    return move_points(todo, kind, false, std::forward<Move>(move), [](Optimizer&, std::vector<Index>&) {}, none);
+  }
 
   // repair.cpp
   double measured(const Tet& k) const;
@@ -562,14 +653,16 @@ class Optimizer {
   const OptimizeOptions& o_;
   OptimizeStats& st_;
   const double acute_, obtuse_;  ///< measure()'s scales
+  std::unique_ptr<OptimizerState> own_;  ///< the state, in the optimizer that holds it (null in a hand)
+  OptimizerState& s_;
+  /// In a hand (parallel moves): where move_point notes what it leaves to
+  /// the holder (MoveNote); null in the holder.
+  MoveNote* note_ = nullptr;
   std::vector<Index> queue_;
   std::vector<std::pair<Index, int>> star_;
   std::vector<Tri> link_;  ///< faces of the star being optimised, turned towards its apex
   std::vector<Index> link_points_;
   std::vector<double> measures_old_, measures_new_;  ///< smoothing scratch
-  std::vector<char> fixed_;     ///< per point, set by find_fixed(): on a frozen, hull or region face
-  std::vector<char> surface_;   ///< per point, set by find_fixed(): on a surface triangle
-  bool fixed_known_ = false;    ///< find_fixed() has run once
   std::vector<Tet> fresh_;      ///< scratch: the new tets of a removal, collapse or split
   std::vector<Index> removal_star_;     ///< remove_point: the star of the point
   std::vector<Index> removal_targets_;  ///< remove_point: its link points
@@ -581,12 +674,6 @@ class Optimizer {
   std::size_t last_failed_ = 0;  ///< smoothing_accepts: the link_ face whose tet failed the last trial
   std::vector<EdgeBound> edge_bounds_;
   std::vector<SizeEdge> size_edges_;
-  /// Per point: moved by the optimization (move_point); the points from
-  /// first_new_point_ on were inserted by it. The size polish looks at their
-  /// edges only (h costs a few microseconds a point on a graded field, and
-  /// most of a large mesh is as the refiner left it).
-  std::vector<char> moved_;
-  Index first_new_point_ = m_.num_points();
   /// Angle and margin polish: per link_ face, the angles (degrees) accepted
   /// (the margin polish reads them for the tets with a surface point only).
   std::vector<AngleRange> polish_bounds_;
@@ -594,41 +681,9 @@ class Optimizer {
   std::vector<LongEdge> long_edges_;  ///< polish_sizes' long edges off the surface
   std::size_t flips_this_sweep_ = 0;
   std::size_t flip_budget_ = 0;
-  /// Per slot: 1 + the Badness of the tet while known, 0 when unknown. Cleared
-  /// for every tet an operation creates (a reused slot included) and for the
-  /// star of a moved point, so a known entry of an alive tet is always current
-  /// (the full-mesh scans of each sweep then evaluate only what changed).
-  mutable std::vector<unsigned char> known_;
-  /// bad_tets(): the bad live tets in slot order when it last ran, and the
-  /// slots touched since.
-  std::vector<Index> bad_, touched_;
-  bool bad_known_ = false;
-  RangeTree range_;  ///< angles()
-  bool range_built_ = false;
-  /// any_tet(): per point, a live tet that held it when last set.
-  std::vector<Index> any_tet_;
-  bool any_known_ = false;
   std::vector<Index> walk_;          ///< first_tet's scratch
   std::vector<char> marks_;          ///< polish_margins: per point, wanted or in the ring
-  std::vector<Index> moved_list_;    ///< the points of moved_, in the order first moved
-  std::vector<Tri> surface_keys_;    ///< repair_caps: the surface triangles, sorted keys
-  bool surface_keys_known_ = false;
-  /// The work queue's memory. clock_ counts the tets touched (touch); stamp_
-  /// holds per point the clock when a tet holding it was last created or
-  /// moved. A failed attempt notes the clock (Failures::at, per slot or
-  /// point); it is not made again while no point of its tet (or the point
-  /// itself, whose star holds every tet it reads) has a later stamp and the
-  /// parameters are the same: it would fail again, so rounds cost what
-  /// changed since the last one, not what is bad.
-  /// (A map, as few slots or points ever fail; it is only looked up, never walked.)
-  struct Failures {
-    std::unordered_map<Index, std::uint64_t> at;  ///< slot or point -> the clock at its failure
-    std::uint64_t from = 0;  ///< failures before this clock were under other parameters
-    AttemptKey key{};
-  };
-  std::array<Failures, kAttempts> failed_{};
-  std::vector<std::uint64_t> stamp_;
-  std::uint64_t clock_ = 1;
+  std::vector<Index> claims_;        ///< move_points: per point, the window place that claims it
 };
 
 /// The interior repair's criterion (repair rounds): a new tet scores its

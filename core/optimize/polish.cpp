@@ -2,7 +2,7 @@
 // Angle and margin polish: compass searches of free points that raise their stars'
 // smallest angle, or their bad tets' margin to the targets, where every tet stays
 // positive and within its bounds, so that no extreme of the mesh gets worse.
-#include "optimizer.hpp"
+#include "moves.hpp"
 
 namespace pdrmesh::optimize_detail {
 
@@ -19,15 +19,10 @@ std::size_t Optimizer::polish_angles() {
   }
   std::sort(wanted.begin(), wanted.end());
   wanted.erase(std::unique(wanted.begin(), wanted.end()), wanted.end());
-  std::size_t moved = 0;
-  for (Index v : wanted) {
-    if ((v < fixed_.size() && fixed_[v]) || failed_before(Attempt::kAngle, v)) continue;
-    if (polish_point(v, first_tet(v))) {
-      ++moved;
-    } else {
-      remember_failure(Attempt::kAngle, v);
-    }
-  }
+  std::erase_if(wanted, [this](Index v) { return v < s_.fixed.size() && s_.fixed[v]; });
+  const std::size_t moved = move_points(wanted, Attempt::kAngle, [](Optimizer& opt, Index v, Index start) {
+    return opt.polish_point(v, start) ? Outcome::kDone : Outcome::kNotBetter;
+  });
   st_.points_moved += moved;
   return moved;
 }
@@ -60,13 +55,13 @@ std::size_t Optimizer::polish_margins(double end, bool extremes, int layers) {
     const AngleRange mesh = angles();  // the extremes as the round begins
     attempt_key(Attempt::kMargin, {end, extremes ? 1.0 : 0.0, mesh.min, mesh.max});
     attempt_key(Attempt::kRing, {end, extremes ? 1.0 : 0.0, mesh.min, mesh.max});
-    // A point's move, unless it failed before with nothing changed around it.
-    const auto move = [&](Index v, bool ring) {
-      const Attempt a = ring ? Attempt::kRing : Attempt::kMargin;
-      if (failed_before(a, v)) return false;
-      if (margin_point(v, first_tet(v), end, ring, extremes, mesh)) return true;
-      remember_failure(a, v);
-      return false;
+    // The moves of the ring's points, then of the wanted ones (move_points).
+    const auto moves = [&](std::span<const Index> points, bool ring) {
+      return move_points(points, ring ? Attempt::kRing : Attempt::kMargin,
+                         [&](Optimizer& opt, Index v, Index start) {
+                           return opt.margin_point(v, start, end, ring, extremes, mesh) ? Outcome::kDone
+                                                                                         : Outcome::kNotBetter;
+                         });
     };
     // The ring: the free points of the links of the free wanted points that
     // are not wanted themselves; each deeper layer, those of the links of the
@@ -76,13 +71,13 @@ std::size_t Optimizer::polish_margins(double end, bool extremes, int layers) {
       gather_link(v, any_tet(v));
       for (const Tri& f : link_)
         for (Index u : f)
-          if (marks_[u] == 0 && !fixed_[u]) {
+          if (marks_[u] == 0 && !s_.fixed[u]) {
             marks_[u] = 2;
             out.push_back(u);
           }
     };
     for (Index v : wanted)
-      if (!fixed_[v]) visit(v, ring);
+      if (!s_.fixed[v]) visit(v, ring);
     layer = ring;
     for (int depth = 1; depth < layers && !layer.empty(); ++depth) {
       next.clear();
@@ -91,12 +86,10 @@ std::size_t Optimizer::polish_margins(double end, bool extremes, int layers) {
       std::swap(layer, next);
     }
     std::sort(ring.begin(), ring.end());
-    std::size_t now = 0;
-    for (Index v : ring)
-      if (move(v, /*ring=*/true)) ++now;
-    for (Index v : wanted)
-      if (!fixed_[v] && move(v, /*ring=*/false)) ++now;
+    std::size_t now = moves(ring, /*ring=*/true);
     for (Index v : wanted) marks_[v] = 0;
+    std::erase_if(wanted, [this](Index v) { return s_.fixed[v] != 0; });
+    now += moves(wanted, /*ring=*/false);
     for (Index v : ring) marks_[v] = 0;
     moved += now;
     if (now == 0) break;

@@ -72,13 +72,13 @@ double Optimizer::measured(const Tet& k) const {
   return measure(p);
 }
 
-/// The class of tet k (TetClass) by surface_ and fixed_ (kNoIndex, a point
+/// The class of tet k (TetClass) by s_.surface and s_.fixed (kNoIndex, a point
 /// not made yet, counts as free).
 TetClass Optimizer::tet_class(const Tet& k) const {
   TetClass c = TetClass::kInterior;
   for (Index v : k) {
-    if (v < surface_.size() && surface_[v] != 0) return TetClass::kSurface;
-    if (v < fixed_.size() && fixed_[v] != 0) c = TetClass::kFrozen;
+    if (v < s_.surface.size() && s_.surface[v] != 0) return TetClass::kSurface;
+    if (v < s_.fixed.size() && s_.fixed[v] != 0) c = TetClass::kFrozen;
   }
   return c;
 }
@@ -168,7 +168,7 @@ Outcome Optimizer::remove_point(Index t, Criterion& criterion) {
   const Tet k = m_.tet(t);
   Outcome why = Outcome::kConstrained;
   for (Index v : k) {
-    if ((v < fixed_.size() && fixed_[v] != 0) || !gather_star(v, t, kRemovalMaxStar)) continue;
+    if ((v < s_.fixed.size() && s_.fixed[v] != 0) || !gather_star(v, t, kRemovalMaxStar)) continue;
     why = Outcome::kNotBetter;
     removal_star_.clear();
     for (const auto& [s, lv] : star_) removal_star_.push_back(s);
@@ -215,7 +215,7 @@ Outcome Optimizer::collapse_edge(Index t, Criterion& criterion) {
   Outcome why = Outcome::kConstrained;
   for (int e = 0; e < 6; ++e) {
     const Index v = k[topo::kEdgeVertex[e][0]], w = k[topo::kEdgeVertex[e][1]];
-    if ((v < fixed_.size() && fixed_[v] != 0) || (w < fixed_.size() && fixed_[w] != 0)) continue;
+    if ((v < s_.fixed.size() && s_.fixed[v] != 0) || (w < s_.fixed.size() && s_.fixed[w] != 0)) continue;
     if (!gather_star(v, t, kRemovalMaxStar)) continue;
     removal_star_.clear();
     fresh_.clear();

@@ -2,7 +2,7 @@
 // Size polish: edges off the surface brought back within [kShortEdge, kLongEdge] h by
 // flips, splits and point moves, each taken only where no new tet leaves its angle
 // bounds and no edge is pushed out of the band.
-#include "optimizer.hpp"
+#include "moves.hpp"
 
 namespace pdrmesh::optimize_detail {
 
@@ -15,7 +15,7 @@ namespace pdrmesh::optimize_detail {
 /// points of all of them and the new points, ascending, are moved by
 /// size_point. Returns the moves.
 std::size_t Optimizer::polish_sizes(bool room) {
-  const auto touched = [this](Index v) { return v >= first_new_point_ || (v < moved_.size() && moved_[v] != 0); };
+  const auto touched = [this](Index v) { return v >= s_.first_new_point || (v < s_.moved.size() && s_.moved[v] != 0); };
   std::vector<double> h(m_.num_points(), -1.0);
   const auto h_at = [&](Index v) {
     if (h[v] < 0.0) h[v] = size_at(m_.point(v));
@@ -34,10 +34,10 @@ std::size_t Optimizer::polish_sizes(bool room) {
     // The tets with an edge to check: those of the touched points off the
     // surface (free points, whose stars the walks find whole), in slot order.
     std::vector<Index> tets;
-    for (Index v : moved_list_)
-      if (surface_[v] == 0) star_tets(v, tets);
-    for (Index v = first_new_point_; v < np; ++v)
-      if (surface_[v] == 0) star_tets(v, tets);
+    for (Index v : s_.moved_list)
+      if (s_.surface[v] == 0) star_tets(v, tets);
+    for (Index v = s_.first_new_point; v < np; ++v)
+      if (s_.surface[v] == 0) star_tets(v, tets);
     std::sort(tets.begin(), tets.end());
     tets.erase(std::unique(tets.begin(), tets.end()), tets.end());
     std::vector<Index> wanted;
@@ -46,7 +46,7 @@ std::size_t Optimizer::polish_sizes(bool room) {
       const Tet& k = m_.tet(t);
       for (int e = 0; e < 6; ++e) {
         const Index a = k[topo::kEdgeVertex[e][0]], b = k[topo::kEdgeVertex[e][1]];
-        if (surface_[a] != 0 || surface_[b] != 0 || !(touched(a) || touched(b))) continue;
+        if (s_.surface[a] != 0 || s_.surface[b] != 0 || !(touched(a) || touched(b))) continue;
         const Vec3 d = m_.point(a) - m_.point(b);
         const double mean = 0.5 * (h_at(a) + h_at(b)), l2 = dot(d, d);
         if (l2 > kLongEdge * kLongEdge * mean * mean) long_edges_.push_back({std::min(a, b), std::max(a, b), t, e});
@@ -70,15 +70,10 @@ std::size_t Optimizer::polish_sizes(bool room) {
     for (Index v = np; v < m_.num_points(); ++v) wanted.push_back(v);  // new: their edges may be out of the band
     std::sort(wanted.begin(), wanted.end());
     wanted.erase(std::unique(wanted.begin(), wanted.end()), wanted.end());
-    std::size_t now = 0;
-    for (Index v : wanted) {
-      if (fixed_[v] != 0 || failed_before(Attempt::kSize, v)) continue;
-      if (size_point(v, first_tet(v), bounds)) {
-        ++now;
-      } else {
-        remember_failure(Attempt::kSize, v);
-      }
-    }
+    std::erase_if(wanted, [this](Index v) { return s_.fixed[v] != 0; });
+    const std::size_t now = move_points(wanted, Attempt::kSize, [&bounds](Optimizer& opt, Index v, Index start) {
+      return opt.size_point(v, start, bounds) ? Outcome::kDone : Outcome::kNotBetter;
+    });
     moved += now;
     if (now + flipped + split == 0) break;
   }
@@ -243,7 +238,7 @@ bool Optimizer::size_point(Index v, Index start, const SizeBounds& bounds) {
   const Vec3 old = m_.point(v);
   size_edges_.clear();
   for (Index u : link_points_)
-    if (u >= surface_.size() || surface_[u] == 0)
+    if (u >= s_.surface.size() || s_.surface[u] == 0)
       size_edges_.push_back({u, size_at(0.5 * (old + m_.point(u)))});
   std::pair<std::size_t, double> best = size_excess(old);
   if (best.first == 0) return false;

@@ -2,7 +2,7 @@
 // Smoothing: each free point of a bad tet moved (line search towards ideal positions,
 // then a compass search) to raise its star's worst measure; a move is taken only where
 // no tet of the star gets worse than the rules allow and every tet stays positive.
-#include "optimizer.hpp"
+#include "moves.hpp"
 
 namespace pdrmesh::optimize_detail {
 
@@ -10,13 +10,12 @@ namespace pdrmesh::optimize_detail {
 /// rule.interior_only, of the bad tets with no fixed point), ascending.
 std::size_t Optimizer::smooth(const SmoothRule& rule) {
   find_fixed();
-  const std::vector<char>& fixed = fixed_;
   std::vector<Index> bad = bad_tets();
   if (rule.interior_only) bad = interior(bad);
   std::vector<Index> todo, next;
   for (Index t : bad)
     for (Index v : m_.tet(t))
-      if (!fixed[v]) todo.push_back(v);
+      if (!s_.fixed[v]) todo.push_back(v);
   std::sort(todo.begin(), todo.end());
   todo.erase(std::unique(todo.begin(), todo.end()), todo.end());
   // Passes over the free vertices of bad tets, ascending; the next pass takes
@@ -30,24 +29,16 @@ std::size_t Optimizer::smooth(const SmoothRule& rule) {
       std::max(kSmoothRetriesMin, static_cast<std::size_t>(kSmoothRetries * m_.num_tets()));
   attempt_key(Attempt::kSmooth, {rule.interior_only ? 1.0 : 0.0, rule.pin_fixed ? 1.0 : 0.0, rule.pin_floor, 0.0});
   for (int pass = 0; pass < kSmoothPasses && !todo.empty(); ++pass) {
-    std::size_t moved_now = 0;
-    next.clear();
-    for (Index v : todo) {
-      if (pass > 0) {
-        if (retries == 0) break;
-        --retries;
-      }
-      if (failed_before(Attempt::kSmooth, v)) continue;
-      if (tally(LocalOperation::kMove, smooth_vertex(v, first_tet(v), rule)) != Outcome::kDone) {
-        remember_failure(Attempt::kSmooth, v);
-        continue;
-      }
-      ++moved_now;
-      for (const auto& s : star_)
-        if (badness(s.first) != Badness::kGood)
-          for (Index u : m_.tet(s.first))
-            if (!fixed[u]) next.push_back(u);
+    std::span<const Index> now(todo);
+    if (pass > 0) {
+      now = now.first(std::min(now.size(), retries));
+      retries -= now.size();
     }
+    next.clear();
+    const std::size_t moved_now = move_points(
+        now, Attempt::kSmooth, /*tallied=*/true,
+        [&rule](Optimizer& opt, Index v, Index start) { return opt.smooth_vertex(v, start, rule); },
+        [](Optimizer& opt, std::vector<Index>& out) { opt.bad_star_points(out); }, next);
     moved += moved_now;
     if (moved_now == 0) break;
     std::sort(next.begin(), next.end());
@@ -56,6 +47,14 @@ std::size_t Optimizer::smooth(const SmoothRule& rule) {
   }
   st_.points_moved += moved;
   return moved;
+}
+
+/// The free points of the bad tets of star_, appended to `next`.
+void Optimizer::bad_star_points(std::vector<Index>& next) const {
+  for (const auto& s : star_)
+    if (badness(s.first) != Badness::kGood)
+      for (Index u : m_.tet(s.first))
+        if (!s_.fixed[u]) next.push_back(u);
 }
 
 /// Worst measure of the tets (link face, x); -inf when one is not positive.
@@ -211,7 +210,7 @@ void Optimizer::bound_edge_sizes(const Vec3& old) {
   if (sizing_ == nullptr || !o_.keep_edge_sizes) return;
   gather_link_points();
   for (Index u : link_points_) {
-    if (u < surface_.size() && surface_[u] != 0) continue;
+    if (u < s_.surface.size() && s_.surface[u] != 0) continue;
     const Vec3& p = m_.point(u);
     const double least = std::min(norm(old - p), kShortEdge * size_at(0.5 * (old + p)));
     edge_bounds_.push_back({u, least * least});
@@ -232,7 +231,7 @@ Outcome Optimizer::smooth_vertex(Index v, Index start, const SmoothRule& rule) {
   all_pinned_ = true;
   for (std::size_t i = 0; i < link_.size(); ++i) {
     bool pinned = false;
-    for (Index u : link_[i]) pinned = pinned || (pin && u < fixed_.size() && fixed_[u] != 0);
+    for (Index u : link_[i]) pinned = pinned || (pin && u < s_.fixed.size() && s_.fixed[u] != 0);
     pinned_[i] = pinned ? 1 : 0;
     all_pinned_ = all_pinned_ && pinned;
   }

@@ -7,12 +7,12 @@
 namespace pdrmesh::optimize_detail {
 
 /// Whether attempt a on tet (or point) i failed under the present
-/// parameters and nothing it reads has changed since (failed_, stamp_).
+/// parameters and nothing it reads has changed since (s_.failed, s_.stamp).
 bool Optimizer::failed_before(Attempt a, Index i) const {
-  const Failures& f = failed_[static_cast<std::size_t>(a)];
+  const OptimizerState::Failures& f = s_.failed[static_cast<std::size_t>(a)];
   const auto it = f.at.find(i);
   if (it == f.at.end() || it->second < f.from) return false;
-  const auto later = [&](Index v) { return v < stamp_.size() && stamp_[v] > it->second; };
+  const auto later = [&](Index v) { return v < s_.stamp.size() && s_.stamp[v] > it->second; };
   if (a >= Attempt::kSmooth) return !later(i);
   for (Index v : m_.tet(i))
     if (later(v)) return false;
@@ -21,21 +21,21 @@ bool Optimizer::failed_before(Attempt a, Index i) const {
 
 /// Notes that attempt a on tet (or point) i failed now.
 void Optimizer::remember_failure(Attempt a, Index i) {
-  failed_[static_cast<std::size_t>(a)].at[i] = clock_;
+  s_.failed[static_cast<std::size_t>(a)].at[i] = s_.clock;
 }
 
 /// The parameters of attempt a from now on; failures under other ones no longer count.
 void Optimizer::attempt_key(Attempt a, const AttemptKey& key) {
-  Failures& f = failed_[static_cast<std::size_t>(a)];
+  OptimizerState::Failures& f = s_.failed[static_cast<std::size_t>(a)];
   if (f.key == key) return;
   f.key = key;
-  f.from = ++clock_;
+  f.from = ++s_.clock;
 }
 
-/// The badness of the alive tet t, through known_ (see there).
+/// The badness of the alive tet t, through s_.known (see there).
 Badness Optimizer::badness(Index t) const {
-  if (t >= known_.size()) known_.resize(m_.num_slots(), 0);  // never inside bad_flags' parallel scan
-  unsigned char& k = known_[t];
+  if (t >= s_.known.size()) s_.known.resize(m_.num_slots(), 0);  // never inside bad_flags' parallel scan
+  unsigned char& k = s_.known[t];
   if (k == 0) k = static_cast<unsigned char>(1 + static_cast<int>(compute_badness(t)));
   return static_cast<Badness>(k - 1);
 }
@@ -54,14 +54,14 @@ Badness Optimizer::badness_of(const AngleRange& r) const {
 
 /// Per slot: 1 for a live bad tet (computed in parallel). The first call
 /// builds the angle tree (angles()) in the same pass, which notes every
-/// tet's badness in known_.
+/// tet's badness in s_.known.
 std::vector<unsigned char> Optimizer::bad_flags() {
-  if (known_.size() < m_.num_slots()) known_.resize(m_.num_slots(), 0);
-  if (!range_built_) {
-    range_.build(m_, [this](Index t, const AngleRange& r) {
-      known_[t] = static_cast<unsigned char>(1 + static_cast<int>(badness_of(r)));
+  if (s_.known.size() < m_.num_slots()) s_.known.resize(m_.num_slots(), 0);
+  if (!s_.range_built) {
+    s_.range.build(m_, [this](Index t, const AngleRange& r) {
+      s_.known[t] = static_cast<unsigned char>(1 + static_cast<int>(badness_of(r)));
     });
-    range_built_ = true;
+    s_.range_built = true;
   }
   std::vector<unsigned char> is_bad(m_.num_slots(), 0);
   const auto scan = [&](const tbb::blocked_range<Index>& r) {
@@ -81,49 +81,49 @@ std::vector<unsigned char> Optimizer::bad_flags() {
 /// take the last list and the slots touched since (touch), as no other tet
 /// changed: the same list for the cost of the changes.
 const std::vector<Index>& Optimizer::bad_tets() {
-  if (!bad_known_) {
+  if (!s_.bad_known) {
     const std::vector<unsigned char> is_bad = bad_flags();
-    bad_.clear();
+    s_.bad.clear();
     for (Index t = 0; t < m_.num_slots(); ++t)
-      if (is_bad[t] != 0) bad_.push_back(t);
-    bad_known_ = true;
-    touched_.clear();
-    return bad_;
+      if (is_bad[t] != 0) s_.bad.push_back(t);
+    s_.bad_known = true;
+    s_.touched.clear();
+    return s_.bad;
   }
-  if (touched_.empty()) return bad_;
-  std::sort(touched_.begin(), touched_.end());
-  touched_.erase(std::unique(touched_.begin(), touched_.end()), touched_.end());
+  if (s_.touched.empty()) return s_.bad;
+  std::sort(s_.touched.begin(), s_.touched.end());
+  s_.touched.erase(std::unique(s_.touched.begin(), s_.touched.end()), s_.touched.end());
   std::vector<Index> merged;
-  merged.reserve(bad_.size() + touched_.size());
-  std::set_union(bad_.begin(), bad_.end(), touched_.begin(), touched_.end(), std::back_inserter(merged));
-  touched_.clear();
-  bad_.clear();
+  merged.reserve(s_.bad.size() + s_.touched.size());
+  std::set_union(s_.bad.begin(), s_.bad.end(), s_.touched.begin(), s_.touched.end(), std::back_inserter(merged));
+  s_.touched.clear();
+  s_.bad.clear();
   for (Index t : merged)
-    if (m_.alive(t) && badness(t) != Badness::kGood) bad_.push_back(t);
-  return bad_;
+    if (m_.alive(t) && badness(t) != Badness::kGood) s_.bad.push_back(t);
+  return s_.bad;
 }
 
-/// The mesh's extreme dihedral angles now (range_, built on first use).
+/// The mesh's extreme dihedral angles now (s_.range, built on first use).
 AngleRange Optimizer::angles() {
-  if (!range_built_) {
-    range_.build(m_, [](Index, const AngleRange&) {});
-    range_built_ = true;
+  if (!s_.range_built) {
+    s_.range.build(m_, [](Index, const AngleRange&) {});
+    s_.range_built = true;
   }
-  return range_.range(m_);
+  return s_.range.range(m_);
 }
 
-/// Any live tet holding point v, or kNoIndex for a point in none: any_tet_,
+/// Any live tet holding point v, or kNoIndex for a point in none: s_.any_tet,
 /// one scan of the mesh on first use, then kept by forget_created.
 Index Optimizer::any_tet(Index v) {
-  if (!any_known_) {
-    any_known_ = true;
-    any_tet_.assign(m_.num_points(), kNoIndex);
+  if (!s_.any_known) {
+    s_.any_known = true;
+    s_.any_tet.assign(m_.num_points(), kNoIndex);
     for (Index t = 0; t < m_.num_slots(); ++t)
       if (m_.alive(t))
-        for (Index u : m_.tet(t)) any_tet_[u] = t;
+        for (Index u : m_.tet(t)) s_.any_tet[u] = t;
   }
-  if (v >= any_tet_.size()) return kNoIndex;
-  const Index t = any_tet_[v];
+  if (v >= s_.any_tet.size()) return kNoIndex;
+  const Index t = s_.any_tet[v];
   if (t == kNoIndex || !m_.alive(t)) return kNoIndex;  // a removed point
   for (Index u : m_.tet(t))
     if (u == v) return t;
@@ -158,30 +158,30 @@ Index Optimizer::first_tet(Index v) {
   return walk_.empty() ? kNoIndex : *std::min_element(walk_.begin(), walk_.end());
 }
 
-/// Marks in fixed_ the points on a frozen, hull or region face, and in
-/// surface_ those on a boundary triangle that is not a leaf's interface
+/// Marks in s_.fixed the points on a frozen, hull or region face, and in
+/// s_.surface those on a boundary triangle that is not a leaf's interface
 /// (TetMesh::boundary() with a non-zero id, or any when there are no ids).
 void Optimizer::find_fixed() {
   // No operation of the optimizer changes which points are fixed (flips and
   // insertions refuse frozen, hull and region faces; a new point is free),
   // so the marks are found once and only grow with the points after that.
-  if (fixed_known_) {
-    fixed_.resize(m_.num_points(), 0);
-    surface_.resize(m_.num_points(), 0);
+  if (s_.fixed_known) {
+    s_.fixed.resize(m_.num_points(), 0);
+    s_.surface.resize(m_.num_points(), 0);
     return;
   }
-  fixed_known_ = true;
-  surface_.assign(m_.num_points(), 0);
+  s_.fixed_known = true;
+  s_.surface.assign(m_.num_points(), 0);
   for (std::size_t i = 0; i < m_.boundary().size(); ++i)
     if (surface_triangle(i))
-      for (Index v : m_.boundary()[i]) surface_[v] = 1;
-  fixed_.assign(m_.num_points(), 0);
+      for (Index v : m_.boundary()[i]) s_.surface[v] = 1;
+  s_.fixed.assign(m_.num_points(), 0);
   for (Index t = 0; t < m_.num_slots(); ++t) {
     if (!m_.alive(t)) continue;
     const Tet& k = m_.tet(t);
     for (int f = 0; f < 4; ++f)
       if (kept_face(t, f))
-        for (int j = 0; j < 3; ++j) fixed_[k[topo::kFaceVertex[f][j]]] = 1;
+        for (int j = 0; j < 3; ++j) s_.fixed[k[topo::kFaceVertex[f][j]]] = 1;
   }
 }
 
@@ -191,7 +191,7 @@ std::vector<Index> Optimizer::interior(const std::vector<Index>& tets) const {
   std::vector<Index> out;
   for (Index t : tets) {
     bool free = true;
-    for (Index v : m_.tet(t)) free = free && (v >= fixed_.size() || fixed_[v] == 0);
+    for (Index v : m_.tet(t)) free = free && (v >= s_.fixed.size() || s_.fixed[v] == 0);
     if (free) out.push_back(t);
   }
   return out;
@@ -209,14 +209,14 @@ bool Optimizer::push_created() {
 }
 
 /// Drops the known badness of the tets the last operation created, and
-/// notes them (touch); their points now lie in them (any_tet_).
+/// notes them (touch); their points now lie in them (s_.any_tet).
 void Optimizer::forget_created() {
   for (Index c : m_.last_created()) {
     touch(c);
-    if (!any_known_) continue;
+    if (!s_.any_known) continue;
     for (Index v : m_.tet(c)) {
-      if (v >= any_tet_.size()) any_tet_.resize(v + 1, kNoIndex);
-      any_tet_[v] = c;
+      if (v >= s_.any_tet.size()) s_.any_tet.resize(v + 1, kNoIndex);
+      s_.any_tet[v] = c;
     }
   }
 }
@@ -225,27 +225,27 @@ void Optimizer::forget_created() {
 /// unknown, bad_tets() and angles() look at it again, and its points get a
 /// new stamp (failed attempts around them may succeed now).
 void Optimizer::touch(Index t) {
-  ++clock_;
+  ++s_.clock;
   for (Index v : m_.tet(t)) {
-    if (v >= stamp_.size()) stamp_.resize(std::max<std::size_t>(v + 1, m_.num_points()), 0);
-    stamp_[v] = clock_;
+    if (v >= s_.stamp.size()) s_.stamp.resize(std::max<std::size_t>(v + 1, m_.num_points()), 0);
+    s_.stamp[v] = s_.clock;
   }
-  if (t < known_.size()) known_[t] = 0;
-  if (bad_known_) touched_.push_back(t);
-  if (range_built_) range_.touch(t);
+  if (t < s_.known.size()) s_.known[t] = 0;
+  if (s_.bad_known) s_.touched.push_back(t);
+  if (s_.range_built) s_.range.touch(t);
 }
 
-/// No vertex of tet t is fixed (fixed_ as find_fixed left it; later points are free).
+/// No vertex of tet t is fixed (s_.fixed as find_fixed left it; later points are free).
 bool Optimizer::free_tet(Index t) const {
   for (Index v : m_.tet(t))
-    if (v < fixed_.size() && fixed_[v] != 0) return false;
+    if (v < s_.fixed.size() && s_.fixed[v] != 0) return false;
   return true;
 }
 
-/// Whether a point of face f is on the surface (surface_).
+/// Whether a point of face f is on the surface (s_.surface).
 bool Optimizer::on_surface(const Tri& f) const {
   for (Index v : f)
-    if (v < surface_.size() && surface_[v] != 0) return true;
+    if (v < s_.surface.size() && s_.surface[v] != 0) return true;
   return false;
 }
 
@@ -270,16 +270,37 @@ void Optimizer::gather_link(Index v, Index start) {
   }
 }
 
-/// Moves v to x and forgets what was known of its star's tets.
+/// Moves v to x and forgets what was known of its star's tets. In a hand,
+/// what the holder keeps (mark_moved, touch) waits in note_ (note_moved).
 void Optimizer::move_point(Index v, const Vec3& x) {
   m_.set_point(v, x);
-  if (v >= moved_.size()) moved_.resize(v + 1, 0);
-  if (moved_[v] == 0) moved_list_.push_back(v);
-  moved_[v] = 1;
+  if (note_ != nullptr) {
+    note_->point = v;
+    note_->tets.clear();
+    for (const auto& s : star_) {
+      m_.invalidate_quality(s.first);
+      s_.known[s.first] = 0;
+      note_->tets.push_back(s.first);
+    }
+    return;
+  }
+  mark_moved(v);
   for (const auto& s : star_) {
     m_.invalidate_quality(s.first);
     touch(s.first);
   }
+}
+
+/// The holder's part of a hand's move (move_point): as if it had moved the point itself.
+void Optimizer::note_moved(const MoveNote& note) {
+  mark_moved(note.point);
+  for (Index t : note.tets) touch(t);
+}
+
+void Optimizer::mark_moved(Index v) {
+  if (v >= s_.moved.size()) s_.moved.resize(v + 1, 0);
+  if (s_.moved[v] == 0) s_.moved_list.push_back(v);
+  s_.moved[v] = 1;
 }
 
 /// Whether the angles of r lie within `bounds`.
@@ -332,15 +353,15 @@ AngleRange Optimizer::angle_range(const Vec3* x, std::span<const Index> tets) co
 /// Whether every point of tet t lies on a surface triangle.
 bool Optimizer::all_on_surface(Index t) const {
   for (Index v : m_.tet(t))
-    if (v >= surface_.size() || surface_[v] == 0) return false;
+    if (v >= s_.surface.size() || s_.surface[v] == 0) return false;
   return true;
 }
 
-/// Whether a point of tet t is free (not in fixed_ as find_fixed left it;
+/// Whether a point of tet t is free (not in s_.fixed as find_fixed left it;
 /// later points are free).
 bool Optimizer::free_point(Index t) const {
   for (Index v : m_.tet(t))
-    if (v >= fixed_.size() || fixed_[v] == 0) return true;
+    if (v >= s_.fixed.size() || s_.fixed[v] == 0) return true;
   return false;
 }
 

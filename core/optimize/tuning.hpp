@@ -17,6 +17,10 @@ constexpr Index kParallelTets = Index{1} << 17;
 constexpr double kMaxFlipsPerTet = 20;
 /// Sliver removal: a new point keeps at least this times h (at the point) from every vertex of its cavity.
 constexpr double kInsertMinDistance = 0.5;
+/// Parallel smoothing (parallel_moves): the least number of points a pass must try to run side by side,
+/// and the points each window of side-by-side moves takes per thread.
+constexpr std::size_t kParallelMovesMin = 256;
+constexpr std::size_t kMovesPerThread = 256;
 /// Smoothing passes per sweep (each over the vertices the previous one left bad).
 constexpr int kSmoothPasses = 4;
 /// Share of the tets (as a count of vertices) that the smoothing passes after the first may try per sweep.

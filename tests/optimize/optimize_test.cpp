@@ -4,6 +4,7 @@
 
 
 #include <gtest/gtest.h>
+#include <oneapi/tbb/task_arena.h>
 
 #include <algorithm>
 #include <array>
@@ -459,6 +460,43 @@ TEST(Optimize, RepairCyclesLeaveFewerInteriorTetsOutsideTheTargets) {
   EXPECT_LE(with.repair_cycles, 4);
   EXPECT_GT(with.repair_rounds, without.repair_rounds);
   EXPECT_LT(now, left);
+}
+
+TEST(Optimize, PointMovesSideBySideMakeTheMeshOfOneThread) {
+  // parallel_moves runs the smoothing and polish moves side by side
+  // (moves.hpp): the mesh, bit for bit, and every count of the stats are
+  // those of the moves in turn, on one thread or two.
+  const VolumeMesh v = jittered_grid(8, 0.45);
+  const SizingField h = uniform_sizing(v, 1.0);
+  struct Run {
+    VolumeMesh mesh;
+    OptimizeStats stats;
+  };
+  const auto run = [&](bool parallel, int threads) {
+    TetMesh m = fixtures::build(v);
+    OptimizeOptions o;
+    o.parallel_moves = parallel;
+    Result<OptimizeStats> st = invalid_input("not run");
+    tbb::task_arena(threads).execute([&] { st = optimize(m, &h, o); });
+    EXPECT_TRUE(st.ok()) << st.status().to_string();
+    expect_hull_points_kept(m, v);
+    expect_valid(m, nullptr);
+    return Run{m.to_volume_mesh(), st.ok() ? *st : OptimizeStats{}};
+  };
+  const Run in_turn = run(false, 2), alone = run(true, 1), side_by_side = run(true, 2);
+  EXPECT_EQ(in_turn.stats.move_windows, 0u);
+  EXPECT_EQ(alone.stats.move_windows, 0u);
+  EXPECT_GT(side_by_side.stats.move_windows, 0u);
+  ASSERT_GT(in_turn.stats.points_moved, 300u);
+  for (const Run* r : {&alone, &side_by_side}) {
+    EXPECT_EQ(r->mesh.points, in_turn.mesh.points);
+    EXPECT_EQ(r->mesh.tets, in_turn.mesh.tets);
+    EXPECT_EQ(r->stats.tried, in_turn.stats.tried);
+    EXPECT_EQ(r->stats.points_moved, in_turn.stats.points_moved);
+    EXPECT_EQ(r->stats.margin_moves, in_turn.stats.margin_moves);
+    EXPECT_EQ(r->stats.size_moves, in_turn.stats.size_moves);
+    EXPECT_EQ(r->stats.flips, in_turn.stats.flips);
+  }
 }
 
 TEST(Optimize, AbsorptionLeavesFewerInteriorTetsOutsideTheTargets) {

@@ -103,7 +103,8 @@
 // (the cap, margin, absorption and size steps), and an interior tet is never
 // traded for a worse one. Determinism: the same mesh and options give the same
 // mesh, bit for bit, whatever the thread count: every order is by slot or
-// point index, no hashing, no timing (the stats' seconds are measured, not used).
+// point index, no hashing, no timing (the stats' seconds are measured, not used),
+// and the moves that run side by side (parallel_moves) take effect as in turn.
 #pragma once
 
 #include <array>
@@ -185,6 +186,11 @@ struct OptimizeOptions {
   /// polish (9.), whatever surface_room and late_caps say.
   enum class Schedule { kWholeMesh, kLeafTask };
   Schedule schedule = Schedule::kWholeMesh;
+  /// The smoothing moves points side by side on the threads of the calling
+  /// task arena, in windows of points whose stars no two of them share: the
+  /// same mesh, bit for bit, as one thread, for any thread count. Off, one
+  /// thread (the serial mesher's optimization).
+  bool parallel_moves = false;
 };
 
 /// The kinds of local operation whose outcomes OptimizeStats::tried counts.
@@ -211,6 +217,9 @@ struct OptimizeStats {
   int absorb_cycles = 0;          ///< cycles of 10. run (their repair rounds count in repair_rounds)
   std::size_t absorbed = 0;       ///< operations of the absorption (counted in repair_flips and flips too)
   std::size_t edges_collapsed = 0;  ///< the absorption's edge collapses (counted in absorbed too)
+  /// Windows of point moves run side by side (parallel_moves): 0 on one thread. The only
+  /// figure here that depends on the threads.
+  std::size_t move_windows = 0;
   /// Local operations tried, by kind (LocalOperation) and outcome (Outcome,
   /// flips.hpp): why the operations that did not happen were declined.
   static constexpr std::size_t kOperationKinds = static_cast<std::size_t>(LocalOperation::kMove) + 1;
