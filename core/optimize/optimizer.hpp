@@ -25,6 +25,7 @@
 #include <utility>
 #include <vector>
 
+#include "pdrmesh/fixed_chunks.hpp"
 #include "pdrmesh/flips.hpp"
 #include "pdrmesh/insert.hpp"
 #include "pdrmesh/predicates.hpp"
@@ -267,6 +268,21 @@ inline double smallest_angle(const Vec3& a, const Vec3& b, const Vec3& c) {
     return std::atan2(norm(cross(u, v)), dot(u, v)) * (180.0 / 3.14159265358979323846);
   };
   return std::min({at(a, b, c), at(b, c, a), at(c, a, b)});
+}
+
+/// Calls f(item, out) for every item, in parallel over fixed chunks, and returns
+/// the chunks' outputs one after another in chunk order: the same list for any
+/// thread count (the optimizer's scans with parallel_moves).
+template <class T, class F>
+std::vector<Index> each_chunk(const std::vector<T>& items, F&& f) {
+  constexpr std::size_t kGrain = 256;
+  std::vector<std::vector<Index>> parts(detail::chunk_count(items.size(), kGrain));
+  detail::for_each_chunk(items.size(), kGrain, [&](std::size_t c, std::size_t lo, std::size_t hi) {
+    for (std::size_t i = lo; i < hi; ++i) f(items[i], parts[c]);
+  });
+  std::vector<Index> out;
+  for (const std::vector<Index>& p : parts) out.insert(out.end(), p.begin(), p.end());
+  return out;
 }
 
 /// What one optimization knows of its mesh, shared by the optimizer that

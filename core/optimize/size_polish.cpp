@@ -33,20 +33,45 @@ std::size_t Optimizer::polish_sizes(bool room) {
     const Index np = m_.num_points();
     // The tets with an edge to check: those of the touched points off the
     // surface (free points, whose stars the walks find whole), in slot order.
-    std::vector<Index> tets;
+    std::vector<Index> walked;
     for (Index v : s_.moved_list)
-      if (s_.surface[v] == 0) star_tets(v, tets);
+      if (s_.surface[v] == 0) walked.push_back(v);
     for (Index v = s_.first_new_point; v < np; ++v)
-      if (s_.surface[v] == 0) star_tets(v, tets);
+      if (s_.surface[v] == 0) walked.push_back(v);
+    const bool parallel = o_.parallel_moves && walked.size() >= kParallelMovesMin;
+    if (parallel) (void)any_tet(walked.front());  // the walks' starts, known before they run
+    std::vector<Index> tets = parallel ? each_chunk(walked, [this](Index v, std::vector<Index>& out) {
+      star_tets(v, out);
+    }) : std::vector<Index>{};
+    if (!parallel)
+      for (Index v : walked) star_tets(v, tets);
     std::sort(tets.begin(), tets.end());
     tets.erase(std::unique(tets.begin(), tets.end()), tets.end());
+    // The edges to check: off the surface, a touched end.
+    const auto checked = [&](Index a, Index b) {
+      return s_.surface[a] == 0 && s_.surface[b] == 0 && (touched(a) || touched(b));
+    };
+    if (parallel) {  // h at their ends, once each, first (the same values: at() with or without a hint)
+      std::vector<Index> ends = each_chunk(tets, [&](Index t, std::vector<Index>& out) {
+        const Tet& k = m_.tet(t);
+        for (int e = 0; e < 6; ++e) {
+          const Index a = k[topo::kEdgeVertex[e][0]], b = k[topo::kEdgeVertex[e][1]];
+          if (!checked(a, b)) continue;
+          if (h[a] < 0.0) out.push_back(a);
+          if (h[b] < 0.0) out.push_back(b);
+        }
+      });
+      std::sort(ends.begin(), ends.end());
+      ends.erase(std::unique(ends.begin(), ends.end()), ends.end());
+      tbb::parallel_for(std::size_t{0}, ends.size(), [&](std::size_t i) { h[ends[i]] = sizing_->at(m_.point(ends[i])); });
+    }
     std::vector<Index> wanted;
     long_edges_.clear();
     for (Index t : tets) {
       const Tet& k = m_.tet(t);
       for (int e = 0; e < 6; ++e) {
         const Index a = k[topo::kEdgeVertex[e][0]], b = k[topo::kEdgeVertex[e][1]];
-        if (s_.surface[a] != 0 || s_.surface[b] != 0 || !(touched(a) || touched(b))) continue;
+        if (!checked(a, b)) continue;
         const Vec3 d = m_.point(a) - m_.point(b);
         const double mean = 0.5 * (h_at(a) + h_at(b)), l2 = dot(d, d);
         if (l2 > kLongEdge * kLongEdge * mean * mean) long_edges_.push_back({std::min(a, b), std::max(a, b), t, e});
