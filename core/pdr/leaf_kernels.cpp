@@ -20,7 +20,6 @@ OptimizeOptions leaf_optimize_options(OptimizeOptions options) {
   options.keep_point_indices = true;
   options.surface_room = false;  // a sub-mesh's extremes are not the mesh's
   options.late_caps = false;     // OptimizeOptions::late_caps says why
-  options.parallel_moves = true;  // the same mesh; the threads a round's other tasks leave idle help
   return options;
 }
 

@@ -86,7 +86,9 @@ OptimizeOptions leaf_optimize_options(OptimizeOptions options = {});
 /// The options of the one final optimization task over every bad tet and its
 /// halo (PdrOptions::final_optimize_kernel): `options` with
 /// keep_point_indices, and the whole mesh's schedule, since that task holds
-/// the mesh's angle extremes.
+/// the mesh's angle extremes; its point moves run side by side on the threads
+/// the other tasks leave idle (parallel_moves: the same mesh). The leaf tasks
+/// of the rounds stay on their thread, so that a task's time is its work.
 OptimizeOptions final_optimize_options(OptimizeOptions options = {});
 
 /// A NativeLeafKernel named `name` that runs optimize() with `options` on its
