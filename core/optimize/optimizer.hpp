@@ -287,7 +287,7 @@ std::vector<Index> each_chunk(const std::vector<T>& items, F&& f) {
 
 /// What one optimization knows of its mesh, shared by the optimizer that
 /// holds it and its hands (Optimizer's second constructor), which run point
-/// moves side by side (Optimizer::smooth).
+/// moves side by side (Optimizer::move_points, moves.hpp).
 struct OptimizerState {
   explicit OptimizerState(Index points) : first_new_point(points) {}
   std::vector<char> fixed;    ///< per point, set by find_fixed(): on a frozen, hull or region face
@@ -358,9 +358,10 @@ class Optimizer {
         s_(*own_) {}
 
   /// A hand of `holder`: its own scratch and stats, the holder's mesh and
-  /// state. A hand runs smooth_vertex only, on points whose stars no other
-  /// hand reads at the same time, and its move_point writes the point and
-  /// forgets its star's badness, leaving the rest to the holder (note_moved).
+  /// state. A hand runs a pass's point moves (move_points) on points whose
+  /// stars no other hand reads at the same time, and its move_point writes the
+  /// point and forgets its star's badness, leaving the rest to the holder
+  /// (note_moved).
   Optimizer(Optimizer& holder, OptimizeStats& st, MoveNote& note)
       : m_(holder.m_),
         sizing_(holder.sizing_),

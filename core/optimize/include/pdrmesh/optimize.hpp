@@ -186,10 +186,11 @@ struct OptimizeOptions {
   /// polish (9.), whatever surface_room and late_caps say.
   enum class Schedule { kWholeMesh, kLeafTask };
   Schedule schedule = Schedule::kWholeMesh;
-  /// The smoothing moves points side by side on the threads of the calling
-  /// task arena, in windows of points whose stars no two of them share: the
-  /// same mesh, bit for bit, as one thread, for any thread count. Off, one
-  /// thread (the serial mesher's optimization).
+  /// The passes' point moves (smoothing, angle, margin and size polish) run
+  /// side by side on the threads of the calling task arena, in windows of
+  /// points whose stars do not meet, and the size polish's scans in parallel:
+  /// the same mesh, bit for bit, as one thread, for any thread count. Off,
+  /// one thread (the serial mesher's optimization, and the rounds' leaf tasks).
   bool parallel_moves = false;
 };
 
