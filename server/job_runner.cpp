@@ -274,10 +274,10 @@ Status write_file_atomically(const std::filesystem::path& path, std::initializer
 }
 
 void remove_job_files(JobStore& store, const std::filesystem::path& data_dir, std::string_view id) {
-  if (Status s = store.remove(id); !s.ok()) spdlog::warn("job {}: {}", id, s.to_string());
   std::error_code ec;
   std::filesystem::remove_all(JobPaths::dir(data_dir, id), ec);
   if (ec) spdlog::warn("job {}: cannot remove its files: {}", id, ec.message());
+  if (Status s = store.remove(id); !s.ok()) spdlog::warn("job {}: {}", id, s.to_string());
 }
 
 namespace {

@@ -87,7 +87,9 @@ struct JobPaths {
 /// that over `path`: a reader sees the old file or the whole new one.
 Status write_file_atomically(const std::filesystem::path& path, std::initializer_list<std::string_view> pieces);
 
-/// Removes a job's record (absent: nothing) and its directory; failures are logged.
+/// Removes a job's directory, then its record (absent: nothing); failures are
+/// logged. In this order a job that is gone has no files, and a stop between
+/// the two leaves a record that the next delete or sweep removes again.
 void remove_job_files(JobStore& store, const std::filesystem::path& data_dir, std::string_view id);
 
 /// Wakes whoever waits for a change of any job (WatchJob). Never loses a change:
