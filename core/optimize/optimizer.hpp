@@ -332,6 +332,13 @@ struct OptimizerState {
   std::array<Failures, kAttempts> failed{};
   std::vector<std::uint64_t> stamp;
   std::uint64_t clock = 1;
+  /// try_flips' edge removals that failed, per edge (the two point indices,
+  /// lower first): why, and the clock then (Optimizer::try_flips).
+  struct FailedRemoval {
+    Outcome outcome;
+    std::uint64_t clock;
+  };
+  std::unordered_map<std::uint64_t, FailedRemoval> failed_removals;
 };
 
 /// What a hand's move_point leaves to the optimizer that holds the state: the

@@ -42,8 +42,26 @@ Outcome Optimizer::try_flips(Index t) {
     push_created();
     return Outcome::kDone;
   };
+  // An edge removal that failed fails again while the tets around the edge
+  // and their points stay as they were, which holds while one of the edge's
+  // ends has no later stamp (whatever changes those tets stamps both ends):
+  // it is counted with the outcome it had (searched from another tet of the
+  // ring a decline may be named differently, never a removal found).
+  const auto removal = [&](Index u, int e) {
+    const Tet& k = m_.tet(u);
+    const Index a = k[topo::kEdgeVertex[e][0]], b = k[topo::kEdgeVertex[e][1]];
+    const std::uint64_t key = a < b ? (std::uint64_t{a} << 32) | b : (std::uint64_t{b} << 32) | a;
+    const auto later = [&](Index v, std::uint64_t c) { return v < s_.stamp.size() && s_.stamp[v] > c; };
+    if (const auto it = s_.failed_removals.find(key);
+        it != s_.failed_removals.end() && !(later(a, it->second.clock) && later(b, it->second.clock))) {
+      return tally(LocalOperation::kFlip, it->second.outcome);
+    }
+    const Outcome o = tally(LocalOperation::kFlip, remove_edge(m_, u, e, criterion));
+    if (o != Outcome::kDone) s_.failed_removals[key] = {o, s_.clock};
+    return o;
+  };
   for (int e : edges)
-    if (tally(LocalOperation::kFlip, remove_edge(m_, t, e, criterion)) == Outcome::kDone) return done();
+    if (removal(t, e) == Outcome::kDone) return done();
   for (int f = 0; f < 4; ++f)
     if (tally(LocalOperation::kFlip, flip23(m_, t, f, criterion)) == Outcome::kDone) return done();
   // The neighbourhood: edges of the face neighbours that t does not hold.
@@ -54,7 +72,7 @@ Outcome Optimizer::try_flips(Index t) {
     const int apex = face_local(n);
     for (int j = 0; j < 4; ++j) {
       if (j == apex) continue;
-      if (tally(LocalOperation::kFlip, remove_edge(m_, u, topo::kEdgeIndex[apex][j], criterion)) == Outcome::kDone) {
+      if (removal(u, topo::kEdgeIndex[apex][j]) == Outcome::kDone) {
         push_created();
         queue_.push_back(t);
         return Outcome::kDone;

@@ -206,8 +206,9 @@ std::size_t Optimizer::size_splits(const SizeBounds& bounds) {
   for (const LongEdge& le : long_edges_) {
     EdgeRing r;
     if (!ring_of(le) || removable_edge_ring(m_, le.t, le.e, 0, r) != Outcome::kDone) continue;
-    // Whether the new tets of a split at x hold (fresh_ gets them, with
-    // kNoIndex for the new point).
+    // Whether a split at x holds: its new tets within their bounds (fresh_
+    // gets them, with kNoIndex for the new point) and at most one of x's
+    // edges out of the size band.
     const auto holds = [&](const Vec3& x) {
       const auto out_of_band = [&](Index v) {
         if (!off_surface(v)) return 0;
@@ -215,9 +216,6 @@ std::size_t Optimizer::size_splits(const SizeBounds& bounds) {
         const double l = norm(x - y), hm = size_at(0.5 * (x + y));
         return l < kShortEdge * hm || l > kLongEdge * hm ? 1 : 0;
       };
-      int out = out_of_band(r.a) + out_of_band(r.b);
-      for (int i = 0; i < r.size; ++i) out += out_of_band(r.ring[i]);
-      if (out > 1) return false;
       fresh_.clear();
       for (int i = 0; i < r.size; ++i) {
         const Tet& t = m_.tet(r.tets[i]);
@@ -235,7 +233,12 @@ std::size_t Optimizer::size_splits(const SizeBounds& bounds) {
           fresh_.push_back(n);
         }
       }
-      return true;
+      // Then at most one edge to x out of the band, asked of the sizing
+      // field only for candidates whose new tets hold (the cheaper test,
+      // which declines most of them).
+      int out = out_of_band(r.a) + out_of_band(r.b);
+      for (int i = 0; i < r.size && out <= 1; ++i) out += out_of_band(r.ring[i]);
+      return out <= 1;
     };
     const Vec3 &pa = m_.point(r.a), &pb = m_.point(r.b);
     bool found = false;
