@@ -83,8 +83,11 @@ void reserve_for(VolumeMesh& m, double tets) {
 
 double surface_spacing(const SurfaceMesh& surface, const SizingField& sizing) {
   if (const std::optional<double> size = sizing.requested_size()) return *size;  // the volume's h, not the rise
+  // The queries side by side, summed in point order: the same sum on any number of threads.
+  std::vector<double> h(surface.points.size());
+  tbb::parallel_for(std::size_t{0}, h.size(), [&](std::size_t i) { h[i] = sizing.at(surface.points[i]); });
   double sum_h = 0;
-  for (const Vec3& p : surface.points) sum_h += sizing.at(p);
+  for (double v : h) sum_h += v;
   return sum_h / static_cast<double>(surface.points.size());
 }
 

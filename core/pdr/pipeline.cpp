@@ -297,8 +297,8 @@ Result<ParallelResult> mesh_parallel_one(const SurfaceMesh& surface, const Paral
   // wrote a checkpoint made it: a resumed run goes on over the same grid from
   // the checkpoint's mesh.
   std::optional<PdrPlan> plan = surface_plan;
-  if (!plan || surface_spacing(surface, sizing) != plan->surface_h) {
-    PDR_ASSIGN_OR_RETURN(plan, plan_for_field(surface, options.sizing, surface_spacing(surface, sizing), pdr, *kernel));
+  if (const double h = surface_spacing(surface, sizing); !plan || h != plan->surface_h) {
+    PDR_ASSIGN_OR_RETURN(plan, plan_for_field(surface, options.sizing, h, pdr, *kernel));
   }
   std::optional<InitialMesh> initial;
   double initial_s = 0;
