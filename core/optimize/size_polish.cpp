@@ -2,6 +2,8 @@
 // Size polish: edges off the surface brought back within [kShortEdge, kLongEdge] h by
 // flips, splits and point moves, each taken only where no new tet leaves its angle
 // bounds and no edge is pushed out of the band.
+#include <oneapi/tbb/parallel_sort.h>
+
 #include "moves.hpp"
 
 namespace pdrmesh::optimize_detail {
@@ -45,7 +47,11 @@ std::size_t Optimizer::polish_sizes(bool room) {
     }) : std::vector<Index>{};
     if (!parallel)
       for (Index v : walked) star_tets(v, tets);
-    std::sort(tets.begin(), tets.end());
+    if (parallel) {
+      tbb::parallel_sort(tets.begin(), tets.end());
+    } else {
+      std::sort(tets.begin(), tets.end());
+    }
     tets.erase(std::unique(tets.begin(), tets.end()), tets.end());
     // The edges to check: off the surface, a touched end.
     const auto checked = [&](Index a, Index b) {
@@ -61,7 +67,7 @@ std::size_t Optimizer::polish_sizes(bool room) {
           if (h[b] < 0.0) out.push_back(b);
         }
       });
-      std::sort(ends.begin(), ends.end());
+      tbb::parallel_sort(ends.begin(), ends.end());
       ends.erase(std::unique(ends.begin(), ends.end()), ends.end());
       tbb::parallel_for(std::size_t{0}, ends.size(), [&](std::size_t i) { h[ends[i]] = sizing_->at(m_.point(ends[i])); });
     }
