@@ -100,20 +100,6 @@ std::size_t scan(Recorder& rec, std::string_view check, std::size_t n, std::size
   return errors;
 }
 
-/// The per-chunk vectors concatenated in chunk order.
-template <class T>
-std::vector<T> concatenate(std::vector<std::vector<T>>& parts) {
-  std::size_t n = 0;
-  for (const auto& p : parts) n += p.size();
-  std::vector<T> all;
-  all.reserve(n);
-  for (auto& p : parts) {
-    all.insert(all.end(), p.begin(), p.end());
-    p = {};
-  }
-  return all;
-}
-
 /// out[i] = f(i) for i in [0, n), in parallel.
 template <class T, class F>
 std::vector<T> tabulate(std::size_t n, F&& f) {
@@ -228,9 +214,9 @@ ValidationReport validate_mesh(const VolumeMesh& mesh, const SurfaceMesh* surfac
         i = j;
       }
     });
-    std::vector<Tri> part = concatenate(chunk_boundary);
+    std::vector<Tri> part = detail::concatenate(chunk_boundary);
     boundary.insert(boundary.end(), part.begin(), part.end());
-    part = concatenate(chunk_between);
+    part = detail::concatenate(chunk_between);
     between.insert(between.end(), part.begin(), part.end());
     unique_faces += std::accumulate(chunk_unique.begin(), chunk_unique.end(), std::size_t{0});
   }
@@ -390,7 +376,7 @@ ValidationReport validate_mesh(const VolumeMesh& mesh, const SurfaceMesh* surfac
         }
       }
     });
-    declared = concatenate(chunk_declared);
+    declared = detail::concatenate(chunk_declared);
     report.interface_faces = std::accumulate(chunk_interfaces.begin(), chunk_interfaces.end(), std::size_t{0});
     if (mesh.boundary.size() != boundary.size() + report.interface_faces) {
       rec.add("boundary", "the mesh lists {} boundary faces, its tets have {}", mesh.boundary.size() - report.interface_faces,
@@ -436,8 +422,8 @@ ValidationReport validate_mesh(const VolumeMesh& mesh, const SurfaceMesh* surfac
         }
       }
     });
-    std::vector<Tri> expected = concatenate(chunk_expected);
-    const std::vector<std::size_t> interface = concatenate(chunk_interface);
+    std::vector<Tri> expected = detail::concatenate(chunk_expected);
+    const std::vector<std::size_t> interface = detail::concatenate(chunk_interface);
     report.enclosed_volume = enclosed_volume(*surface);
     for (std::size_t f : interface) {
       const Tri& t = surface->triangles[f];

@@ -9,6 +9,7 @@
 
 #include <oneapi/tbb/blocked_range.h>
 #include <oneapi/tbb/parallel_for.h>
+#include <oneapi/tbb/parallel_sort.h>
 
 #include <algorithm>
 #include <array>
@@ -270,19 +271,33 @@ inline double smallest_angle(const Vec3& a, const Vec3& b, const Vec3& c) {
   return std::min({at(a, b, c), at(b, c, a), at(c, a, b)});
 }
 
-/// Calls f(item, out) for every item, in parallel over fixed chunks, and returns
-/// the chunks' outputs one after another in chunk order: the same list for any
-/// thread count (the optimizer's scans with parallel_moves).
+/// f(item, out) for each item, appending to out: with `parallel`, side by side
+/// over fixed chunks whose outputs follow one another in chunk order, else in
+/// turn. The same list either way, for any thread count (the optimizer's
+/// scans with parallel_moves).
 template <class T, class F>
-std::vector<Index> each_chunk(const std::vector<T>& items, F&& f) {
+std::vector<Index> each_chunk(const std::vector<T>& items, F&& f, bool parallel = true) {
+  std::vector<Index> out;
+  if (!parallel) {
+    for (const T& x : items) f(x, out);
+    return out;
+  }
   constexpr std::size_t kGrain = 256;
   std::vector<std::vector<Index>> parts(detail::chunk_count(items.size(), kGrain));
   detail::for_each_chunk(items.size(), kGrain, [&](std::size_t c, std::size_t lo, std::size_t hi) {
     for (std::size_t i = lo; i < hi; ++i) f(items[i], parts[c]);
   });
-  std::vector<Index> out;
-  for (const std::vector<Index>& p : parts) out.insert(out.end(), p.begin(), p.end());
-  return out;
+  return detail::concatenate(parts);
+}
+
+/// Sorts v and drops repeats (tbb::parallel_sort with `parallel`: the same result).
+inline void sort_unique(std::vector<Index>& v, bool parallel) {
+  if (parallel) {
+    tbb::parallel_sort(v.begin(), v.end());
+  } else {
+    std::sort(v.begin(), v.end());
+  }
+  v.erase(std::unique(v.begin(), v.end()), v.end());
 }
 
 /// What one optimization knows of its mesh, shared by the optimizer that

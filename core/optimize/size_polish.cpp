@@ -2,8 +2,6 @@
 // Size polish: edges off the surface brought back within [kShortEdge, kLongEdge] h by
 // flips, splits and point moves, each taken only where no new tet leaves its angle
 // bounds and no edge is pushed out of the band.
-#include <oneapi/tbb/parallel_sort.h>
-
 #include "moves.hpp"
 
 namespace pdrmesh::optimize_detail {
@@ -42,17 +40,8 @@ std::size_t Optimizer::polish_sizes(bool room) {
       if (s_.surface[v] == 0) walked.push_back(v);
     const bool parallel = o_.parallel_moves && walked.size() >= kParallelMovesMin;
     if (parallel) (void)any_tet(walked.front());  // the walks' starts, known before they run
-    std::vector<Index> tets = parallel ? each_chunk(walked, [this](Index v, std::vector<Index>& out) {
-      star_tets(v, out);
-    }) : std::vector<Index>{};
-    if (!parallel)
-      for (Index v : walked) star_tets(v, tets);
-    if (parallel) {
-      tbb::parallel_sort(tets.begin(), tets.end());
-    } else {
-      std::sort(tets.begin(), tets.end());
-    }
-    tets.erase(std::unique(tets.begin(), tets.end()), tets.end());
+    std::vector<Index> tets = each_chunk(walked, [this](Index v, std::vector<Index>& out) { star_tets(v, out); }, parallel);
+    sort_unique(tets, parallel);
     // The edges to check: off the surface, a touched end.
     const auto checked = [&](Index a, Index b) {
       return s_.surface[a] == 0 && s_.surface[b] == 0 && (touched(a) || touched(b));
@@ -67,8 +56,7 @@ std::size_t Optimizer::polish_sizes(bool room) {
           if (h[b] < 0.0) out.push_back(b);
         }
       });
-      tbb::parallel_sort(ends.begin(), ends.end());
-      ends.erase(std::unique(ends.begin(), ends.end()), ends.end());
+      sort_unique(ends, true);
       tbb::parallel_for(std::size_t{0}, ends.size(), [&](std::size_t i) { h[ends[i]] = sizing_->at(m_.point(ends[i])); });
     }
     std::vector<Index> wanted;

@@ -2,8 +2,6 @@
 // The optimizer's bookkeeping: the bad-tet list and the angle range kept current at
 // the cost of the changes, star walks, the created/touched tets of each operation, and
 // the fixed and surface points. Nothing here changes the mesh but move_point.
-#include <oneapi/tbb/parallel_sort.h>
-
 #include "optimizer.hpp"
 
 namespace pdrmesh::optimize_detail {
@@ -96,27 +94,15 @@ const std::vector<Index>& Optimizer::bad_tets() {
   // With parallel_moves, the sort and the badness of the merged tets side by
   // side (each slot once: badness writes only its own entry of s_.known).
   const bool parallel = o_.parallel_moves && s_.touched.size() >= kParallelMovesMin;
-  if (parallel) {
-    tbb::parallel_sort(s_.touched.begin(), s_.touched.end());
-  } else {
-    std::sort(s_.touched.begin(), s_.touched.end());
-  }
-  s_.touched.erase(std::unique(s_.touched.begin(), s_.touched.end()), s_.touched.end());
+  sort_unique(s_.touched, parallel);
   std::vector<Index> merged;
   merged.reserve(s_.bad.size() + s_.touched.size());
   std::set_union(s_.bad.begin(), s_.bad.end(), s_.touched.begin(), s_.touched.end(), std::back_inserter(merged));
   s_.touched.clear();
-  s_.bad.clear();
-  const auto bad = [&](Index t) { return m_.alive(t) && badness(t) != Badness::kGood; };
-  if (parallel) {
-    if (s_.known.size() < m_.num_slots()) s_.known.resize(m_.num_slots(), 0);
-    s_.bad = each_chunk(merged, [&](Index t, std::vector<Index>& out) {
-      if (bad(t)) out.push_back(t);
-    });
-  } else {
-    for (Index t : merged)
-      if (bad(t)) s_.bad.push_back(t);
-  }
+  if (s_.known.size() < m_.num_slots()) s_.known.resize(m_.num_slots(), 0);
+  s_.bad = each_chunk(merged, [&](Index t, std::vector<Index>& out) {
+    if (m_.alive(t) && badness(t) != Badness::kGood) out.push_back(t);
+  }, parallel);
   return s_.bad;
 }
 

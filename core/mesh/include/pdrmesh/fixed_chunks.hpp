@@ -42,6 +42,20 @@ void for_each_chunk(std::size_t n, std::size_t grain, Body&& body) {
                     });
 }
 
+/// The per-chunk vectors concatenated in chunk order (each part emptied on the way).
+template <class T>
+std::vector<T> concatenate(std::vector<std::vector<T>>& parts) {
+  std::size_t n = 0;
+  for (const auto& p : parts) n += p.size();
+  std::vector<T> all;
+  all.reserve(n);
+  for (auto& p : parts) {
+    all.insert(all.end(), p.begin(), p.end());
+    p = {};
+  }
+  return all;
+}
+
 /// std::copy of [first, last) to out in fixed chunks, the chunks in parallel:
 /// a copy of millions of items is a memory pass one thread does not saturate.
 template <class In, class Out>
