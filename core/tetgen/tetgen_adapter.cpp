@@ -34,6 +34,7 @@
 #include <fmt/format.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
 
 #include "pdrmesh/predicates.hpp"
 #include "pdrmesh/topology.hpp"
@@ -270,7 +271,7 @@ Result<VolumeMesh> build_volume_mesh(RawMesh m, const SurfaceMesh& surface) {
   auto by_key = [](const FaceRecord& a, const FaceRecord& b) {
     return std::tie(a.key, a.tet, a.local) < std::tie(b.key, b.tet, b.local);
   };
-  std::sort(faces.begin(), faces.end(), by_key);
+  tbb::parallel_sort(faces.begin(), faces.end(), by_key);  // a total order: the serial sort's result
 
   // Input triangles sorted by key, to join with the tet faces.
   std::vector<std::pair<Tri, Index>> input(surface.triangles.size());
