@@ -101,8 +101,7 @@ std::size_t Optimizer::move_points(std::span<const Index> todo, Attempt kind, bo
         Optimizer& h = hand();
         it.start = h.first_tet(v);
         for (Index t : h.walk_) it.footprint.insert(it.footprint.end(), m_.tet(t).begin(), m_.tet(t).end());
-        std::sort(it.footprint.begin(), it.footprint.end());
-        it.footprint.erase(std::unique(it.footprint.begin(), it.footprint.end()), it.footprint.end());
+        sort_unique(it.footprint);
       }
       for (Index u : it.footprint) {
         std::atomic_ref<Index> claim(claims_[u]);

@@ -291,7 +291,7 @@ std::vector<Index> each_chunk(const std::vector<T>& items, F&& f, bool parallel 
 }
 
 /// Sorts v and drops repeats (tbb::parallel_sort with `parallel`: the same result).
-inline void sort_unique(std::vector<Index>& v, bool parallel) {
+inline void sort_unique(std::vector<Index>& v, bool parallel = false) {
   if (parallel) {
     tbb::parallel_sort(v.begin(), v.end());
   } else {

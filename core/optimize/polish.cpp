@@ -17,8 +17,7 @@ std::size_t Optimizer::polish_angles() {
     if (!(dihedral_range(p[0], p[1], p[2], p[3]).min < o_.target_min_dihedral)) continue;
     for (Index v : m_.tet(t)) wanted.push_back(v);
   }
-  std::sort(wanted.begin(), wanted.end());
-  wanted.erase(std::unique(wanted.begin(), wanted.end()), wanted.end());
+  sort_unique(wanted);
   std::erase_if(wanted, [this](Index v) { return v < s_.fixed.size() && s_.fixed[v]; });
   const std::size_t moved = move_points(wanted, Attempt::kAngle, [](Optimizer& opt, Index v, Index start) {
     return opt.polish_point(v, start) ? Outcome::kDone : Outcome::kNotBetter;
@@ -49,8 +48,7 @@ std::size_t Optimizer::polish_margins(double end, bool extremes, int layers) {
       for (Index v : m_.tet(t)) wanted.push_back(v);
     }
     if (wanted.empty()) break;  // most meshes: no star walks
-    std::sort(wanted.begin(), wanted.end());
-    wanted.erase(std::unique(wanted.begin(), wanted.end()), wanted.end());
+    sort_unique(wanted);
     for (Index v : wanted) marks_[v] = 1;
     const AngleRange mesh = angles();  // the extremes as the round begins
     attempt_key(Attempt::kMargin, {end, extremes ? 1.0 : 0.0, mesh.min, mesh.max});

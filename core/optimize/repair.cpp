@@ -176,9 +176,7 @@ Outcome Optimizer::remove_point(Index t, Criterion& criterion) {
     for (const auto& [s, lv] : star_)
       for (Index u : m_.tet(s))
         if (u != v) removal_targets_.push_back(u);
-    std::sort(removal_targets_.begin(), removal_targets_.end());
-    removal_targets_.erase(std::unique(removal_targets_.begin(), removal_targets_.end()),
-                           removal_targets_.end());
+    sort_unique(removal_targets_);
     Index best = kNoIndex;
     double best_q = criterion.bar(removal_star_);
     for (Index w : removal_targets_) {
@@ -255,8 +253,7 @@ Outcome Optimizer::collapse_edge(Index t, Criterion& criterion) {
     for (const Tet& n : fresh_)
       for (Index u : n)
         if (u != kNoIndex) link_points_.push_back(u);
-    std::sort(link_points_.begin(), link_points_.end());
-    link_points_.erase(std::unique(link_points_.begin(), link_points_.end()), link_points_.end());
+    sort_unique(link_points_);
     const Vec3 mid = 0.5 * (m_.point(v) + m_.point(w));
     double best = score(mid);
     const Vec3 x = compass_search(mid, [&](const Vec3& y) {

@@ -87,8 +87,7 @@ std::size_t Optimizer::polish_sizes(bool room) {
     st_.size_splits += split;
     find_fixed();
     for (Index v = np; v < m_.num_points(); ++v) wanted.push_back(v);  // new: their edges may be out of the band
-    std::sort(wanted.begin(), wanted.end());
-    wanted.erase(std::unique(wanted.begin(), wanted.end()), wanted.end());
+    sort_unique(wanted);
     std::erase_if(wanted, [this](Index v) { return s_.fixed[v] != 0; });
     const std::size_t now = move_points(wanted, Attempt::kSize, [&bounds](Optimizer& opt, Index v, Index start) {
       return opt.size_point(v, start, bounds) ? Outcome::kDone : Outcome::kNotBetter;

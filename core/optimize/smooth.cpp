@@ -16,8 +16,7 @@ std::size_t Optimizer::smooth(const SmoothRule& rule) {
   for (Index t : bad)
     for (Index v : m_.tet(t))
       if (!s_.fixed[v]) todo.push_back(v);
-  std::sort(todo.begin(), todo.end());
-  todo.erase(std::unique(todo.begin(), todo.end()), todo.end());
+  sort_unique(todo);
   // Passes over the free vertices of bad tets, ascending; the next pass takes
   // the free vertices of the bad tets left in the stars of the points just
   // moved (the topology does not change here).
@@ -41,8 +40,7 @@ std::size_t Optimizer::smooth(const SmoothRule& rule) {
         [](Optimizer& opt, std::vector<Index>& out) { opt.bad_star_points(out); }, next);
     moved += moved_now;
     if (moved_now == 0) break;
-    std::sort(next.begin(), next.end());
-    next.erase(std::unique(next.begin(), next.end()), next.end());
+    sort_unique(next);
     std::swap(todo, next);
   }
   st_.points_moved += moved;

@@ -256,8 +256,7 @@ bool Optimizer::on_surface(const Tri& f) const {
 void Optimizer::gather_link_points() {
   link_points_.clear();
   for (const Tri& f : link_) link_points_.insert(link_points_.end(), f.begin(), f.end());
-  std::sort(link_points_.begin(), link_points_.end());
-  link_points_.erase(std::unique(link_points_.begin(), link_points_.end()), link_points_.end());
+  sort_unique(link_points_);
 }
 
 /// The star of v (gather_star from `start`) and its link faces, turned

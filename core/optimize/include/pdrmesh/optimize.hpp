@@ -188,8 +188,9 @@ struct OptimizeOptions {
   Schedule schedule = Schedule::kWholeMesh;
   /// The passes' point moves (smoothing, angle, margin and size polish) run
   /// side by side on the threads of the calling task arena, in windows of
-  /// points whose stars do not meet, and the size polish's scans in parallel:
-  /// the same mesh, bit for bit, as one thread, for any thread count. Off,
+  /// points whose stars do not meet, and the size polish's and the bad-tet
+  /// list's scans in parallel: the same mesh, bit for bit, as one thread, for
+  /// any thread count. Off,
   /// one thread (the serial mesher's optimization, and the rounds' leaf tasks).
   bool parallel_moves = false;
 };
